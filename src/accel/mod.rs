@@ -1,0 +1,74 @@
+//! Ray backends: hardware acceleration structures with `VK_KHR_ray_query`, or rqr's own BVH
+//! traversed in compute shaders. Both sit behind the same GLSL `trace_closest()/trace_any()`.
+
+use crate::vk::DeviceInfo;
+
+/// What the user asked for with `--backend`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BackendChoice {
+    /// `hw` when the device has acceleration structures and ray queries, else `bvh`.
+    #[default]
+    Auto,
+    /// Hardware acceleration structures + `VK_KHR_ray_query` (fails where unsupported).
+    Hw,
+    /// rqr's compute-shader BVH (works on every device).
+    Bvh,
+}
+
+/// The ray backend in use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// Acceleration structures + ray queries.
+    Hw,
+    /// Compute-shader BVH.
+    Bvh,
+}
+
+impl Backend {
+    /// `"hw"` or `"bvh"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Hw => "hw",
+            Self::Bvh => "bvh",
+        }
+    }
+}
+
+/// The requested backend cannot run on this device.
+#[derive(Debug, thiserror::Error)]
+#[error("--backend hw needs VK_KHR_acceleration_structure and VK_KHR_ray_query, which '{device}' does not expose; use --backend bvh (or auto)")]
+pub struct BackendUnavailable {
+    /// Device name.
+    pub device: String,
+}
+
+impl BackendChoice {
+    /// Resolves the choice for a device, with a human-readable reason.
+    pub fn resolve(self, device: &DeviceInfo) -> Result<(Backend, String), BackendUnavailable> {
+        let hw_ok = device.ray_query && device.acceleration_structure;
+        match self {
+            Self::Auto if hw_ok => Ok((
+                Backend::Hw,
+                "auto: device has VK_KHR_acceleration_structure + VK_KHR_ray_query".into(),
+            )),
+            Self::Auto => Ok((
+                Backend::Bvh,
+                format!(
+                    "auto: device lacks {}; using the compute-shader BVH",
+                    if device.acceleration_structure {
+                        "VK_KHR_ray_query"
+                    } else {
+                        "VK_KHR_acceleration_structure"
+                    }
+                ),
+            )),
+            Self::Hw if hw_ok => Ok((Backend::Hw, "forced by --backend hw".into())),
+            Self::Hw => Err(BackendUnavailable {
+                device: device.name.clone(),
+            }),
+            Self::Bvh => Ok((Backend::Bvh, "forced by --backend bvh".into())),
+        }
+    }
+}

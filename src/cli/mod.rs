@@ -1,0 +1,57 @@
+//! The `rqr` command line: `probe` (and, as they land, `info`, `render`, `compare`, `bench`).
+
+use std::process::ExitCode;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use rqr::accel::BackendChoice;
+use rqr::vk::{probe_devices, DeviceSelector, ProbeReport, VkError};
+
+mod probe;
+
+/// Exit code for "no Vulkan loader or no device".
+const EXIT_NO_VULKAN: u8 = 2;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "rqr",
+    version,
+    about = "glTF renderer on raw Vulkan: pure ray tracing vs hybrid, hardware ray queries or a compute BVH"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Report what every Vulkan device can do, and which ray backend rqr would use.
+    Probe(probe::ProbeArgs),
+}
+
+/// Runs the CLI; returns the process exit code.
+pub fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Probe(args) => probe::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("rqr: error: {e:#}");
+            let no_vulkan = e
+                .downcast_ref::<VkError>()
+                .is_some_and(|v| matches!(v, VkError::Loader(_) | VkError::NoDevice));
+            ExitCode::from(if no_vulkan { EXIT_NO_VULKAN } else { 1 })
+        }
+    }
+}
+
+/// Shared by subcommands that open a device.
+pub(crate) fn probe_report(
+    device: &DeviceSelector,
+    backend: BackendChoice,
+) -> Result<ProbeReport, VkError> {
+    probe_devices(device, backend)
+}

@@ -1,0 +1,125 @@
+use anyhow::Result;
+use clap::Args;
+use rqr::accel::BackendChoice;
+use rqr::vk::{DeviceInfo, DeviceSelector};
+
+/// `rqr probe` arguments.
+#[derive(Args, Debug)]
+pub struct ProbeArgs {
+    /// Print the machine-readable JSON document (schema 1).
+    #[arg(long)]
+    json: bool,
+    /// Device to mark as selected: index or name substring (default: discrete > integrated > virtual > CPU).
+    #[arg(long, default_value = "auto")]
+    device: DeviceSelector,
+    /// Backend choice to resolve for each device.
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
+    backend: BackendChoice,
+}
+
+fn gib(bytes: u64) -> String {
+    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+}
+
+fn yes(b: bool) -> &'static str {
+    if b {
+        "yes"
+    } else {
+        "no"
+    }
+}
+
+fn print_device(d: &DeviceInfo, selected: bool) {
+    println!(
+        "{} [{}] {} ({}, vendor 0x{:04x})",
+        if selected { "*" } else { " " },
+        d.index,
+        d.name,
+        d.device_type,
+        d.vendor_id
+    );
+    let rows: Vec<(&str, String)> = vec![
+        ("Vulkan", d.api_version.clone()),
+        ("driver", format!("{} ({})", d.driver_name, d.driver_info)),
+        (
+            "acceleration structure",
+            yes(d.acceleration_structure).into(),
+        ),
+        ("ray query", yes(d.ray_query).into()),
+        ("ray tracing pipeline", yes(d.ray_tracing_pipeline).into()),
+        (
+            "AS limits",
+            d.as_properties
+                .as_ref()
+                .map(|a| {
+                    format!(
+                        "{} geometries, {} instances, {} primitives, scratch align {}",
+                        a.max_geometry_count,
+                        a.max_instance_count,
+                        a.max_primitive_count,
+                        a.min_scratch_offset_alignment
+                    )
+                })
+                .unwrap_or_else(|| "-".into()),
+        ),
+        ("subgroup size", d.subgroup_size.to_string()),
+        (
+            "max workgroup invocations",
+            d.max_compute_workgroup_invocations.to_string(),
+        ),
+        (
+            "timestamps",
+            if d.timestamps.supported {
+                format!("yes, {} ns/tick", d.timestamps.period_ns)
+            } else {
+                "no (per-pass GPU times unavailable)".into()
+            },
+        ),
+        (
+            "memory heaps",
+            d.memory_heaps
+                .iter()
+                .map(|h| {
+                    format!(
+                        "{}{}",
+                        gib(h.size_bytes),
+                        if h.device_local { " device-local" } else { "" }
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+        ),
+        (
+            "required features",
+            if d.missing_features.is_empty() {
+                "all present".into()
+            } else {
+                format!("MISSING {}", d.missing_features.join(", "))
+            },
+        ),
+        (
+            "ray backend",
+            format!(
+                "{} ({})",
+                d.backend.as_deref().unwrap_or("unavailable"),
+                d.backend_reason
+            ),
+        ),
+    ];
+    for (k, v) in rows {
+        println!("    {k:<26} {v}");
+    }
+}
+
+/// Runs `rqr probe`.
+pub fn run(args: &ProbeArgs) -> Result<()> {
+    let report = super::probe_report(&args.device, args.backend)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        for d in &report.devices {
+            print_device(d, report.selected == Some(d.index));
+        }
+    }
+    Ok(())
+}

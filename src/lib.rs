@@ -1,0 +1,29 @@
+//! rqr: a glTF 2.0 renderer on raw Vulkan (`ash`) with a pure ray-traced (Whitted) path and a
+//! hybrid raster + ray-traced path. Rays go through hardware acceleration structures with
+//! `VK_KHR_ray_query` where the device has them, otherwise through rqr's own BVH traversed in
+//! compute shaders.
+//!
+//! Modules: [`vk`] (Vulkan plumbing), [`accel`] (ray backends), [`shaders`] (embedded SPIR-V).
+
+pub mod accel;
+pub mod scene;
+pub mod vk;
+
+/// SPIR-V compiled by `build.rs`, one constant per shader (and per ray backend variant).
+pub mod shaders {
+    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+}
+
+/// Library-level error.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A Vulkan failure.
+    #[error(transparent)]
+    Vk(#[from] vk::VkError),
+    /// The requested ray backend is unavailable.
+    #[error(transparent)]
+    Backend(#[from] accel::BackendUnavailable),
+}
+
+/// Result alias for the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,7 @@
+//! The `rqr` binary.
+
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::main()
+}

@@ -1,0 +1,5 @@
+//! glTF 2.0 → a plain [`Scene`](types::Scene), then GPU buffers.
+
+pub mod types;
+
+pub use types::*;

@@ -1,0 +1,369 @@
+//! The plain, GPU-agnostic scene that every loader produces and every pass consumes.
+
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// Minimum corner.
+    pub min: Vec3,
+    /// Maximum corner.
+    pub max: Vec3,
+}
+
+impl Aabb {
+    /// The empty box (min = +inf, max = -inf); growing it by a point gives that point.
+    pub const EMPTY: Self = Self {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    /// Grows the box to contain `p`.
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    /// Whether nothing was added.
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x
+    }
+
+    /// Centre point.
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    /// Length of the diagonal.
+    pub fn diagonal(&self) -> f32 {
+        (self.max - self.min).length()
+    }
+}
+
+/// One triangle list: a glTF mesh primitive converted to `TRIANGLES`, with every attribute
+/// expanded to f32. Shared by every instance that uses it.
+#[derive(Clone, Debug, Default)]
+pub struct Geometry {
+    /// Object-space positions.
+    pub positions: Vec<Vec3>,
+    /// Unit normals, one per position (computed when the file has none).
+    pub normals: Vec<Vec3>,
+    /// Tangents (xyz, w = handedness); empty unless the material uses a normal map.
+    pub tangents: Vec<Vec4>,
+    /// TEXCOORD_0 (empty if absent).
+    pub uv0: Vec<Vec2>,
+    /// TEXCOORD_1 (empty if absent).
+    pub uv1: Vec<Vec2>,
+    /// COLOR_0 as linear RGBA (empty if absent).
+    pub colors: Vec<Vec4>,
+    /// Triangle list indices into the arrays above (`len % 3 == 0`).
+    pub indices: Vec<u32>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// glTF mesh index this came from.
+    pub mesh: usize,
+    /// Primitive index within that mesh.
+    pub primitive: usize,
+}
+
+impl Geometry {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+}
+
+/// A placement of a geometry in the world.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into [`Scene::geometries`].
+    pub geometry: u32,
+    /// Object-to-world transform.
+    pub transform: Mat4,
+    /// glTF node that placed it.
+    pub node: usize,
+}
+
+impl Instance {
+    /// True when the transform mirrors (negative determinant): triangle winding flips.
+    pub fn flips_winding(&self) -> bool {
+        self.transform.determinant() < 0.0
+    }
+}
+
+/// glTF alpha mode.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    #[default]
+    Opaque,
+    /// Alpha tested against the cutoff.
+    Mask,
+    /// Alpha blended (rendered as partial transparency).
+    Blend,
+}
+
+/// A texture reference inside a material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    /// TEXCOORD set (0 or 1).
+    pub tex_coord: u32,
+    /// KHR_texture_transform as a 3x3 matrix applied to (u, v, 1).
+    pub transform: Mat3,
+}
+
+/// glTF metallic-roughness material with the supported extensions folded in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name (may be empty).
+    pub name: String,
+    /// Linear base colour factor.
+    pub base_color: Vec4,
+    /// Base colour texture (sRGB).
+    pub base_color_texture: Option<TextureRef>,
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Roughness factor.
+    pub roughness: f32,
+    /// Metallic (B) / roughness (G) texture.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Tangent-space normal map.
+    pub normal_texture: Option<TextureRef>,
+    /// Normal map scale.
+    pub normal_scale: f32,
+    /// Occlusion (R) texture.
+    pub occlusion_texture: Option<TextureRef>,
+    /// Occlusion strength.
+    pub occlusion_strength: f32,
+    /// Emissive factor times KHR_materials_emissive_strength.
+    pub emissive: Vec3,
+    /// Emissive texture (sRGB).
+    pub emissive_texture: Option<TextureRef>,
+    /// Alpha mode.
+    pub alpha_mode: AlphaMode,
+    /// Alpha cutoff for [`AlphaMode::Mask`].
+    pub alpha_cutoff: f32,
+    /// Back faces are shaded (else culled in raster and treated as opaque-from-behind in RT).
+    pub double_sided: bool,
+    /// KHR_materials_transmission factor.
+    pub transmission: f32,
+    /// Transmission (R) texture.
+    pub transmission_texture: Option<TextureRef>,
+    /// KHR_materials_ior (default 1.5).
+    pub ior: f32,
+    /// KHR_materials_volume thickness factor (0: thin-walled).
+    pub thickness: f32,
+    /// KHR_materials_volume attenuation colour.
+    pub attenuation_color: Vec3,
+    /// KHR_materials_volume attenuation distance (infinite: no absorption).
+    pub attenuation_distance: f32,
+}
+
+impl Default for Material {
+    /// The glTF default material.
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            base_color: Vec4::ONE,
+            base_color_texture: None,
+            metallic: 1.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            emissive: Vec3::ZERO,
+            emissive_texture: None,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            double_sided: false,
+            transmission: 0.0,
+            transmission_texture: None,
+            ior: 1.5,
+            thickness: 0.0,
+            attenuation_color: Vec3::ONE,
+            attenuation_distance: f32::INFINITY,
+        }
+    }
+}
+
+/// Texture wrap mode.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Wrap {
+    /// REPEAT.
+    #[default]
+    Repeat,
+    /// MIRRORED_REPEAT.
+    MirroredRepeat,
+    /// CLAMP_TO_EDGE.
+    ClampToEdge,
+}
+
+/// Sampler state of a texture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sampler {
+    /// U wrap.
+    pub wrap_s: Wrap,
+    /// V wrap.
+    pub wrap_t: Wrap,
+    /// Magnification is linear (else nearest).
+    pub mag_linear: bool,
+    /// Minification is linear (else nearest).
+    pub min_linear: bool,
+    /// Mip filtering is linear (else nearest); mips are always generated.
+    pub mip_linear: bool,
+}
+
+impl Default for Sampler {
+    fn default() -> Self {
+        Self {
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            mag_linear: true,
+            min_linear: true,
+            mip_linear: true,
+        }
+    }
+}
+
+/// A texture: an image and how to sample it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Texture {
+    /// Index into [`Scene::images`].
+    pub image: u32,
+    /// Sampler state.
+    pub sampler: Sampler,
+}
+
+/// A decoded image, RGBA8, uploaded once with a mip chain.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageData {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// RGBA8 texels, row 0 = top.
+    pub rgba8: Vec<u8>,
+    /// Sampled as sRGB (base colour / emissive) rather than linear data.
+    pub srgb: bool,
+}
+
+/// KHR_lights_punctual light type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// Infinitely far; `intensity` in lux.
+    Directional,
+    /// Point; `intensity` in candela.
+    Point,
+    /// Spot; `intensity` in candela, cone angles in radians.
+    Spot {
+        /// Inner cone angle.
+        inner_cone: f32,
+        /// Outer cone angle.
+        outer_cone: f32,
+    },
+}
+
+/// A punctual light in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    /// Type and cone.
+    pub kind: LightKind,
+    /// Linear RGB colour.
+    pub color: Vec3,
+    /// Intensity (lux for directional, candela otherwise).
+    pub intensity: f32,
+    /// Range (infinite: no cut-off).
+    pub range: f32,
+    /// World position (unused for directional).
+    pub position: Vec3,
+    /// World direction the light points to (unit; unused for point).
+    pub direction: Vec3,
+}
+
+/// Camera projection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Perspective with vertical field of view (radians).
+    Perspective {
+        /// Vertical fov.
+        yfov: f32,
+        /// Aspect ratio from the file, if any (the render's aspect wins).
+        aspect: Option<f32>,
+        /// Near plane.
+        znear: f32,
+        /// Far plane (None: infinite).
+        zfar: Option<f32>,
+    },
+    /// Orthographic with half extents.
+    Orthographic {
+        /// Half width.
+        xmag: f32,
+        /// Half height.
+        ymag: f32,
+        /// Near plane.
+        znear: f32,
+        /// Far plane.
+        zfar: f32,
+    },
+}
+
+/// A camera: pose and projection. Looks down its local -Z with +Y up (glTF convention).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Camera-to-world transform (no scale).
+    pub camera_to_world: Mat4,
+    /// Projection.
+    pub projection: Projection,
+}
+
+/// A loaded scene.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Where it came from (file path or `built-in`).
+    pub source: String,
+    /// Unique triangle lists.
+    pub geometries: Vec<Geometry>,
+    /// Placements of geometries.
+    pub instances: Vec<Instance>,
+    /// Materials (always at least one: the glTF default).
+    pub materials: Vec<Material>,
+    /// Textures.
+    pub textures: Vec<Texture>,
+    /// Decoded images.
+    pub images: Vec<ImageData>,
+    /// Punctual lights (a documented default rig when the file has none).
+    pub lights: Vec<Light>,
+    /// Whether `lights` is the default rig rather than the file's.
+    pub default_lights: bool,
+    /// Cameras of the chosen scene, in node order.
+    pub cameras: Vec<Camera>,
+    /// Number of glTF meshes.
+    pub mesh_count: usize,
+    /// Number of glTF mesh primitives (including skipped point/line ones).
+    pub primitive_count: usize,
+    /// `extensionsUsed`.
+    pub extensions_used: Vec<String>,
+    /// Used extensions rqr ignores.
+    pub extensions_unsupported: Vec<String>,
+    /// World-space bounds of every instance.
+    pub bounds: Aabb,
+}
+
+impl Scene {
+    /// Triangles over every instance.
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.geometries[i.geometry as usize].triangle_count())
+            .sum()
+    }
+
+    /// Triangles counting each geometry once.
+    pub fn unique_triangle_count(&self) -> usize {
+        self.geometries.iter().map(Geometry::triangle_count).sum()
+    }
+}

@@ -1,0 +1,725 @@
+use std::ffi::{c_void, CStr, CString};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use ash::{ext, khr, vk};
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use super::probe::{describe_device, DeviceInfo};
+use super::{CallExt, VkError, VkResult};
+
+/// Fence timeout used unless [`ContextOptions::fence_timeout`] says otherwise.
+pub const DEFAULT_FENCE_TIMEOUT: Duration = Duration::from_secs(60);
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Which physical device to use.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum DeviceSelector {
+    /// discrete > integrated > virtual > CPU > other, first of each kind.
+    #[default]
+    Auto,
+    /// Index into the enumeration order (as `rqr probe` lists it).
+    Index(usize),
+    /// Case-insensitive substring of the device name.
+    Name(String),
+}
+
+impl std::str::FromStr for DeviceSelector {
+    type Err = std::convert::Infallible;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(if s.eq_ignore_ascii_case("auto") {
+            Self::Auto
+        } else if let Ok(i) = s.parse() {
+            Self::Index(i)
+        } else {
+            Self::Name(s.to_string())
+        })
+    }
+}
+
+impl std::fmt::Display for DeviceSelector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Auto => write!(f, "auto"),
+            Self::Index(i) => write!(f, "{i}"),
+            Self::Name(n) => write!(f, "{n}"),
+        }
+    }
+}
+
+/// How to create a [`Context`].
+#[derive(Clone, Debug)]
+pub struct ContextOptions {
+    /// Device choice.
+    pub device: DeviceSelector,
+    /// Enable the Khronos validation layer. `None`: on when `RQR_VALIDATION=1`.
+    pub validation: Option<bool>,
+    /// How long a submission may run before it is reported as a timeout.
+    pub fence_timeout: Duration,
+}
+
+impl Default for ContextOptions {
+    fn default() -> Self {
+        Self {
+            device: DeviceSelector::Auto,
+            validation: None,
+            fence_timeout: DEFAULT_FENCE_TIMEOUT,
+        }
+    }
+}
+
+/// Optional capabilities of the opened device (the required ones are checked at creation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    /// `VK_KHR_acceleration_structure` (+ deferred host operations) enabled.
+    pub acceleration_structure: bool,
+    /// `VK_KHR_ray_query` enabled.
+    pub ray_query: bool,
+    /// Timestamps usable on the chosen queue.
+    pub timestamps: bool,
+}
+
+/// Validation messages collected by the debug messenger.
+#[derive(Default)]
+pub(crate) struct ValidationLog {
+    errors: Mutex<Vec<String>>,
+}
+
+/// Instance-level objects; destroyed after the device (see [`Shared`]).
+pub(crate) struct InstanceOwner {
+    pub(crate) _entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    debug: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    // Boxed so the messenger's user-data pointer stays valid.
+    log: Box<ValidationLog>,
+}
+
+impl Drop for InstanceOwner {
+    fn drop(&mut self) {
+        // SAFETY: the device (if any) was destroyed before; nothing else uses the instance.
+        unsafe {
+            if let Some((utils, messenger)) = self.debug.take() {
+                utils.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+/// State shared by the context and every resource created from it; dropped last.
+pub(crate) struct Shared {
+    pub(crate) device: ash::Device,
+    pub(crate) allocator: Mutex<Option<Allocator>>,
+    pub(crate) accel: Option<khr::acceleration_structure::Device>,
+    // Declared last: dropped after `Shared::drop` destroyed the device.
+    pub(crate) owner: InstanceOwner,
+}
+
+impl Drop for Shared {
+    fn drop(&mut self) {
+        // SAFETY: every resource holding an Arc<Shared> is gone, so nothing else uses the device.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            drop(self.allocator.lock().map(|mut a| a.take()));
+            self.device.destroy_device(None);
+        }
+    }
+}
+
+struct Submission {
+    pool: vk::CommandPool,
+    // Submissions that timed out: still owned by the GPU, freed after wait-idle on drop.
+    abandoned: Vec<(vk::CommandBuffer, vk::Fence)>,
+}
+
+/// An opened Vulkan device with one graphics+compute queue.
+pub struct Context {
+    pub(crate) shared: Arc<Shared>,
+    queue: vk::Queue,
+    queue_family: u32,
+    submission: Mutex<Submission>,
+    info: DeviceInfo,
+    features: Features,
+    fence_timeout: Duration,
+    validation: bool,
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: the loader passes valid callback data; `user` is the boxed ValidationLog that
+    // outlives the messenger (destroyed first in Shared::drop).
+    let (message, log) = unsafe {
+        let msg = if data.is_null() || (*data).p_message.is_null() {
+            String::from("(no message)")
+        } else {
+            CStr::from_ptr((*data).p_message)
+                .to_string_lossy()
+                .into_owned()
+        };
+        (msg, &*(user as *const ValidationLog))
+    };
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        log::error!("vulkan {kind:?}: {message}");
+        if let Ok(mut errors) = log.errors.lock() {
+            errors.push(message);
+        }
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        log::warn!("vulkan {kind:?}: {message}");
+    } else {
+        log::debug!("vulkan {kind:?}: {message}");
+    }
+    vk::FALSE
+}
+
+pub(crate) fn load_entry() -> VkResult<ash::Entry> {
+    // SAFETY: loading the system Vulkan loader; no Vulkan calls are in flight.
+    unsafe { ash::Entry::load() }.map_err(|e| VkError::Loader(e.to_string()))
+}
+
+/// Whether the Khronos validation layer is installed.
+pub fn validation_layer_available(entry: &ash::Entry) -> bool {
+    // SAFETY: plain enumeration call.
+    unsafe { entry.enumerate_instance_layer_properties() }
+        .map(|layers| {
+            layers
+                .iter()
+                .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER))
+        })
+        .unwrap_or(false)
+}
+
+pub(crate) fn create_instance(
+    entry: &ash::Entry,
+    validation: bool,
+) -> VkResult<(ash::Instance, bool)> {
+    let app_name = CString::new("rqr").unwrap();
+    let app = vk::ApplicationInfo::default()
+        .application_name(&app_name)
+        .application_version(1)
+        .engine_name(&app_name)
+        .api_version(vk::API_VERSION_1_3);
+    let available_ext: Vec<CString> =
+        // SAFETY: plain enumeration call.
+        unsafe { entry.enumerate_instance_extension_properties(None) }
+            .call("vkEnumerateInstanceExtensionProperties")?
+            .iter()
+            .filter_map(|e| e.extension_name_as_c_str().ok().map(CStr::to_owned))
+            .collect();
+    let has_utils = available_ext
+        .iter()
+        .any(|e| e.as_c_str() == ext::debug_utils::NAME);
+    let mut extensions = Vec::new();
+    if has_utils {
+        extensions.push(ext::debug_utils::NAME.as_ptr());
+    }
+    let use_validation = validation && validation_layer_available(entry);
+    if validation && !use_validation {
+        log::warn!("validation requested but VK_LAYER_KHRONOS_validation is not installed (apt install vulkan-validationlayers)");
+    }
+    let layers = if use_validation {
+        vec![VALIDATION_LAYER.as_ptr()]
+    } else {
+        vec![]
+    };
+    let info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_extension_names(&extensions)
+        .enabled_layer_names(&layers);
+    // SAFETY: all pointers in `info` point to locals alive for this call.
+    let instance =
+        unsafe { entry.create_instance(&info, None) }.map_err(|result| match result {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => VkError::NoDevice,
+            result => VkError::Call {
+                call: "vkCreateInstance",
+                result,
+            },
+        })?;
+    Ok((instance, use_validation && has_utils))
+}
+
+/// Orders devices for automatic selection: lower is better.
+fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+/// Picks a device index from `(name, type)` pairs.
+pub(crate) fn select_device(
+    devices: &[(String, vk::PhysicalDeviceType)],
+    selector: &DeviceSelector,
+) -> VkResult<usize> {
+    if devices.is_empty() {
+        return Err(VkError::NoDevice);
+    }
+    let found = match selector {
+        DeviceSelector::Auto => (0..devices.len()).min_by_key(|&i| (type_rank(devices[i].1), i)),
+        DeviceSelector::Index(i) => (*i < devices.len()).then_some(*i),
+        DeviceSelector::Name(n) => {
+            let n = n.to_lowercase();
+            devices
+                .iter()
+                .position(|(name, _)| name.to_lowercase().contains(&n))
+        }
+    };
+    found.ok_or_else(|| VkError::NoMatchingDevice {
+        selector: selector.to_string(),
+        available: devices
+            .iter()
+            .enumerate()
+            .map(|(i, (n, _))| format!("{i}: {n}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+    })
+}
+
+pub(crate) fn device_name(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+) -> (String, vk::PhysicalDeviceType) {
+    // SAFETY: `pd` comes from this instance.
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    let name = props
+        .device_name_as_c_str()
+        .map(|c| c.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    (name, props.device_type)
+}
+
+impl Context {
+    /// Opens a device. Fails with [`VkError::MissingFeature`] when the device lacks Vulkan 1.3,
+    /// buffer device address, descriptor indexing, scalar block layout, timeline semaphores,
+    /// dynamic rendering or synchronization2.
+    pub fn new(opts: &ContextOptions) -> VkResult<Self> {
+        let entry = load_entry()?;
+        let validation = opts
+            .validation
+            .unwrap_or_else(|| std::env::var("RQR_VALIDATION").is_ok_and(|v| v == "1"));
+        let (instance, validation) = create_instance(&entry, validation)?;
+        let log = Box::<ValidationLog>::default();
+        let debug = if validation {
+            let utils = ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(&*log as *const ValidationLog as *mut c_void);
+            // SAFETY: `log` is boxed and lives in Shared until after the messenger is destroyed.
+            let messenger = unsafe { utils.create_debug_utils_messenger(&info, None) }
+                .call("vkCreateDebugUtilsMessengerEXT")?;
+            Some((utils, messenger))
+        } else {
+            None
+        };
+        let owner = InstanceOwner {
+            _entry: entry,
+            instance,
+            debug,
+            log,
+        };
+        Self::open_device(owner, opts, validation)
+    }
+
+    fn open_device(
+        owner: InstanceOwner,
+        opts: &ContextOptions,
+        validation: bool,
+    ) -> VkResult<Self> {
+        let instance = &owner.instance;
+        // SAFETY: plain enumeration call.
+        let physicals =
+            unsafe { instance.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices")?;
+        let names: Vec<_> = physicals
+            .iter()
+            .map(|&p| device_name(instance, p))
+            .collect();
+        let index = select_device(&names, &opts.device)?;
+        let physical = physicals[index];
+        let info = describe_device(instance, physical, index);
+        let (device, queue_family, features) = Self::create_device(instance, physical, &info)?;
+        let allocator = match Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: true,
+            allocation_sizes: Default::default(),
+        }) {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: the device has no child objects yet.
+                unsafe { device.destroy_device(None) };
+                return Err(VkError::Limit(format!(
+                    "cannot create the memory allocator: {e}"
+                )));
+            }
+        };
+        let accel = features
+            .acceleration_structure
+            .then(|| khr::acceleration_structure::Device::new(instance, &device));
+        let shared = Arc::new(Shared {
+            device,
+            allocator: Mutex::new(Some(allocator)),
+            accel,
+            owner,
+        });
+        let device = &shared.device;
+        // SAFETY: valid device and family index.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid device; on error `shared` drops and cleans up.
+        let pool =
+            unsafe { device.create_command_pool(&pool_info, None) }.call("vkCreateCommandPool")?;
+        log::info!(
+            "device {}: {} ({}), ray query: {}, validation: {}",
+            index,
+            info.name,
+            info.driver_info,
+            features.ray_query,
+            validation
+        );
+        Ok(Self {
+            shared,
+            queue,
+            queue_family,
+            submission: Mutex::new(Submission {
+                pool,
+                abandoned: Vec::new(),
+            }),
+            info,
+            features,
+            fence_timeout: opts.fence_timeout,
+            validation,
+        })
+    }
+
+    fn create_device(
+        instance: &ash::Instance,
+        physical: vk::PhysicalDevice,
+        info: &DeviceInfo,
+    ) -> VkResult<(ash::Device, u32, Features)> {
+        let missing = |feature: &str| VkError::MissingFeature {
+            device: info.name.clone(),
+            feature: feature.to_string(),
+        };
+        // SAFETY: `physical` comes from `instance`.
+        let props = unsafe { instance.get_physical_device_properties(physical) };
+        if props.api_version < vk::API_VERSION_1_3 {
+            return Err(missing("Vulkan 1.3"));
+        }
+        // SAFETY: as above.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let wanted = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
+        let queue_family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(wanted))
+            .ok_or_else(|| missing("a graphics+compute queue"))? as u32;
+        let timestamps = families[queue_family as usize].timestamp_valid_bits > 0
+            && props.limits.timestamp_compute_and_graphics == vk::TRUE;
+
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+        let mut frq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+        let base = {
+            let mut f2 = vk::PhysicalDeviceFeatures2::default()
+                .push_next(&mut f12)
+                .push_next(&mut f13)
+                .push_next(&mut fas)
+                .push_next(&mut frq);
+            // SAFETY: the chain only holds structs the 1.3 device knows; unknown ones are ignored.
+            unsafe { instance.get_physical_device_features2(physical, &mut f2) };
+            f2.features
+        };
+        let required = [
+            (f12.buffer_device_address, "bufferDeviceAddress"),
+            (f12.descriptor_indexing, "descriptorIndexing"),
+            (f12.runtime_descriptor_array, "runtimeDescriptorArray"),
+            (
+                f12.descriptor_binding_partially_bound,
+                "descriptorBindingPartiallyBound",
+            ),
+            (
+                f12.shader_sampled_image_array_non_uniform_indexing,
+                "shaderSampledImageArrayNonUniformIndexing",
+            ),
+            (f12.scalar_block_layout, "scalarBlockLayout"),
+            (f12.timeline_semaphore, "timelineSemaphore"),
+            (f13.dynamic_rendering, "dynamicRendering"),
+            (f13.synchronization2, "synchronization2"),
+            (base.shader_int64, "shaderInt64"),
+        ];
+        if let Some((_, name)) = required.iter().find(|(v, _)| *v != vk::TRUE) {
+            return Err(missing(name));
+        }
+
+        // SAFETY: as above.
+        let exts = unsafe { instance.enumerate_device_extension_properties(physical) }
+            .call("vkEnumerateDeviceExtensionProperties")?;
+        let has = |name: &CStr| {
+            exts.iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+        };
+        let acceleration_structure = has(khr::acceleration_structure::NAME)
+            && has(khr::deferred_host_operations::NAME)
+            && fas.acceleration_structure == vk::TRUE;
+        let ray_query =
+            acceleration_structure && has(khr::ray_query::NAME) && frq.ray_query == vk::TRUE;
+
+        let mut extensions = Vec::new();
+        if acceleration_structure {
+            extensions.push(khr::acceleration_structure::NAME.as_ptr());
+            extensions.push(khr::deferred_host_operations::NAME.as_ptr());
+        }
+        if ray_query {
+            extensions.push(khr::ray_query::NAME.as_ptr());
+        }
+
+        let base_enable = vk::PhysicalDeviceFeatures::default()
+            .shader_int64(true)
+            .sampler_anisotropy(base.sampler_anisotropy == vk::TRUE)
+            .fragment_stores_and_atomics(base.fragment_stores_and_atomics == vk::TRUE);
+        let mut e12 = vk::PhysicalDeviceVulkan12Features::default()
+            .buffer_device_address(true)
+            .descriptor_indexing(true)
+            .runtime_descriptor_array(true)
+            .descriptor_binding_partially_bound(true)
+            .descriptor_binding_variable_descriptor_count(
+                f12.descriptor_binding_variable_descriptor_count == vk::TRUE,
+            )
+            .shader_sampled_image_array_non_uniform_indexing(true)
+            .shader_storage_buffer_array_non_uniform_indexing(
+                f12.shader_storage_buffer_array_non_uniform_indexing == vk::TRUE,
+            )
+            .scalar_block_layout(true)
+            .timeline_semaphore(true)
+            .host_query_reset(f12.host_query_reset == vk::TRUE)
+            .shader_float16(f12.shader_float16 == vk::TRUE)
+            .storage_buffer8_bit_access(f12.storage_buffer8_bit_access == vk::TRUE)
+            .shader_int8(f12.shader_int8 == vk::TRUE);
+        let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            .synchronization2(true)
+            .maintenance4(f13.maintenance4 == vk::TRUE);
+        let mut eas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+            .acceleration_structure(true);
+        let mut erq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let mut create = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&extensions)
+            .enabled_features(&base_enable)
+            .push_next(&mut e12)
+            .push_next(&mut e13);
+        if acceleration_structure {
+            create = create.push_next(&mut eas);
+        }
+        if ray_query {
+            create = create.push_next(&mut erq);
+        }
+        // SAFETY: every enabled feature/extension was checked above.
+        let device =
+            unsafe { instance.create_device(physical, &create, None) }.call("vkCreateDevice")?;
+        Ok((
+            device,
+            queue_family,
+            Features {
+                acceleration_structure,
+                ray_query,
+                timestamps,
+            },
+        ))
+    }
+
+    /// The logical device, for recording commands.
+    pub fn device(&self) -> &ash::Device {
+        &self.shared.device
+    }
+
+    /// `VK_KHR_acceleration_structure` entry points, when enabled.
+    pub fn accel(&self) -> Option<&khr::acceleration_structure::Device> {
+        self.shared.accel.as_ref()
+    }
+
+    /// What the device is and can do (the same record `rqr probe` prints).
+    pub fn info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    /// Optional capabilities in use.
+    pub fn features(&self) -> Features {
+        self.features
+    }
+
+    /// Queue family of the single queue.
+    pub fn queue_family(&self) -> u32 {
+        self.queue_family
+    }
+
+    /// Whether the validation layer is active on this context.
+    pub fn validation_enabled(&self) -> bool {
+        self.validation
+    }
+
+    /// Validation errors reported so far (empty when validation is off).
+    pub fn validation_errors(&self) -> Vec<String> {
+        self.shared
+            .owner
+            .log
+            .errors
+            .lock()
+            .map(|e| e.clone())
+            .unwrap_or_default()
+    }
+
+    /// The timeout applied to every submission.
+    pub fn fence_timeout(&self) -> Duration {
+        self.fence_timeout
+    }
+
+    /// Changes the timeout applied to later submissions.
+    pub fn set_fence_timeout(&mut self, timeout: Duration) {
+        self.fence_timeout = timeout;
+    }
+
+    /// Records commands with `record`, submits them and waits for completion.
+    ///
+    /// `pass` names the work in errors: a fence that does not signal within the fence
+    /// timeout returns [`VkError::Timeout`] naming it, never a hang.
+    pub fn run<T>(
+        &self,
+        pass: &str,
+        record: impl FnOnce(vk::CommandBuffer) -> VkResult<T>,
+    ) -> VkResult<T> {
+        let device = self.device();
+        let mut sub = self.submission.lock().expect("command pool lock poisoned");
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(sub.pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: the pool is externally synchronised by `submission`'s lock.
+        let cmd =
+            unsafe { device.allocate_command_buffers(&alloc) }.call("vkAllocateCommandBuffers")?[0];
+        let free = |sub: &Submission| {
+            // SAFETY: `cmd` is not pending (never submitted or completed).
+            unsafe { device.free_command_buffers(sub.pool, &[cmd]) }
+        };
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: fresh command buffer.
+        if let Err(e) =
+            unsafe { device.begin_command_buffer(cmd, &begin) }.call("vkBeginCommandBuffer")
+        {
+            free(&sub);
+            return Err(e);
+        }
+        let value = match record(cmd) {
+            Ok(v) => v,
+            Err(e) => {
+                // SAFETY: recording state; end then free.
+                let _ = unsafe { device.end_command_buffer(cmd) };
+                free(&sub);
+                return Err(e);
+            }
+        };
+        // SAFETY: recording state.
+        if let Err(e) = unsafe { device.end_command_buffer(cmd) }.call("vkEndCommandBuffer") {
+            free(&sub);
+            return Err(e);
+        }
+        // SAFETY: plain object creation.
+        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+            .call("vkCreateFence")?;
+        let cmds = [cmd];
+        let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+        // SAFETY: the command buffer is executable, the queue is used only under this lock.
+        let submitted = unsafe { device.queue_submit(self.queue, &[submit], fence) };
+        if let Err(result) = submitted {
+            // SAFETY: the submission failed, so neither object is in use.
+            unsafe { device.destroy_fence(fence, None) };
+            free(&sub);
+            return Err(self.map_device_error(pass, "vkQueueSubmit", result));
+        }
+        let timeout_ns = u64::try_from(self.fence_timeout.as_nanos()).unwrap_or(u64::MAX);
+        // SAFETY: the fence belongs to this device.
+        match unsafe { device.wait_for_fences(&[fence], true, timeout_ns) } {
+            Ok(()) => {
+                // SAFETY: the fence signalled: the command buffer is complete.
+                unsafe { device.destroy_fence(fence, None) };
+                free(&sub);
+                Ok(value)
+            }
+            Err(vk::Result::TIMEOUT) => {
+                sub.abandoned.push((cmd, fence));
+                Err(VkError::Timeout {
+                    pass: pass.to_string(),
+                    timeout_ms: self.fence_timeout.as_millis() as u64,
+                })
+            }
+            Err(result) => {
+                sub.abandoned.push((cmd, fence));
+                Err(self.map_device_error(pass, "vkWaitForFences", result))
+            }
+        }
+    }
+
+    fn map_device_error(&self, pass: &str, call: &'static str, result: vk::Result) -> VkError {
+        match result {
+            vk::Result::ERROR_DEVICE_LOST => VkError::DeviceLost {
+                pass: pass.to_string(),
+            },
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                VkError::OutOfMemory {
+                    what: pass.to_string(),
+                    bytes: 0,
+                    reason: result.to_string(),
+                }
+            }
+            _ => VkError::Call { call, result },
+        }
+    }
+
+    /// Waits until the device is idle (with no timeout: use before teardown only).
+    pub fn wait_idle(&self) -> VkResult<()> {
+        // SAFETY: the queue is not being submitted to concurrently (`run` holds a lock).
+        unsafe { self.device().device_wait_idle() }.call("vkDeviceWaitIdle")
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        let device = &self.shared.device;
+        // SAFETY: after wait-idle no command buffer is pending; the pool is ours.
+        unsafe {
+            let _ = device.device_wait_idle();
+            if let Ok(sub) = self.submission.get_mut() {
+                for (_, fence) in sub.abandoned.drain(..) {
+                    device.destroy_fence(fence, None);
+                }
+                device.destroy_command_pool(sub.pool, None);
+            }
+        }
+    }
+}

@@ -1,0 +1,99 @@
+//! Vulkan plumbing: instance, device selection and feature probing, memory, command
+//! submission with timeouts, compute pipelines and GPU timestamps.
+//!
+//! This is the only module that performs raw `ash` setup; passes build on [`Context`],
+//! [`Buffer`], [`Image`], [`ComputePipeline`] and [`GpuProfiler`].
+
+mod context;
+mod memory;
+mod pipeline;
+mod probe;
+mod profiler;
+
+pub use context::{Context, ContextOptions, DeviceSelector, Features, DEFAULT_FENCE_TIMEOUT};
+pub use memory::{Buffer, Image};
+pub use pipeline::{memory_barrier, spirv_words, Binding, ComputePipeline, DescriptorSet};
+pub use probe::{
+    probe_devices, AsProperties, DeviceInfo, MemoryHeapInfo, ProbeReport, TimestampInfo,
+};
+pub use profiler::GpuProfiler;
+
+pub use ash::vk;
+pub use gpu_allocator::MemoryLocation;
+
+/// Errors from the Vulkan layer. Every message says what failed and, where it helps,
+/// what to do about it.
+#[derive(Debug, thiserror::Error)]
+pub enum VkError {
+    /// The Vulkan loader library could not be opened.
+    #[error("cannot load the Vulkan loader ({0}); install a Vulkan driver and loader, e.g. `scripts/setup-vulkan.sh` (Mesa lavapipe)")]
+    Loader(String),
+    /// No physical device is visible.
+    #[error("no Vulkan device found; install a driver, e.g. `scripts/setup-vulkan.sh` (Mesa lavapipe, CPU)")]
+    NoDevice,
+    /// `--device` matched nothing.
+    #[error("no Vulkan device matches '{selector}' (devices: {available})")]
+    NoMatchingDevice {
+        /// What the user asked for.
+        selector: String,
+        /// The devices that exist, as `index: name`.
+        available: String,
+    },
+    /// A device lacks something rqr cannot work without.
+    #[error("device '{device}' lacks {feature}, which rqr needs")]
+    MissingFeature {
+        /// Device name.
+        device: String,
+        /// The feature or extension.
+        feature: String,
+    },
+    /// A Vulkan call returned an error.
+    #[error("{call} failed: {result}")]
+    Call {
+        /// The Vulkan function.
+        call: &'static str,
+        /// Its result code.
+        result: vk::Result,
+    },
+    /// The GPU did not finish a submission within the fence timeout.
+    #[error("GPU timeout: pass '{pass}' did not finish within {timeout_ms} ms (raise --timeout-ms, or lower the resolution/spp)")]
+    Timeout {
+        /// The pass that was running.
+        pass: String,
+        /// The timeout that expired.
+        timeout_ms: u64,
+    },
+    /// The device was lost (driver crash, hang recovery).
+    #[error("device lost while running pass '{pass}'")]
+    DeviceLost {
+        /// The pass that was running.
+        pass: String,
+    },
+    /// Device or host memory ran out.
+    #[error("out of memory allocating '{what}' ({bytes} bytes): {reason}")]
+    OutOfMemory {
+        /// The resource being allocated.
+        what: String,
+        /// Requested size.
+        bytes: u64,
+        /// The allocator's explanation.
+        reason: String,
+    },
+    /// A request that can never succeed on this device (sizes, limits).
+    #[error("{0}")]
+    Limit(String),
+}
+
+/// Result alias for the Vulkan layer.
+pub type VkResult<T> = Result<T, VkError>;
+
+/// Attaches the Vulkan call name to an `ash` result.
+pub(crate) trait CallExt<T> {
+    fn call(self, name: &'static str) -> VkResult<T>;
+}
+
+impl<T> CallExt<T> for Result<T, vk::Result> {
+    fn call(self, name: &'static str) -> VkResult<T> {
+        self.map_err(|result| VkError::Call { call: name, result })
+    }
+}

@@ -1,0 +1,385 @@
+use std::ffi::CStr;
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::context::Shared;
+use super::{Buffer, CallExt, Context, VkError, VkResult};
+
+/// One descriptor binding of a compute pipeline, in binding-number order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    /// `buffer` block (std430/scalar).
+    StorageBuffer,
+    /// `uniform` block.
+    UniformBuffer,
+    /// `image2D` storage image.
+    StorageImage,
+    /// `sampler2D textures[]`: a partially bound array of up to this many combined samplers.
+    SampledImages(u32),
+    /// `accelerationStructureEXT`.
+    AccelerationStructure,
+}
+
+impl Binding {
+    fn descriptor_type(self) -> vk::DescriptorType {
+        match self {
+            Self::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
+            Self::UniformBuffer => vk::DescriptorType::UNIFORM_BUFFER,
+            Self::StorageImage => vk::DescriptorType::STORAGE_IMAGE,
+            Self::SampledImages(_) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            Self::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+        }
+    }
+
+    fn count(self) -> u32 {
+        match self {
+            Self::SampledImages(n) => n.max(1),
+            _ => 1,
+        }
+    }
+}
+
+/// Converts SPIR-V bytes (as embedded with `include_bytes!`) to aligned words.
+pub fn spirv_words(bytes: &[u8]) -> VkResult<Vec<u32>> {
+    ash::util::read_spv(&mut std::io::Cursor::new(bytes))
+        .map_err(|e| VkError::Limit(format!("invalid SPIR-V: {e}")))
+}
+
+/// Creates a descriptor set layout for `bindings` visible to `stages`.
+pub(crate) fn create_set_layout(
+    device: &ash::Device,
+    bindings: &[Binding],
+    stages: vk::ShaderStageFlags,
+) -> VkResult<vk::DescriptorSetLayout> {
+    let raw: Vec<_> = bindings
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(i as u32)
+                .descriptor_type(b.descriptor_type())
+                .descriptor_count(b.count())
+                .stage_flags(stages)
+        })
+        .collect();
+    let flags: Vec<_> = bindings
+        .iter()
+        .map(|b| match b {
+            Binding::SampledImages(_) => vk::DescriptorBindingFlags::PARTIALLY_BOUND,
+            _ => vk::DescriptorBindingFlags::empty(),
+        })
+        .collect();
+    let mut flag_info =
+        vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&flags);
+    let info = vk::DescriptorSetLayoutCreateInfo::default()
+        .bindings(&raw)
+        .push_next(&mut flag_info);
+    // SAFETY: valid create info.
+    unsafe { device.create_descriptor_set_layout(&info, None) }.call("vkCreateDescriptorSetLayout")
+}
+
+/// A compute pipeline with one descriptor set layout and an optional push-constant block.
+pub struct ComputePipeline {
+    shared: Arc<Shared>,
+    name: String,
+    bindings: Vec<Binding>,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    push_size: u32,
+}
+
+impl ComputePipeline {
+    /// Builds a pipeline from SPIR-V (entry point `main`).
+    pub fn new(
+        ctx: &Context,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[Binding],
+        push_size: u32,
+    ) -> VkResult<Self> {
+        let device = ctx.device();
+        let limit = ctx.info().max_push_constants_size;
+        if push_size > limit {
+            return Err(VkError::Limit(format!(
+                "pipeline '{name}' needs {push_size} bytes of push constants, the device allows {limit}"
+            )));
+        }
+        let words = spirv_words(spirv)?;
+        let set_layout = create_set_layout(device, bindings, vk::ShaderStageFlags::COMPUTE)?;
+        let ranges = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .size(push_size)];
+        let set_layouts = [set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(if push_size > 0 { &ranges } else { &[] });
+        // SAFETY: valid create info.
+        let layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .call("vkCreatePipelineLayout");
+        let layout = match layout {
+            Ok(l) => l,
+            Err(e) => {
+                // SAFETY: unused layout.
+                unsafe { device.destroy_descriptor_set_layout(set_layout, None) };
+                return Err(e);
+            }
+        };
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: `words` is valid SPIR-V produced by build.rs.
+        let module =
+            unsafe { device.create_shader_module(&module_info, None) }.call("vkCreateShaderModule");
+        let pipeline = module.and_then(|module| {
+            const MAIN: &CStr = c"main";
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(MAIN);
+            let info = vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(layout);
+            // SAFETY: valid create info; the module may be destroyed once the pipeline exists.
+            let result = unsafe {
+                device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None)
+            };
+            // SAFETY: the module is no longer needed.
+            unsafe { device.destroy_shader_module(module, None) };
+            result.map(|p| p[0]).map_err(|(_, r)| VkError::Call {
+                call: "vkCreateComputePipelines",
+                result: r,
+            })
+        });
+        let pipeline = match pipeline {
+            Ok(p) => p,
+            Err(e) => {
+                // SAFETY: unused objects.
+                unsafe {
+                    device.destroy_pipeline_layout(layout, None);
+                    device.destroy_descriptor_set_layout(set_layout, None);
+                }
+                return Err(e);
+            }
+        };
+        Ok(Self {
+            shared: ctx.shared.clone(),
+            name: name.to_string(),
+            bindings: bindings.to_vec(),
+            set_layout,
+            layout,
+            pipeline,
+            push_size,
+        })
+    }
+
+    /// The pipeline's name (used for timeouts and profiler scopes).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Allocates a descriptor set for this pipeline's layout (from its own small pool).
+    pub fn allocate_set(&self) -> VkResult<DescriptorSet> {
+        DescriptorSet::new(&self.shared, self.set_layout, &self.bindings)
+    }
+
+    /// Records a dispatch of `groups` workgroups with `push` as push constants.
+    pub fn dispatch(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: Option<&DescriptorSet>,
+        push: &[u8],
+        groups: [u32; 3],
+    ) {
+        let device = &self.shared.device;
+        debug_assert_eq!(
+            push.len() as u32,
+            self.push_size,
+            "push-constant size of {}",
+            self.name
+        );
+        // SAFETY: the pipeline, layout and set are alive; push fits the declared range.
+        unsafe {
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            if let Some(set) = set {
+                device.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.layout,
+                    0,
+                    &[set.raw],
+                    &[],
+                );
+            }
+            if !push.is_empty() {
+                device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            }
+            device.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+        }
+    }
+}
+
+impl Drop for ComputePipeline {
+    fn drop(&mut self) {
+        // SAFETY: no submission using the pipeline is pending (submissions wait).
+        unsafe {
+            self.shared.device.destroy_pipeline(self.pipeline, None);
+            self.shared
+                .device
+                .destroy_pipeline_layout(self.layout, None);
+            self.shared
+                .device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// A descriptor set with its own pool.
+pub struct DescriptorSet {
+    shared: Arc<Shared>,
+    pool: vk::DescriptorPool,
+    raw: vk::DescriptorSet,
+}
+
+impl DescriptorSet {
+    pub(crate) fn new(
+        shared: &Arc<Shared>,
+        layout: vk::DescriptorSetLayout,
+        bindings: &[Binding],
+    ) -> VkResult<Self> {
+        let device = &shared.device;
+        let sizes: Vec<_> = bindings
+            .iter()
+            .map(|b| vk::DescriptorPoolSize {
+                ty: b.descriptor_type(),
+                descriptor_count: b.count(),
+            })
+            .collect();
+        let info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid create info.
+        let pool =
+            unsafe { device.create_descriptor_pool(&info, None) }.call("vkCreateDescriptorPool")?;
+        let layouts = [layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(pool)
+            .set_layouts(&layouts);
+        // SAFETY: the pool was sized for exactly this layout.
+        match unsafe { device.allocate_descriptor_sets(&alloc) }.call("vkAllocateDescriptorSets") {
+            Ok(sets) => Ok(Self {
+                shared: shared.clone(),
+                pool,
+                raw: sets[0],
+            }),
+            Err(e) => {
+                // SAFETY: unused pool.
+                unsafe { device.destroy_descriptor_pool(pool, None) };
+                Err(e)
+            }
+        }
+    }
+
+    /// The Vulkan handle.
+    pub fn raw(&self) -> vk::DescriptorSet {
+        self.raw
+    }
+
+    fn write(&self, write: vk::WriteDescriptorSet<'_>) {
+        // SAFETY: the set is not in use by a pending submission while it is updated.
+        unsafe { self.shared.device.update_descriptor_sets(&[write], &[]) };
+    }
+
+    /// Binds a whole buffer as a storage (or uniform, per `ty`) buffer.
+    pub fn buffer(&self, binding: u32, buffer: &Buffer, ty: Binding) -> &Self {
+        let info = [vk::DescriptorBufferInfo::default()
+            .buffer(buffer.raw())
+            .offset(0)
+            .range(vk::WHOLE_SIZE)];
+        self.write(
+            vk::WriteDescriptorSet::default()
+                .dst_set(self.raw)
+                .dst_binding(binding)
+                .descriptor_type(ty.descriptor_type())
+                .buffer_info(&info),
+        );
+        self
+    }
+
+    /// Binds a storage image view in `GENERAL` layout.
+    pub fn storage_image(&self, binding: u32, view: vk::ImageView) -> &Self {
+        let info = [vk::DescriptorImageInfo::default()
+            .image_view(view)
+            .image_layout(vk::ImageLayout::GENERAL)];
+        self.write(
+            vk::WriteDescriptorSet::default()
+                .dst_set(self.raw)
+                .dst_binding(binding)
+                .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                .image_info(&info),
+        );
+        self
+    }
+
+    /// Binds combined image samplers (shader-read-only layout) to array elements 0..n.
+    pub fn sampled_images(&self, binding: u32, images: &[(vk::ImageView, vk::Sampler)]) -> &Self {
+        if images.is_empty() {
+            return self;
+        }
+        let info: Vec<_> = images
+            .iter()
+            .map(|&(view, sampler)| {
+                vk::DescriptorImageInfo::default()
+                    .image_view(view)
+                    .sampler(sampler)
+                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+            })
+            .collect();
+        self.write(
+            vk::WriteDescriptorSet::default()
+                .dst_set(self.raw)
+                .dst_binding(binding)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .image_info(&info),
+        );
+        self
+    }
+
+    /// Binds a top-level acceleration structure.
+    pub fn acceleration_structure(
+        &self,
+        binding: u32,
+        tlas: vk::AccelerationStructureKHR,
+    ) -> &Self {
+        let handles = [tlas];
+        let mut as_info = vk::WriteDescriptorSetAccelerationStructureKHR::default()
+            .acceleration_structures(&handles);
+        // descriptor_count must be set by hand: the AS array lives in the pNext struct.
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(self.raw)
+            .dst_binding(binding)
+            .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+            .descriptor_count(1)
+            .push_next(&mut as_info);
+        self.write(write);
+        self
+    }
+}
+
+impl Drop for DescriptorSet {
+    fn drop(&mut self) {
+        // SAFETY: no pending submission uses the set.
+        unsafe { self.shared.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}
+
+/// Records a full memory barrier between compute/transfer writes and later reads.
+pub fn memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
+    let barrier = [vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+        .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+        .dst_access_mask(vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE)];
+    let dep = vk::DependencyInfo::default().memory_barriers(&barrier);
+    // SAFETY: recording command buffer; synchronization2 is enabled.
+    unsafe { device.cmd_pipeline_barrier2(cmd, &dep) };
+}

@@ -1,0 +1,297 @@
+use std::ffi::CStr;
+
+use ash::{khr, vk};
+use serde::Serialize;
+
+use super::context::{create_instance, device_name, load_entry, select_device};
+use super::{CallExt, DeviceSelector, VkResult};
+use crate::accel::BackendChoice;
+
+/// Acceleration-structure limits (present when the extension is supported).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct AsProperties {
+    /// `maxGeometryCount`.
+    pub max_geometry_count: u64,
+    /// `maxInstanceCount`.
+    pub max_instance_count: u64,
+    /// `maxPrimitiveCount`.
+    pub max_primitive_count: u64,
+    /// `minAccelerationStructureScratchOffsetAlignment`.
+    pub min_scratch_offset_alignment: u32,
+}
+
+/// Timestamp support on the graphics+compute queue.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct TimestampInfo {
+    /// Whether timestamps can be written on that queue.
+    pub supported: bool,
+    /// Nanoseconds per timestamp tick.
+    pub period_ns: f32,
+}
+
+/// One memory heap.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct MemoryHeapInfo {
+    /// Heap size.
+    pub size_bytes: u64,
+    /// `VK_MEMORY_HEAP_DEVICE_LOCAL_BIT`.
+    pub device_local: bool,
+}
+
+/// Everything `rqr probe` reports about one physical device.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct DeviceInfo {
+    /// Enumeration index (what `--device N` takes).
+    pub index: usize,
+    /// Device name.
+    pub name: String,
+    /// PCI vendor id.
+    pub vendor_id: u32,
+    /// `cpu|discrete|integrated|virtual|other`.
+    pub device_type: String,
+    /// Device API version, `major.minor.patch`.
+    pub api_version: String,
+    /// Driver name (`VkPhysicalDeviceDriverProperties`).
+    pub driver_name: String,
+    /// Driver info string.
+    pub driver_info: String,
+    /// `VK_KHR_ray_query` usable.
+    pub ray_query: bool,
+    /// `VK_KHR_acceleration_structure` usable.
+    pub acceleration_structure: bool,
+    /// `VK_KHR_ray_tracing_pipeline` supported (rqr does not use it).
+    pub ray_tracing_pipeline: bool,
+    /// Acceleration-structure limits.
+    pub as_properties: Option<AsProperties>,
+    /// Default subgroup size.
+    pub subgroup_size: u32,
+    /// `maxComputeWorkGroupInvocations`.
+    pub max_compute_workgroup_invocations: u32,
+    /// Timestamp support.
+    pub timestamps: TimestampInfo,
+    /// Memory heaps.
+    pub memory_heaps: Vec<MemoryHeapInfo>,
+    /// `maxImageDimension2D`.
+    pub max_image_dimension_2d: u32,
+    /// `maxPushConstantsSize`.
+    pub max_push_constants_size: u32,
+    /// `maxStorageBufferRange`.
+    pub max_storage_buffer_range: u32,
+    /// Required features the device lacks (empty: rqr can run on it).
+    pub missing_features: Vec<String>,
+    /// Ray backend rqr would use (`hw` or `bvh`); `null` when the requested one is unavailable.
+    pub backend: Option<String>,
+    /// Why that backend.
+    pub backend_reason: String,
+}
+
+/// The `rqr probe --json` document.
+#[derive(Clone, Debug, Serialize)]
+pub struct ProbeReport {
+    /// Schema version of this document.
+    pub schema: u32,
+    /// Index of the device rqr would open with the given selector.
+    pub selected: Option<usize>,
+    /// Every physical device.
+    pub devices: Vec<DeviceInfo>,
+}
+
+fn version_string(v: u32) -> String {
+    format!(
+        "{}.{}.{}",
+        vk::api_version_major(v),
+        vk::api_version_minor(v),
+        vk::api_version_patch(v)
+    )
+}
+
+fn c_string(chars: &[std::ffi::c_char]) -> String {
+    // SAFETY: Vulkan strings are NUL-terminated within their fixed arrays.
+    let bytes: &[u8] = unsafe { std::slice::from_raw_parts(chars.as_ptr().cast(), chars.len()) };
+    CStr::from_bytes_until_nul(bytes)
+        .map(|c| c.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Reads a physical device's properties, limits and support.
+pub(crate) fn describe_device(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+    index: usize,
+) -> DeviceInfo {
+    // SAFETY: `pd` comes from `instance`; every query below is a plain property read.
+    let exts = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    let has = |name: &CStr| {
+        exts.iter()
+            .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+    };
+    let has_as = has(khr::acceleration_structure::NAME) && has(khr::deferred_host_operations::NAME);
+    let has_rq = has(khr::ray_query::NAME);
+    let has_rtp = has(khr::ray_tracing_pipeline::NAME);
+
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+    let props = {
+        let mut props2 = vk::PhysicalDeviceProperties2::default()
+            .push_next(&mut driver)
+            .push_next(&mut subgroup);
+        if has_as {
+            props2 = props2.push_next(&mut as_props);
+        }
+        // SAFETY: the chain holds only structs the device knows (AS props only with the extension).
+        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+        props2.properties
+    };
+
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+    let mut frq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+    let base_features = {
+        let mut f2 = vk::PhysicalDeviceFeatures2::default()
+            .push_next(&mut f12)
+            .push_next(&mut f13)
+            .push_next(&mut fas)
+            .push_next(&mut frq);
+        // SAFETY: unknown structs in the chain are ignored by the loader/driver.
+        unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+        f2.features
+    };
+    let acceleration_structure = has_as && fas.acceleration_structure == vk::TRUE;
+    let ray_query = acceleration_structure && has_rq && frq.ray_query == vk::TRUE;
+
+    let mut missing = Vec::new();
+    if props.api_version < vk::API_VERSION_1_3 {
+        missing.push("Vulkan 1.3".to_string());
+    }
+    for (ok, name) in [
+        (f12.buffer_device_address, "bufferDeviceAddress"),
+        (f12.descriptor_indexing, "descriptorIndexing"),
+        (f12.runtime_descriptor_array, "runtimeDescriptorArray"),
+        (
+            f12.descriptor_binding_partially_bound,
+            "descriptorBindingPartiallyBound",
+        ),
+        (f12.scalar_block_layout, "scalarBlockLayout"),
+        (f12.timeline_semaphore, "timelineSemaphore"),
+        (f13.dynamic_rendering, "dynamicRendering"),
+        (f13.synchronization2, "synchronization2"),
+        (base_features.shader_int64, "shaderInt64"),
+    ] {
+        if ok != vk::TRUE {
+            missing.push(name.to_string());
+        }
+    }
+
+    // SAFETY: as above.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    let wanted = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
+    let family = families.iter().find(|f| f.queue_flags.contains(wanted));
+    if family.is_none() {
+        missing.push("a graphics+compute queue".to_string());
+    }
+    let timestamps = TimestampInfo {
+        supported: family.is_some_and(|f| f.timestamp_valid_bits > 0)
+            && props.limits.timestamp_compute_and_graphics == vk::TRUE,
+        period_ns: props.limits.timestamp_period,
+    };
+    // SAFETY: as above.
+    let memory = unsafe { instance.get_physical_device_memory_properties(pd) };
+    let memory_heaps = memory.memory_heaps[..memory.memory_heap_count as usize]
+        .iter()
+        .map(|h| MemoryHeapInfo {
+            size_bytes: h.size,
+            device_local: h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL),
+        })
+        .collect();
+    let (name, device_type) = device_name(instance, pd);
+    let mut info = DeviceInfo {
+        index,
+        name,
+        vendor_id: props.vendor_id,
+        device_type: match device_type {
+            vk::PhysicalDeviceType::CPU => "cpu",
+            vk::PhysicalDeviceType::DISCRETE_GPU => "discrete",
+            vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated",
+            vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual",
+            _ => "other",
+        }
+        .to_string(),
+        api_version: version_string(props.api_version),
+        driver_name: c_string(&driver.driver_name),
+        driver_info: c_string(&driver.driver_info),
+        ray_query,
+        acceleration_structure,
+        ray_tracing_pipeline: has_rtp,
+        as_properties: acceleration_structure.then_some(AsProperties {
+            max_geometry_count: as_props.max_geometry_count,
+            max_instance_count: as_props.max_instance_count,
+            max_primitive_count: as_props.max_primitive_count,
+            min_scratch_offset_alignment: as_props
+                .min_acceleration_structure_scratch_offset_alignment,
+        }),
+        subgroup_size: subgroup.subgroup_size,
+        max_compute_workgroup_invocations: props.limits.max_compute_work_group_invocations,
+        timestamps,
+        memory_heaps,
+        max_image_dimension_2d: props.limits.max_image_dimension2_d,
+        max_push_constants_size: props.limits.max_push_constants_size,
+        max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        missing_features: missing,
+        backend: None,
+        backend_reason: String::new(),
+    };
+    info.set_backend(BackendChoice::Auto);
+    info
+}
+
+impl DeviceInfo {
+    /// Fills `backend`/`backend_reason` with what `choice` resolves to on this device.
+    pub fn set_backend(&mut self, choice: BackendChoice) {
+        match choice.resolve(self) {
+            Ok((backend, reason)) => {
+                self.backend = Some(backend.as_str().to_string());
+                self.backend_reason = reason;
+            }
+            Err(e) => {
+                self.backend = None;
+                self.backend_reason = e.to_string();
+            }
+        }
+    }
+}
+
+/// Describes every physical device without opening any. `choice` fills each device's
+/// `backend` field; `selector` picks `selected`.
+pub fn probe_devices(selector: &DeviceSelector, choice: BackendChoice) -> VkResult<ProbeReport> {
+    let entry = load_entry()?;
+    let (instance, _) = create_instance(&entry, false)?;
+    // SAFETY: plain enumeration call on a live instance.
+    let physicals =
+        unsafe { instance.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices");
+    let result = physicals.and_then(|physicals| {
+        let names: Vec<_> = physicals
+            .iter()
+            .map(|&p| device_name(&instance, p))
+            .collect();
+        let selected = select_device(&names, selector)?;
+        let devices = physicals
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| {
+                let mut info = describe_device(&instance, p, i);
+                info.set_backend(choice);
+                info
+            })
+            .collect();
+        Ok(ProbeReport {
+            schema: 1,
+            selected: Some(selected),
+            devices,
+        })
+    });
+    // SAFETY: no device was created; nothing else uses the instance.
+    unsafe { instance.destroy_instance(None) };
+    result
+}
