@@ -11,6 +11,12 @@ pub struct Aabb {
     pub max: Vec3,
 }
 
+impl Default for Aabb {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
 impl Aabb {
     /// The empty box (min = +inf, max = -inf); growing it by a point gives that point.
     pub const EMPTY: Self = Self {
