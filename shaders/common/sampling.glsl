@@ -2,6 +2,18 @@
 #ifndef RQR_SAMPLING_GLSL
 #define RQR_SAMPLING_GLSL
 
+#define SAMPLER_CENTER 0u
+#define SAMPLER_GRID 1u
+#define SAMPLER_JITTER 2u
+#define SAMPLER_HALTON 3u
+#define SAMPLER_SOBOL 4u
+#define SAMPLER_BLUENOISE 5u
+#define SAMPLER_ADAPTIVE 6u
+
+#define FILTER_BOX 0u
+#define FILTER_TENT 1u
+
+
 uint hash_u32(uint x) {
     // lowbias32 (Chris Wellons): a well-mixed 32-bit integer hash.
     x ^= x >> 16; x *= 0x7feb352du;

@@ -10,6 +10,7 @@
 // frame.min_weight. Alpha BLEND continues the ray straight through with weight (1 - alpha).
 #ifndef RQR_SHADE_GLSL
 #define RQR_SHADE_GLSL
+#extension GL_EXT_control_flow_attributes : require
 
 #define RAY_PRIMARY 0u
 #define RAY_SHADOW 1u
@@ -87,34 +88,23 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
         }
     }
 
-    vec4 base = m.base_color * vcolor;
-    if (m.base_color_texture.texture >= 0) {
-        base *= sample_slot(m.base_color_texture, uv0, uv1, lod_base);
+    // Every texture goes through ONE sampling site in a non-unrolled loop: each inlined
+    // textureLod costs lavapipe's JIT seconds, and the results are the same.
+    GpuTextureSlot slots[6] = GpuTextureSlot[6](m.base_color_texture, m.metallic_roughness_texture, m.normal_texture,
+                                                 m.occlusion_texture, m.emissive_texture, m.transmission_texture);
+    vec4 texel[6];
+    [[dont_unroll]] for (int k = 0; k < 6; ++k) {
+        texel[k] = slots[k].texture >= 0 ? sample_slot(slots[k], uv0, uv1, lod_base) : vec4(1.0);
     }
+    vec4 base = m.base_color * vcolor * texel[0];
     s.base_color = base.rgb;
     s.alpha = m.alpha_mode == ALPHA_OPAQUE ? 1.0 : base.a;
     s.alpha_mode = m.alpha_mode;
-    s.metallic = m.metallic;
-    s.roughness = m.roughness;
-    if (m.metallic_roughness_texture.texture >= 0) {
-        vec4 mr = sample_slot(m.metallic_roughness_texture, uv0, uv1, lod_base);
-        s.roughness *= mr.g;
-        s.metallic *= mr.b;
-    }
-    s.metallic = clamp(s.metallic, 0.0, 1.0);
-    s.roughness = clamp(s.roughness, 0.0, 1.0);
-    s.emissive = m.emissive;
-    if (m.emissive_texture.texture >= 0) {
-        s.emissive *= sample_slot(m.emissive_texture, uv0, uv1, lod_base).rgb;
-    }
-    s.occlusion = 1.0;
-    if (m.occlusion_texture.texture >= 0) {
-        s.occlusion = 1.0 + m.occlusion_strength * (sample_slot(m.occlusion_texture, uv0, uv1, lod_base).r - 1.0);
-    }
-    s.transmission = m.transmission;
-    if (m.transmission_texture.texture >= 0) {
-        s.transmission *= sample_slot(m.transmission_texture, uv0, uv1, lod_base).r;
-    }
+    s.metallic = clamp(m.metallic * texel[1].b, 0.0, 1.0);
+    s.roughness = clamp(m.roughness * texel[1].g, 0.0, 1.0);
+    s.emissive = m.emissive * texel[4].rgb;
+    s.occlusion = 1.0 + m.occlusion_strength * (texel[3].r - 1.0);
+    s.transmission = m.transmission * texel[5].r;
     s.ior = m.ior;
     s.atten_color = m.attenuation_color;
     s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
@@ -124,7 +114,7 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
         vec3 t = mat3(inst.object_to_world) * t4.xyz;
         t = normalize(t - n * dot(n, t));
         vec3 bt = cross(n, t) * (t4.w < 0.0 ? -1.0 : 1.0);
-        vec3 tn = sample_slot(m.normal_texture, uv0, uv1, lod_base).xyz * 2.0 - 1.0;
+        vec3 tn = texel[2].xyz * 2.0 - 1.0;
         tn.xy *= m.normal_scale;
         n = normalize(t * tn.x + bt * tn.y + n * tn.z);
     }
@@ -178,9 +168,12 @@ vec3 direct_light(Surface s, vec3 v) {
         }
         vec3 h = normalize(to_light + v);
         vec3 f = fresnel_schlick(f0, dot(v, h));
-        vec3 brdf = (vec3(1.0) - f) * diffuse_color / PI;
-        if ((frame.flags & FLAG_NO_SPECULAR) == 0u) {
-            brdf += f * d_ggx(max(dot(s.n, h), 0.0), alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha);
+        vec3 brdf;
+        if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
+            brdf = diffuse_color / PI;  // pure Lambert (energy tests)
+        } else {
+            brdf = (vec3(1.0) - f) * diffuse_color / PI
+                + f * d_ggx(max(dot(s.n, h), 0.0), alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha);
         }
         sum += brdf * e * n_dot_l;
     }

@@ -1,8 +1,10 @@
 //! Render passes (one module each) and the [`Renderer`] that runs them on an uploaded scene.
 
 pub mod frame;
+pub mod optics;
 pub mod output;
 pub mod raytraced;
+pub mod sampling;
 pub mod tonemap;
 
 use ash::vk;
