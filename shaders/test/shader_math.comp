@@ -9,7 +9,7 @@ layout(push_constant) uniform Push { uint count; } pc;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
-    float angle = 1.5707 * float(i) / float(pc.count);
+    float angle = 1.5 * float(i) / float(pc.count);
     vec3 inc = vec3(sin(angle), -cos(angle), 0.0);
     uint o = i * 16u;
     vec3 t;
