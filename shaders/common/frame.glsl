@@ -14,6 +14,9 @@ layout(set = 0, binding = 3, scalar) uniform Frame {
     mat4 view;
     mat4 proj;
     mat4 view_proj;
+    mat4 prev_view_proj;
+    vec2 jitter;
+    vec2 pad1;
     vec3 camera_pos;
     float tan_half_fov_y;
     float aspect;

@@ -210,6 +210,12 @@ pub struct GpuFrame {
     pub proj: [f32; 16],
     /// proj × view.
     pub view_proj: [f32; 16],
+    /// proj × view of the previous frame (motion vectors, reprojection).
+    pub prev_view_proj: [f32; 16],
+    /// Sub-pixel offset of the raster pass, in pixels (sample position − pixel centre).
+    pub jitter: [f32; 2],
+    /// Padding.
+    pub pad1: [f32; 2],
     /// Camera position.
     pub camera_pos: [f32; 3],
     /// tan(yfov / 2).
@@ -338,6 +344,9 @@ impl GpuFrame {
             view: view.to_cols_array(),
             proj: camera.proj.to_cols_array(),
             view_proj: (camera.proj * view).to_cols_array(),
+            prev_view_proj: (camera.proj * view).to_cols_array(),
+            jitter: [0.0; 2],
+            pad1: [0.0; 2],
             camera_pos: camera.camera_to_world.w_axis.truncate().to_array(),
             tan_half_fov_y: camera.tan_half_fov_y,
             aspect: settings.width as f32 / settings.height as f32,

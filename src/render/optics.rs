@@ -75,7 +75,12 @@ mod tests {
         assert!(refract(incident(1.2), Vec3::Y, 1.5).is_none());
         // From air into glass (eta = 1/1.5) there is never TIR, even at grazing angles.
         assert!(critical_angle(1.0, 1.5).is_none());
-        assert!(refract(incident(std::f32::consts::FRAC_PI_2 - 1e-3), Vec3::Y, 1.0 / 1.5).is_some());
+        assert!(refract(
+            incident(std::f32::consts::FRAC_PI_2 - 1e-3),
+            Vec3::Y,
+            1.0 / 1.5
+        )
+        .is_some());
     }
 
     #[test]

@@ -76,6 +76,29 @@ pub fn sobol_owen(index: u32, seed: u32) -> [f32; 2] {
     [unit(x), unit(y)]
 }
 
+/// Position in [0,1)² of sample `s` of `n` for samplers that place it identically in every
+/// pixel (`center`, `grid`, `halton`, `sobol`), as `sample_2d` in the shader does; `None` for
+/// the per-pixel samplers (`jitter`, `bluenoise`, `adaptive`).
+pub fn pixel_independent_sample(
+    kind: super::SamplerKind,
+    s: u32,
+    n: u32,
+    seed: u32,
+) -> Option<[f32; 2]> {
+    use super::SamplerKind as K;
+    let k = ((n as f32).sqrt().round() as u32).max(1);
+    match kind {
+        K::Center => Some([0.5, 0.5]),
+        K::Grid => Some([
+            ((s % k) as f32 + 0.5) / k as f32,
+            ((s / k) as f32 + 0.5) / k as f32,
+        ]),
+        K::Halton => Some(halton_2_3(s + 1)),
+        K::Sobol => Some(sobol_owen(s, seed)),
+        K::Jitter | K::Bluenoise | K::Adaptive => None,
+    }
+}
+
 /// Tent filter weight of a sample at offset `(dx, dy)` pixels from the centre (radius 1).
 pub fn tent_weight(dx: f32, dy: f32) -> f32 {
     (1.0 - dx.abs()).max(0.0) * (1.0 - dy.abs()).max(0.0)

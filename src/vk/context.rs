@@ -714,12 +714,12 @@ impl Drop for Context {
         // SAFETY: after wait-idle no command buffer is pending; the pool is ours.
         unsafe {
             let _ = device.device_wait_idle();
-            if let Ok(sub) = self.submission.get_mut() {
-                for (_, fence) in sub.abandoned.drain(..) {
-                    device.destroy_fence(fence, None);
-                }
-                device.destroy_command_pool(sub.pool, None);
+            // A panic while recording poisons the lock; the pool must still be destroyed.
+            let sub = self.submission.get_mut().unwrap_or_else(|e| e.into_inner());
+            for (_, fence) in sub.abandoned.drain(..) {
+                device.destroy_fence(fence, None);
             }
+            device.destroy_command_pool(sub.pool, None);
         }
     }
 }

@@ -12,7 +12,10 @@ mod profiler;
 
 pub use context::{Context, ContextOptions, DeviceSelector, Features, DEFAULT_FENCE_TIMEOUT};
 pub use memory::{Buffer, Image};
-pub use pipeline::{memory_barrier, spirv_words, Binding, ComputePipeline, DescriptorSet};
+pub use pipeline::{
+    memory_barrier, spirv_words, Binding, ComputePipeline, DescriptorSet, GraphicsPipeline,
+    GraphicsTargets,
+};
 pub use probe::{
     probe_devices, AsProperties, DeviceInfo, MemoryHeapInfo, ProbeReport, TimestampInfo,
 };

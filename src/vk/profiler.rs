@@ -78,6 +78,9 @@ impl GpuProfiler {
                 query,
             )
         };
+        // lavapipe bins a timestamp into its rasterizer scene and writes it when the scene is
+        // flushed; the barrier flushes it now, before the scope's work runs.
+        super::memory_barrier(&self.shared.device, cmd);
         self.scopes.push((name.to_string(), query));
         self.open = Some(self.scopes.len() - 1);
     }
