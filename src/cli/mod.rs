@@ -1,4 +1,4 @@
-//! The `rqr` command line: `probe` (and, as they land, `info`, `render`, `compare`, `bench`).
+//! The `rqr` command line: `probe`, `info` (and, as they land, `render`, `compare`, `bench`).
 
 use std::process::ExitCode;
 
@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use rqr::accel::BackendChoice;
 use rqr::vk::{probe_devices, DeviceSelector, ProbeReport, VkError};
 
+mod info;
 mod probe;
 
 /// Exit code for "no Vulkan loader or no device".
@@ -27,6 +28,8 @@ struct Cli {
 enum Command {
     /// Report what every Vulkan device can do, and which ray backend rqr would use.
     Probe(probe::ProbeArgs),
+    /// Load a glTF scene (default: the built-in one) and print its counts and bounds.
+    Info(info::InfoArgs),
 }
 
 /// Runs the CLI; returns the process exit code.
@@ -35,6 +38,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Probe(args) => probe::run(&args),
+        Command::Info(args) => info::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

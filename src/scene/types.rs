@@ -197,7 +197,7 @@ impl Default for Material {
 }
 
 /// Texture wrap mode.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Wrap {
     /// REPEAT.
     #[default]
@@ -209,7 +209,7 @@ pub enum Wrap {
 }
 
 /// Sampler state of a texture.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Sampler {
     /// U wrap.
     pub wrap_s: Wrap,
@@ -221,6 +221,9 @@ pub struct Sampler {
     pub min_linear: bool,
     /// Mip filtering is linear (else nearest); mips are always generated.
     pub mip_linear: bool,
+    /// Whether minification uses the mip chain: false for glTF `minFilter` NEAREST / LINEAR,
+    /// which sample mip 0 only (upload clamps the sampler's max LOD to 0).
+    pub mipmaps: bool,
 }
 
 impl Default for Sampler {
@@ -231,6 +234,7 @@ impl Default for Sampler {
             mag_linear: true,
             min_linear: true,
             mip_linear: true,
+            mipmaps: true,
         }
     }
 }
@@ -357,6 +361,10 @@ pub struct Scene {
     pub extensions_unsupported: Vec<String>,
     /// World-space bounds of every instance.
     pub bounds: Aabb,
+    /// World transform of every glTF node reached from the chosen scene (indexed by node;
+    /// `None` for nodes outside it). Instances and cameras already carry theirs; this is for
+    /// tools and tests.
+    pub node_world: Vec<Option<Mat4>>,
 }
 
 impl Scene {

@@ -1,0 +1,1 @@
+//! Uploads a scene's images as sampled Vulkan images.
