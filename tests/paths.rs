@@ -43,8 +43,12 @@ fn hybrid_matches_ray_traced_on_the_cornell_room() {
                 sampler,
                 ..settings(160)
             };
-            let rt = renderer.render_rt(&ctx, &s, &scene.cameras[0], true).unwrap();
-            let hy = renderer.render_hybrid(&ctx, &draws, &s, &scene.cameras[0], true).unwrap();
+            let rt = renderer
+                .render_rt(&ctx, &s, &scene.cameras[0], true)
+                .unwrap();
+            let hy = renderer
+                .render_hybrid(&ctx, &draws, &s, &scene.cameras[0], true)
+                .unwrap();
             let d = diff(&rt, &hy);
             assert!(
                 d.psnr_db >= 40.0 && d.flip_mean <= 0.02,
@@ -58,12 +62,21 @@ fn hybrid_matches_ray_traced_on_the_cornell_room() {
                 .zip(&hy.aov)
                 .filter(|(a, b)| a.instance() == b.instance() && a.primitive() == b.primitive())
                 .count();
-            assert!(same_ids as f64 >= 0.999 * rt.aov.len() as f64, "{same_ids} of {} ids agree", rt.aov.len());
+            assert!(
+                same_ids as f64 >= 0.999 * rt.aov.len() as f64,
+                "{same_ids} of {} ids agree",
+                rt.aov.len()
+            );
             // Hybrid traces no primary rays but the same secondary rays (± silhouette pixels).
             assert_eq!(hy.rays.primary, 0);
             assert!(rt.rays.primary >= u64::from(160 * 160 * spp));
             let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / (a.max(1) as f64);
-            assert!(rel(rt.rays.shadow, hy.rays.shadow) < 0.01, "{:?} vs {:?}", rt.rays, hy.rays);
+            assert!(
+                rel(rt.rays.shadow, hy.rays.shadow) < 0.01,
+                "{:?} vs {:?}",
+                rt.rays,
+                hy.rays
+            );
         }
     }
     common::assert_validation_clean(&ctx);
@@ -79,7 +92,8 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
     let height = 3.0;
     let mut camera = look_at(Vec3::new(0.0, height, 0.0), Vec3::ZERO, 60.0);
     // Straight down: look_at needs an up vector that is not parallel to the view.
-    camera.camera_to_world = rqr::scene::procedural::camera_to_world(Vec3::new(0.0, height, 0.0), Vec3::ZERO, Vec3::Z);
+    camera.camera_to_world =
+        rqr::scene::procedural::camera_to_world(Vec3::new(0.0, height, 0.0), Vec3::ZERO, Vec3::Z);
     let scene = assemble(
         vec![quad(0)],
         vec![Instance {
@@ -91,10 +105,25 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
         vec![],
         vec![camera],
     );
-    let Projection::Perspective { yfov, .. } = camera.projection else { unreachable!() };
-    let renderer = Renderer::new(&ctx, &scene, BackendChoice::Auto.resolve(ctx.info()).unwrap().0).unwrap();
+    let Projection::Perspective { yfov, .. } = camera.projection else {
+        unreachable!()
+    };
+    let renderer = Renderer::new(
+        &ctx,
+        &scene,
+        BackendChoice::Auto.resolve(ctx.info()).unwrap().0,
+    )
+    .unwrap();
     let n = 32u32;
-    let out = renderer.render_hybrid(&ctx, &gbuffer::draws(&scene), &settings(n), &scene.cameras[0], true).unwrap();
+    let out = renderer
+        .render_hybrid(
+            &ctx,
+            &gbuffer::draws(&scene),
+            &settings(n),
+            &scene.cameras[0],
+            true,
+        )
+        .unwrap();
     let tan = (yfov * 0.5).tan();
     for y in 0..n {
         for x in 0..n {
@@ -104,7 +133,11 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
             let u = ((x as f32 + 0.5) / n as f32 * 2.0 - 1.0) * tan;
             let v = ((y as f32 + 0.5) / n as f32 * 2.0 - 1.0) * tan;
             let expected = height * (1.0 + u * u + v * v).sqrt();
-            assert!((a.depth() - expected).abs() < 1e-4 * expected, "pixel {x},{y}: depth {} vs {expected}", a.depth());
+            assert!(
+                (a.depth() - expected).abs() < 1e-4 * expected,
+                "pixel {x},{y}: depth {} vs {expected}",
+                a.depth()
+            );
             let normal = Vec3::from_slice(&a.normal_depth[..3]);
             assert!((normal - Vec3::Y).length() < 1e-5, "normal {normal}");
         }
@@ -116,16 +149,27 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
 fn recursion_depth_changes_only_specular_pixels() {
     let ctx = common::gpu();
     let scene = cornell();
-    let renderer = Renderer::new(&ctx, &scene, BackendChoice::Auto.resolve(ctx.info()).unwrap().0).unwrap();
+    let renderer = Renderer::new(
+        &ctx,
+        &scene,
+        BackendChoice::Auto.resolve(ctx.info()).unwrap().0,
+    )
+    .unwrap();
     let render = |depth| {
         let s = RenderSettings {
             max_depth: depth,
             ..settings(96)
         };
-        renderer.render_rt(&ctx, &s, &scene.cameras[0], true).unwrap()
+        renderer
+            .render_rt(&ctx, &s, &scene.cameras[0], true)
+            .unwrap()
     };
     let (d1, d2, d3) = (render(1), render(2), render(3));
-    assert_eq!(d1.rays.reflection + d1.rays.refraction, 0, "depth 1 spawns no secondary rays");
+    assert_eq!(
+        d1.rays.reflection + d1.rays.refraction,
+        0,
+        "depth 1 spawns no secondary rays"
+    );
     assert!(d2.rays.reflection > 0 && d2.rays.refraction > 0);
     assert!(d3.rays.reflection + d3.rays.refraction > d2.rays.reflection + d2.rays.refraction);
     // Instances 5 (mirror sphere), 6 (glass sphere) and 7 (box, roughness 0.6: its Fresnel
@@ -139,10 +183,17 @@ fn recursion_depth_changes_only_specular_pixels() {
             if specular(aov.instance()) {
                 changed_specular += usize::from(changed);
             } else {
-                assert!(!changed, "diffuse pixel {i} (instance {}) changed with depth", aov.instance());
+                assert!(
+                    !changed,
+                    "diffuse pixel {i} (instance {}) changed with depth",
+                    aov.instance()
+                );
             }
         }
-        assert!(changed_specular > 50, "only {changed_specular} specular pixels changed");
+        assert!(
+            changed_specular > 50,
+            "only {changed_specular} specular pixels changed"
+        );
     }
     common::assert_validation_clean(&ctx);
 }
@@ -151,13 +202,20 @@ fn recursion_depth_changes_only_specular_pixels() {
 fn weight_cutoff_saves_rays_without_visible_change() {
     let ctx = common::gpu();
     let scene = cornell();
-    let renderer = Renderer::new(&ctx, &scene, BackendChoice::Auto.resolve(ctx.info()).unwrap().0).unwrap();
+    let renderer = Renderer::new(
+        &ctx,
+        &scene,
+        BackendChoice::Auto.resolve(ctx.info()).unwrap().0,
+    )
+    .unwrap();
     let render = |min_weight| {
         let s = RenderSettings {
             min_weight,
             ..settings(128)
         };
-        renderer.render_rt(&ctx, &s, &scene.cameras[0], false).unwrap()
+        renderer
+            .render_rt(&ctx, &s, &scene.cameras[0], false)
+            .unwrap()
     };
     let (full, cut) = (render(0.0), render(0.05));
     let secondary = |o: &RenderOutput| o.rays.reflection + o.rays.refraction + o.rays.shadow;
@@ -176,24 +234,48 @@ fn weight_cutoff_saves_rays_without_visible_change() {
 fn adaptive_sampling_refines_edges_only() {
     let ctx = common::gpu();
     let scene = cornell();
-    let renderer = Renderer::new(&ctx, &scene, BackendChoice::Auto.resolve(ctx.info()).unwrap().0).unwrap();
+    let renderer = Renderer::new(
+        &ctx,
+        &scene,
+        BackendChoice::Auto.resolve(ctx.info()).unwrap().0,
+    )
+    .unwrap();
     let s = RenderSettings {
         sampler: SamplerKind::Adaptive,
         adaptive_depth: 3,
         ..settings(96)
     };
-    let out = renderer.render_rt(&ctx, &s, &scene.cameras[0], true).unwrap();
+    let out = renderer
+        .render_rt(&ctx, &s, &scene.cameras[0], true)
+        .unwrap();
     // Corners are shared: (w+1)(h+1) + w·h base samples ≈ 2 per pixel, plus refinement.
     let spp = out.mean_spp();
     assert!(spp > 2.0 && spp < 6.0, "mean samples per pixel {spp}");
     let extra: Vec<f32> = out.aov.iter().map(|a| a.bary_prim[3]).collect();
     let refined = extra.iter().filter(|&&n| n > 1.0).count();
-    assert!(refined > 0 && refined < extra.len() / 2, "{refined} of {} pixels refined", extra.len());
+    assert!(
+        refined > 0 && refined < extra.len() / 2,
+        "{refined} of {} pixels refined",
+        extra.len()
+    );
     // Versus 16 grid samples per pixel the adaptive image is close.
     let reference = renderer
-        .render_rt(&ctx, &RenderSettings { spp: 16, sampler: SamplerKind::Grid, ..settings(96) }, &scene.cameras[0], false)
+        .render_rt(
+            &ctx,
+            &RenderSettings {
+                spp: 16,
+                sampler: SamplerKind::Grid,
+                ..settings(96)
+            },
+            &scene.cameras[0],
+            false,
+        )
         .unwrap();
     let d = diff(&reference, &out);
-    assert!(d.flip_mean < 0.03, "adaptive vs 16 spp grid: FLIP {}", d.flip_mean);
+    assert!(
+        d.flip_mean < 0.03,
+        "adaptive vs 16 spp grid: FLIP {}",
+        d.flip_mean
+    );
     common::assert_validation_clean(&ctx);
 }

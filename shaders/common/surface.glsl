@@ -76,7 +76,8 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
                                                  m.occlusion_texture, m.emissive_texture, m.transmission_texture);
     vec4 texel[6];
     [[dont_unroll]] for (int k = 0; k < 6; ++k) {
-        texel[k] = slots[k].texture >= 0 ? sample_slot(slots[k], uv0, uv1, lod_base) : vec4(1.0);
+        bool bound = slots[k].texture >= 0 && uint(slots[k].texture) < scene.texture_count;
+        texel[k] = bound ? sample_slot(slots[k], uv0, uv1, lod_base) : vec4(1.0);
     }
     vec4 base = m.base_color * vcolor * texel[0];
     s.base_color = base.rgb;

@@ -28,7 +28,9 @@ pub struct ImageDiff {
 }
 
 fn rgb(rgba: &[u8]) -> Vec<u8> {
-    rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
+    rgba.chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect()
 }
 
 /// PSNR and RMSE of two RGB(A) 8-bit images (alpha ignored), on a 0..1 scale.
@@ -43,7 +45,11 @@ pub fn psnr_rmse(reference_rgba: &[u8], test_rgba: &[u8]) -> (f64, f64) {
         })
         .sum();
     let mse = se / a.len().max(1) as f64;
-    let psnr = if mse == 0.0 { f64::INFINITY } else { 10.0 * (1.0 / mse).log10() };
+    let psnr = if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (1.0 / mse).log10()
+    };
     (psnr, mse.sqrt())
 }
 
@@ -103,8 +109,19 @@ mod tests {
         let a = checker(32, 32, None);
         let b = checker(32, 32, Some((10, 10)));
         let d = compare(32, 32, &a, &b);
-        assert!(d.flip_mean > 0.0 && d.flip_max > 0.1, "mean {} max {}", d.flip_mean, d.flip_max);
-        let worst = d.error_map.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
+        assert!(
+            d.flip_mean > 0.0 && d.flip_max > 0.1,
+            "mean {} max {}",
+            d.flip_mean,
+            d.flip_max
+        );
+        let worst = d
+            .error_map
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap()
+            .0;
         assert_eq!(worst, 10 * 32 + 10);
         assert!(d.psnr_db.is_finite() && d.psnr_db > 20.0);
     }

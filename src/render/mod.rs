@@ -4,6 +4,7 @@ pub mod compare;
 pub mod frame;
 pub mod gbuffer;
 pub mod hybrid;
+pub mod label;
 pub mod optics;
 pub mod output;
 pub mod raytraced;
