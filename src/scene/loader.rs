@@ -1255,7 +1255,7 @@ impl Loader<'_> {
                     decoded.insert(i, d);
                 }
                 Err(e) => {
-                    if first_error.as_ref().map_or(true, |(j, _)| i < *j) {
+                    if first_error.as_ref().is_none_or(|(j, _)| i < *j) {
                         first_error = Some((i, e));
                     }
                 }
