@@ -136,7 +136,7 @@ pub struct Renderer {
 impl Renderer {
     /// Uploads `scene` and builds the chosen backend.
     pub fn new(ctx: &Context, scene: &Scene, backend: Backend) -> crate::Result<Self> {
-        let gpu = GpuScene::upload(ctx, scene)?;
+        let gpu = GpuScene::upload(ctx, scene, 0)?;
         let backend = RayBackend::build(ctx, scene, &gpu, backend)?;
         Ok(Self {
             scene_scale: gpu.refs_data.scene_scale,
