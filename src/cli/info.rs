@@ -3,7 +3,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Args;
 use rqr::scene::{self, LoadOptions, Scene};
-use serde_json::json;
+use serde::Serialize;
 
 /// `rqr info` arguments.
 #[derive(Args, Debug)]
@@ -33,38 +33,64 @@ pub(crate) fn load_scene(path: Option<&PathBuf>, scene_index: Option<usize>) -> 
     })
 }
 
-/// The `--json` document.
-fn to_json(s: &Scene) -> serde_json::Value {
-    let bounds = if s.bounds.is_empty() {
-        serde_json::Value::Null
-    } else {
-        json!({"min": s.bounds.min.to_array(), "max": s.bounds.max.to_array()})
-    };
-    json!({
-        "source": s.source,
-        "meshes": s.mesh_count,
-        "primitives": s.primitive_count,
-        "geometries": s.geometries.len(),
-        "instances": s.instances.len(),
-        "triangles": s.triangle_count(),
-        "unique_triangles": s.unique_triangle_count(),
-        "materials": s.materials.len(),
-        "textures": s.textures.len(),
-        "images": s.images.len(),
-        "lights": s.lights.len(),
-        "default_lights": s.default_lights,
-        "cameras": s.cameras.len(),
-        "extensions_used": s.extensions_used,
-        "extensions_unsupported": s.extensions_unsupported,
-        "bounds": bounds,
-    })
+/// Scene bounds in the `--json` document.
+#[derive(Serialize)]
+struct BoundsJson {
+    min: [f32; 3],
+    max: [f32; 3],
+}
+
+/// The `--json` document (a struct so that keys keep this order).
+#[derive(Serialize)]
+struct InfoJson<'a> {
+    source: &'a str,
+    meshes: usize,
+    primitives: usize,
+    geometries: usize,
+    instances: usize,
+    triangles: usize,
+    unique_triangles: usize,
+    materials: usize,
+    textures: usize,
+    images: usize,
+    lights: usize,
+    default_lights: bool,
+    cameras: usize,
+    extensions_used: &'a [String],
+    extensions_unsupported: &'a [String],
+    /// `null` for a scene without geometry.
+    bounds: Option<BoundsJson>,
+}
+
+fn to_json(s: &Scene) -> InfoJson<'_> {
+    InfoJson {
+        source: &s.source,
+        meshes: s.mesh_count,
+        primitives: s.primitive_count,
+        geometries: s.geometries.len(),
+        instances: s.instances.len(),
+        triangles: s.triangle_count(),
+        unique_triangles: s.unique_triangle_count(),
+        materials: s.materials.len(),
+        textures: s.textures.len(),
+        images: s.images.len(),
+        lights: s.lights.len(),
+        default_lights: s.default_lights,
+        cameras: s.cameras.len(),
+        extensions_used: &s.extensions_used,
+        extensions_unsupported: &s.extensions_unsupported,
+        bounds: (!s.bounds.is_empty()).then(|| BoundsJson {
+            min: s.bounds.min.to_array(),
+            max: s.bounds.max.to_array(),
+        }),
+    }
 }
 
 /// Runs `rqr info`.
 pub fn run(args: &InfoArgs) -> Result<()> {
     let s = load_scene(args.scene.as_ref(), args.scene_index)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&s))?);
+        println!("{}", serde_json::to_string(&to_json(&s))?);
         return Ok(());
     }
     let list = |v: &[String]| {

@@ -2,13 +2,14 @@
 //! submission with timeouts, compute pipelines and GPU timestamps.
 //!
 //! This is the only module that performs raw `ash` setup; passes build on [`Context`],
-//! [`Buffer`], [`Image`], [`ComputePipeline`] and [`GpuProfiler`].
+//! [`Buffer`], [`Image`], [`Sampler`], [`ComputePipeline`] and [`GpuProfiler`].
 
 mod context;
 mod memory;
 mod pipeline;
 mod probe;
 mod profiler;
+mod sampler;
 
 pub use context::{Context, ContextOptions, DeviceSelector, Features, DEFAULT_FENCE_TIMEOUT};
 pub use memory::{Buffer, Image};
@@ -20,6 +21,7 @@ pub use probe::{
     probe_devices, AsProperties, DeviceInfo, MemoryHeapInfo, ProbeReport, TimestampInfo,
 };
 pub use profiler::GpuProfiler;
+pub use sampler::Sampler;
 
 pub use ash::vk;
 pub use gpu_allocator::MemoryLocation;
