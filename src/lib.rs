@@ -23,6 +23,9 @@ pub enum Error {
     /// The requested ray backend is unavailable.
     #[error(transparent)]
     Backend(#[from] accel::BackendUnavailable),
+    /// Building or uploading the compute BVH failed.
+    #[error(transparent)]
+    Bvh(#[from] accel::bvh::BvhError),
 }
 
 /// Result alias for the library.

@@ -3,6 +3,8 @@
 
 use crate::vk::DeviceInfo;
 
+pub mod bvh;
+
 /// What the user asked for with `--backend`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
