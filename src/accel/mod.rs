@@ -1,6 +1,8 @@
 //! Ray backends: hardware acceleration structures with `VK_KHR_ray_query`, or rqr's own BVH
 //! traversed in compute shaders. Both sit behind the same GLSL `trace_closest()/trace_any()`.
 
+pub mod hw;
+
 use crate::vk::DeviceInfo;
 
 pub mod bvh;

@@ -1,0 +1,468 @@
+//! Hardware ray backend: one compacted BLAS per unique geometry and one TLAS over instances,
+//! traversed with `VK_KHR_ray_query` (`shaders/common/trace_rayquery.glsl`).
+
+use std::time::Instant;
+
+use ash::{khr, vk};
+use bytemuck::{Pod, Zeroable};
+
+use crate::scene::gpu::GpuScene;
+use crate::scene::{AlphaMode, Scene};
+use crate::vk::{memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkError, VkResult};
+
+/// Build statistics of the hardware acceleration structures.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct HwStats {
+    /// Number of BLAS (unique non-empty geometries).
+    pub blas_count: usize,
+    /// BLAS bytes before compaction.
+    pub blas_bytes_uncompacted: u64,
+    /// BLAS bytes after compaction.
+    pub blas_bytes: u64,
+    /// TLAS bytes.
+    pub tlas_bytes: u64,
+    /// Largest scratch buffer used.
+    pub scratch_bytes: u64,
+    /// GPU time of the BLAS builds (timestamps), ms.
+    pub blas_build_ms: f64,
+    /// GPU time of the compaction copies, ms.
+    pub compact_ms: f64,
+    /// GPU time of the TLAS build, ms.
+    pub tlas_build_ms: f64,
+    /// Wall time of the whole build on the host, ms.
+    pub host_ms: f64,
+}
+
+/// `VkAccelerationStructureInstanceKHR` as plain data.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct TlasInstance {
+    transform: [f32; 12],
+    custom_index_and_mask: u32,
+    sbt_offset_and_flags: u32,
+    blas_address: u64,
+}
+
+/// An acceleration structure and the buffer holding it.
+struct AccelStructure {
+    api: khr::acceleration_structure::Device,
+    handle: vk::AccelerationStructureKHR,
+    buffer: Buffer,
+    address: vk::DeviceAddress,
+}
+
+impl AccelStructure {
+    fn new(ctx: &Context, name: &str, ty: vk::AccelerationStructureTypeKHR, size: u64) -> VkResult<Self> {
+        let api = ctx.accel().cloned().ok_or_else(|| VkError::MissingFeature {
+            device: ctx.info().name.clone(),
+            feature: "VK_KHR_acceleration_structure".into(),
+        })?;
+        let buffer = Buffer::new(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR,
+            MemoryLocation::GpuOnly,
+        )?;
+        let info = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(buffer.raw())
+            .size(size)
+            .ty(ty);
+        // SAFETY: the buffer has AS-storage usage and at least `size` bytes at offset 0.
+        let handle = unsafe { api.create_acceleration_structure(&info, None) }.map_err(|result| VkError::Call {
+            call: "vkCreateAccelerationStructureKHR",
+            result,
+        })?;
+        let address_info = vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(handle);
+        // SAFETY: valid handle.
+        let address = unsafe { api.get_acceleration_structure_device_address(&address_info) };
+        Ok(Self {
+            api,
+            handle,
+            buffer,
+            address,
+        })
+    }
+}
+
+impl Drop for AccelStructure {
+    fn drop(&mut self) {
+        // SAFETY: submissions using it have completed (every submission waits).
+        unsafe { self.api.destroy_acceleration_structure(self.handle, None) };
+    }
+}
+
+/// BLAS per geometry + TLAS of a scene.
+pub struct HwAccel {
+    _blas: Vec<AccelStructure>,
+    tlas: AccelStructure,
+    _instances: Buffer,
+    /// Sizes and timings.
+    pub stats: HwStats,
+}
+
+fn align_up(v: u64, a: u64) -> u64 {
+    v.div_ceil(a.max(1)) * a.max(1)
+}
+
+fn scratch_buffer(ctx: &Context, size: u64, align: u64) -> VkResult<(Buffer, vk::DeviceAddress)> {
+    let buffer = Buffer::new(
+        ctx,
+        "AS scratch",
+        size + align,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::GpuOnly,
+    )?;
+    let address = align_up(buffer.address(), align);
+    Ok((buffer, address))
+}
+
+impl HwAccel {
+    /// Builds (and compacts) a BLAS per non-empty geometry and a TLAS over the instances.
+    /// Checks the device's primitive/instance limits and memory before allocating.
+    pub fn build(ctx: &Context, scene: &Scene, gpu: &GpuScene) -> VkResult<Self> {
+        let start = Instant::now();
+        let api = ctx.accel().ok_or_else(|| VkError::MissingFeature {
+            device: ctx.info().name.clone(),
+            feature: "VK_KHR_acceleration_structure".into(),
+        })?;
+        let props = ctx.info().as_properties.clone().ok_or_else(|| VkError::MissingFeature {
+            device: ctx.info().name.clone(),
+            feature: "VK_KHR_acceleration_structure".into(),
+        })?;
+        let scratch_align = u64::from(props.min_scratch_offset_alignment.max(1));
+        if scene.instances.len() as u64 > props.max_instance_count {
+            return Err(VkError::Limit(format!(
+                "scene has {} instances, the device's TLAS holds at most {}",
+                scene.instances.len(),
+                props.max_instance_count
+            )));
+        }
+
+        // One triangle geometry per unique scene geometry, in scene order (deterministic).
+        let mut blas_of_geometry = vec![None; gpu.geometry_records.len()];
+        let mut inputs = Vec::new();
+        for (gi, g) in gpu.geometry_records.iter().enumerate() {
+            if g.triangle_count == 0 {
+                continue;
+            }
+            if u64::from(g.triangle_count) > props.max_primitive_count {
+                return Err(VkError::Limit(format!(
+                    "geometry {gi} has {} triangles, the device's BLAS holds at most {} (maxPrimitiveCount)",
+                    g.triangle_count, props.max_primitive_count
+                )));
+            }
+            let opaque = scene
+                .materials
+                .get(g.material as usize)
+                .is_none_or(|m| m.alpha_mode == AlphaMode::Opaque);
+            let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+                .vertex_format(vk::Format::R32G32B32_SFLOAT)
+                .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: gpu.positions.address() + u64::from(g.first_vertex) * 12,
+                })
+                .vertex_stride(12)
+                .max_vertex(g.vertex_count.saturating_sub(1))
+                .index_type(vk::IndexType::UINT32)
+                .index_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: gpu.indices.address() + u64::from(g.first_index) * 4,
+                });
+            let geometry = vk::AccelerationStructureGeometryKHR::default()
+                .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+                .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+                .flags(if opaque {
+                    vk::GeometryFlagsKHR::OPAQUE
+                } else {
+                    vk::GeometryFlagsKHR::empty()
+                });
+            blas_of_geometry[gi] = Some(inputs.len());
+            inputs.push((geometry, g.triangle_count));
+        }
+
+        let blas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE
+            | vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION;
+        let mut sizes = Vec::with_capacity(inputs.len());
+        for (geometry, count) in &inputs {
+            let geometries = [*geometry];
+            let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+                .flags(blas_flags)
+                .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+                .geometries(&geometries);
+            let mut size = vk::AccelerationStructureBuildSizesInfoKHR::default();
+            // SAFETY: `info` describes valid device-address geometry; counts match.
+            unsafe {
+                api.get_acceleration_structure_build_sizes(
+                    vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                    &info,
+                    &[*count],
+                    &mut size,
+                )
+            };
+            sizes.push(size);
+        }
+        let blas_bytes_uncompacted: u64 = sizes.iter().map(|s| align_up(s.acceleration_structure_size, 256)).sum();
+        let max_scratch = sizes.iter().map(|s| s.build_scratch_size).max().unwrap_or(0);
+        let heap = ctx
+            .info()
+            .memory_heaps
+            .iter()
+            .filter(|h| h.device_local)
+            .map(|h| h.size_bytes)
+            .max()
+            .unwrap_or(0);
+        let estimate = blas_bytes_uncompacted + max_scratch + scene.instances.len() as u64 * 256;
+        if estimate > heap / 10 * 9 {
+            return Err(VkError::Limit(format!(
+                "acceleration structures need about {} MiB, more than 90 % of the largest device heap ({} MiB)",
+                estimate >> 20,
+                heap >> 20
+            )));
+        }
+
+        let mut profiler = GpuProfiler::new(ctx, 4).ok();
+        let mut blas = Vec::with_capacity(inputs.len());
+        for (i, size) in sizes.iter().enumerate() {
+            blas.push(AccelStructure::new(
+                ctx,
+                &format!("BLAS {i}"),
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                size.acceleration_structure_size,
+            )?);
+        }
+        let mut stats = HwStats {
+            blas_count: blas.len(),
+            blas_bytes_uncompacted,
+            scratch_bytes: max_scratch,
+            ..Default::default()
+        };
+
+        let query_pool = if blas.is_empty() {
+            None
+        } else {
+            let info = vk::QueryPoolCreateInfo::default()
+                .query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR)
+                .query_count(blas.len() as u32);
+            // SAFETY: valid create info.
+            Some(unsafe { ctx.device().create_query_pool(&info, None) }.map_err(|result| VkError::Call {
+                call: "vkCreateQueryPool",
+                result,
+            })?)
+        };
+        let compacted_sizes = {
+            let (_scratch, scratch_address) = scratch_buffer(ctx, max_scratch, scratch_align)?;
+            let result = ctx.run("BLAS build", |cmd| {
+                if let Some(p) = profiler.as_mut() {
+                    p.reset(cmd);
+                    p.begin(cmd, "blas");
+                }
+                for (i, (geometry, count)) in inputs.iter().enumerate() {
+                    let geometries = [*geometry];
+                    let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+                        .flags(blas_flags)
+                        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+                        .dst_acceleration_structure(blas[i].handle)
+                        .geometries(&geometries)
+                        .scratch_data(vk::DeviceOrHostAddressKHR {
+                            device_address: scratch_address,
+                        });
+                    let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(*count)];
+                    // SAFETY: inputs, destination and scratch are alive and sized by the size query.
+                    unsafe { api.cmd_build_acceleration_structures(cmd, &[info], &[&range[..]]) };
+                    // The builds share one scratch buffer: serialise them.
+                    memory_barrier(ctx.device(), cmd);
+                }
+                if let Some(p) = profiler.as_mut() {
+                    p.end(cmd);
+                }
+                if let Some(pool) = query_pool {
+                    let handles: Vec<_> = blas.iter().map(|b| b.handle).collect();
+                    // SAFETY: the pool has one query per BLAS; the builds completed (barrier above).
+                    unsafe {
+                        ctx.device().cmd_reset_query_pool(cmd, pool, 0, handles.len() as u32);
+                        api.cmd_write_acceleration_structures_properties(
+                            cmd,
+                            &handles,
+                            vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+                            pool,
+                            0,
+                        );
+                    }
+                }
+                Ok(())
+            });
+            let sizes = result.and_then(|()| {
+                let mut out = vec![0u64; blas.len()];
+                if let Some(pool) = query_pool {
+                    // SAFETY: the queries were written by the completed submission.
+                    unsafe {
+                        ctx.device().get_query_pool_results(
+                            pool,
+                            0,
+                            &mut out,
+                            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                        )
+                    }
+                    .map_err(|result| VkError::Call {
+                        call: "vkGetQueryPoolResults",
+                        result,
+                    })?;
+                }
+                Ok(out)
+            });
+            if let Some(pool) = query_pool {
+                // SAFETY: the submission that used the pool has completed (or failed to start).
+                unsafe { ctx.device().destroy_query_pool(pool, None) };
+            }
+            sizes?
+        };
+        if let Some(p) = profiler.as_ref() {
+            stats.blas_build_ms = p.results()?.first().map_or(0.0, |r| r.1);
+        }
+
+        // Compaction: copy each BLAS into a right-sized one and free the original.
+        let mut compacted = Vec::with_capacity(blas.len());
+        for (i, size) in compacted_sizes.iter().enumerate() {
+            let size = if *size == 0 { sizes[i].acceleration_structure_size } else { *size };
+            compacted.push(AccelStructure::new(
+                ctx,
+                &format!("BLAS {i} compacted"),
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                size,
+            )?);
+        }
+        if !blas.is_empty() {
+            ctx.run("BLAS compaction", |cmd| {
+                if let Some(p) = profiler.as_mut() {
+                    p.reset(cmd);
+                    p.begin(cmd, "compact");
+                }
+                for (src, dst) in blas.iter().zip(&compacted) {
+                    let info = vk::CopyAccelerationStructureInfoKHR::default()
+                        .src(src.handle)
+                        .dst(dst.handle)
+                        .mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
+                    // SAFETY: src was built with ALLOW_COMPACTION; dst has the compacted size.
+                    unsafe { api.cmd_copy_acceleration_structure(cmd, &info) };
+                }
+                if let Some(p) = profiler.as_mut() {
+                    p.end(cmd);
+                }
+                Ok(())
+            })?;
+            if let Some(p) = profiler.as_ref() {
+                stats.compact_ms = p.results()?.first().map_or(0.0, |r| r.1);
+            }
+        }
+        drop(blas);
+        stats.blas_bytes = compacted.iter().map(|b| b.buffer.size()).sum();
+
+        // TLAS: one instance per scene instance; custom index = scene instance index.
+        let records: Vec<TlasInstance> = scene
+            .instances
+            .iter()
+            .enumerate()
+            .filter_map(|(i, inst)| {
+                let b = blas_of_geometry.get(inst.geometry as usize).copied().flatten()?;
+                let m = inst.transform;
+                let mut transform = [0f32; 12];
+                for r in 0..3 {
+                    for c in 0..4 {
+                        transform[r * 4 + c] = m.col(c)[r];
+                    }
+                }
+                Some(TlasInstance {
+                    transform,
+                    custom_index_and_mask: (i as u32 & 0x00FF_FFFF) | (0xFF << 24),
+                    // Culling off: front faces are decided in shading, the same way in both backends.
+                    sbt_offset_and_flags: vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() << 24,
+                    blas_address: compacted[b].address,
+                })
+            })
+            .collect();
+        let instances = Buffer::from_slice(
+            ctx,
+            "TLAS instances",
+            &records,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
+        )?;
+        let tlas_geometry = vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::INSTANCES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR {
+                instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
+                    .array_of_pointers(false)
+                    .data(vk::DeviceOrHostAddressConstKHR {
+                        device_address: instances.address(),
+                    }),
+            });
+        let geometries = [tlas_geometry];
+        let tlas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
+        let count = records.len() as u32;
+        let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+            .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+            .flags(tlas_flags)
+            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+            .geometries(&geometries);
+        let mut size = vk::AccelerationStructureBuildSizesInfoKHR::default();
+        // SAFETY: valid instance geometry description.
+        unsafe {
+            api.get_acceleration_structure_build_sizes(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &info,
+                &[count],
+                &mut size,
+            )
+        };
+        let tlas = AccelStructure::new(
+            ctx,
+            "TLAS",
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            size.acceleration_structure_size,
+        )?;
+        let (_scratch, scratch_address) = scratch_buffer(ctx, size.build_scratch_size, scratch_align)?;
+        stats.scratch_bytes = stats.scratch_bytes.max(size.build_scratch_size);
+        ctx.run("TLAS build", |cmd| {
+            if let Some(p) = profiler.as_mut() {
+                p.reset(cmd);
+                p.begin(cmd, "tlas");
+            }
+            let info = info
+                .dst_acceleration_structure(tlas.handle)
+                .scratch_data(vk::DeviceOrHostAddressKHR {
+                    device_address: scratch_address,
+                });
+            let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+            // SAFETY: instances reference live compacted BLAS; sizes come from the size query.
+            unsafe { api.cmd_build_acceleration_structures(cmd, &[info], &[&range[..]]) };
+            if let Some(p) = profiler.as_mut() {
+                p.end(cmd);
+            }
+            Ok(())
+        })?;
+        if let Some(p) = profiler.as_ref() {
+            stats.tlas_build_ms = p.results()?.first().map_or(0.0, |r| r.1);
+        }
+        stats.tlas_bytes = tlas.buffer.size();
+        stats.host_ms = start.elapsed().as_secs_f64() * 1e3;
+        log::info!(
+            "hw AS: {} BLAS, {} -> {} KiB compacted, TLAS {} KiB, build {:.2} ms GPU",
+            stats.blas_count,
+            stats.blas_bytes_uncompacted >> 10,
+            stats.blas_bytes >> 10,
+            stats.tlas_bytes >> 10,
+            stats.blas_build_ms + stats.compact_ms + stats.tlas_build_ms
+        );
+        Ok(Self {
+            _blas: compacted,
+            tlas,
+            _instances: instances,
+            stats,
+        })
+    }
+
+    /// The TLAS handle (bind at set 0, binding 2).
+    pub fn tlas(&self) -> vk::AccelerationStructureKHR {
+        self.tlas.handle
+    }
+}

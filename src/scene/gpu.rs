@@ -1,0 +1,263 @@
+//! Uploads a [`Scene`] into the GPU records of [`super::layout`].
+
+use glam::{Mat3, Mat4};
+
+use super::layout::*;
+use super::types::{AlphaMode, LightKind, Material, Scene, TextureRef};
+use crate::vk::{vk, Binding, Buffer, Context, DescriptorSet, VkError, VkResult};
+
+/// Largest float written where the scene says "infinite" (GLSL has no portable infinity literal).
+const BIG: f32 = 3.0e38;
+
+/// A scene's buffers on the GPU plus the `SceneRefs` uniform that points at them.
+pub struct GpuScene {
+    /// `vec3` positions of every geometry (also the BLAS vertex input).
+    pub positions: Buffer,
+    /// `GpuVertex` attributes.
+    pub attributes: Buffer,
+    /// Triangle indices, relative to each geometry's first vertex (also the BLAS index input).
+    pub indices: Buffer,
+    /// `GpuGeometry` records.
+    pub geometries: Buffer,
+    /// `GpuInstance` records.
+    pub instances: Buffer,
+    /// `GpuMaterial` records.
+    pub materials: Buffer,
+    /// `GpuLight` records.
+    pub lights: Buffer,
+    /// The `SceneRefs` uniform buffer.
+    pub refs: Buffer,
+    /// CPU copy of the geometry records (BLAS builds read them).
+    pub geometry_records: Vec<GpuGeometry>,
+    /// CPU copy of `SceneRefs`.
+    pub refs_data: GpuSceneRefs,
+    /// Bytes uploaded.
+    pub bytes: u64,
+}
+
+fn texture_slot(r: Option<TextureRef>) -> GpuTextureSlot {
+    match r {
+        None => GpuTextureSlot::default(),
+        Some(r) => {
+            let m: Mat3 = r.transform;
+            GpuTextureSlot {
+                texture: r.texture as i32,
+                tex_coord: r.tex_coord,
+                row0: [m.x_axis.x, m.y_axis.x, m.z_axis.x],
+                row1: [m.x_axis.y, m.y_axis.y, m.z_axis.y],
+            }
+        }
+    }
+}
+
+/// Converts a material to its GPU record.
+pub fn gpu_material(m: &Material) -> GpuMaterial {
+    GpuMaterial {
+        base_color: m.base_color.to_array(),
+        emissive: m.emissive.to_array(),
+        metallic: m.metallic,
+        roughness: m.roughness,
+        normal_scale: m.normal_scale,
+        occlusion_strength: m.occlusion_strength,
+        alpha_cutoff: m.alpha_cutoff,
+        alpha_mode: match m.alpha_mode {
+            AlphaMode::Opaque => ALPHA_OPAQUE,
+            AlphaMode::Mask => ALPHA_MASK,
+            AlphaMode::Blend => ALPHA_BLEND,
+        },
+        double_sided: u32::from(m.double_sided),
+        transmission: m.transmission,
+        ior: m.ior,
+        thickness: m.thickness,
+        attenuation_color: m.attenuation_color.to_array(),
+        attenuation_distance: if m.attenuation_distance.is_finite() {
+            m.attenuation_distance
+        } else {
+            BIG
+        },
+        base_color_texture: texture_slot(m.base_color_texture),
+        metallic_roughness_texture: texture_slot(m.metallic_roughness_texture),
+        normal_texture: texture_slot(m.normal_texture),
+        occlusion_texture: texture_slot(m.occlusion_texture),
+        emissive_texture: texture_slot(m.emissive_texture),
+        transmission_texture: texture_slot(m.transmission_texture),
+    }
+}
+
+/// Converts an instance transform to its GPU record.
+pub fn gpu_instance(transform: Mat4, geometry: u32) -> GpuInstance {
+    let normal = Mat4::from_mat3(Mat3::from_mat4(transform).inverse().transpose());
+    GpuInstance {
+        object_to_world: transform.to_cols_array(),
+        world_to_object: transform.inverse().to_cols_array(),
+        normal_to_world: normal.to_cols_array(),
+        geometry,
+        flags: if transform.determinant() < 0.0 {
+            INSTANCE_MIRRORED
+        } else {
+            0
+        },
+        pad: [0; 2],
+    }
+}
+
+impl GpuScene {
+    /// Uploads every record of `scene`.
+    pub fn upload(ctx: &Context, scene: &Scene) -> VkResult<Self> {
+        let mut positions: Vec<[f32; 3]> = Vec::new();
+        let mut attributes: Vec<GpuVertex> = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut geometries = Vec::with_capacity(scene.geometries.len());
+        for (gi, g) in scene.geometries.iter().enumerate() {
+            let first_vertex = u32::try_from(positions.len()).map_err(|_| {
+                VkError::Limit(format!(
+                    "geometry {gi}: more than 2^32 vertices in the scene"
+                ))
+            })?;
+            let first_index = u32::try_from(indices.len()).map_err(|_| {
+                VkError::Limit(format!(
+                    "geometry {gi}: more than 2^32 indices in the scene"
+                ))
+            })?;
+            let mut flags = 0;
+            if !g.tangents.is_empty() {
+                flags |= GEOMETRY_HAS_TANGENTS;
+            }
+            if !g.colors.is_empty() {
+                flags |= GEOMETRY_HAS_COLORS;
+            }
+            for (v, p) in g.positions.iter().enumerate() {
+                positions.push(p.to_array());
+                attributes.push(GpuVertex {
+                    normal: g.normals.get(v).map_or([0.0, 0.0, 1.0], |n| n.to_array()),
+                    tangent: g.tangents.get(v).map_or([0.0; 4], |t| t.to_array()),
+                    uv0: g.uv0.get(v).map_or([0.0; 2], |t| t.to_array()),
+                    uv1: g.uv1.get(v).map_or([0.0; 2], |t| t.to_array()),
+                    color: g.colors.get(v).map_or([1.0; 4], |c| c.to_array()),
+                });
+            }
+            indices.extend_from_slice(&g.indices);
+            geometries.push(GpuGeometry {
+                first_index,
+                triangle_count: (g.indices.len() / 3) as u32,
+                first_vertex,
+                vertex_count: g.positions.len() as u32,
+                material: g.material,
+                flags,
+            });
+        }
+        let instances: Vec<GpuInstance> = scene
+            .instances
+            .iter()
+            .map(|i| gpu_instance(i.transform, i.geometry))
+            .collect();
+        let mut materials: Vec<GpuMaterial> = scene.materials.iter().map(gpu_material).collect();
+        if materials.is_empty() {
+            materials.push(gpu_material(&Material::default()));
+        }
+        let lights: Vec<GpuLight> = scene
+            .lights
+            .iter()
+            .map(|l| {
+                let (kind, inner_cos, outer_cos) = match l.kind {
+                    LightKind::Directional => (LIGHT_DIRECTIONAL, 1.0, 1.0),
+                    LightKind::Point => (LIGHT_POINT, -1.0, -1.0),
+                    LightKind::Spot {
+                        inner_cone,
+                        outer_cone,
+                    } => (LIGHT_SPOT, inner_cone.cos(), outer_cone.cos()),
+                };
+                GpuLight {
+                    position: l.position.to_array(),
+                    kind,
+                    direction: l.direction.normalize_or_zero().to_array(),
+                    range: if l.range.is_finite() && l.range > 0.0 {
+                        l.range
+                    } else {
+                        BIG
+                    },
+                    radiance: (l.color * l.intensity).to_array(),
+                    inner_cos,
+                    outer_cos,
+                    pad: [0.0; 3],
+                }
+            })
+            .collect();
+
+        let as_input = if ctx.features().acceleration_structure {
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        } else {
+            vk::BufferUsageFlags::empty()
+        };
+        let none = vk::BufferUsageFlags::empty();
+        let positions_buf = Buffer::from_slice(ctx, "scene positions", &positions, as_input)?;
+        let attributes_buf = Buffer::from_slice(ctx, "scene attributes", &attributes, none)?;
+        let indices_buf = Buffer::from_slice(ctx, "scene indices", &indices, as_input)?;
+        let geometries_buf = Buffer::from_slice(ctx, "scene geometries", &geometries, none)?;
+        let instances_buf = Buffer::from_slice(ctx, "scene instances", &instances, none)?;
+        let materials_buf = Buffer::from_slice(ctx, "scene materials", &materials, none)?;
+        let lights_buf = Buffer::from_slice(ctx, "scene lights", &lights, none)?;
+        let bounds = if scene.bounds.is_empty() {
+            super::types::Aabb {
+                min: glam::Vec3::ZERO,
+                max: glam::Vec3::ZERO,
+            }
+        } else {
+            scene.bounds
+        };
+        let refs_data = GpuSceneRefs {
+            positions: positions_buf.address(),
+            attributes: attributes_buf.address(),
+            indices: indices_buf.address(),
+            geometries: geometries_buf.address(),
+            instances: instances_buf.address(),
+            materials: materials_buf.address(),
+            lights: lights_buf.address(),
+            instance_count: instances.len() as u32,
+            geometry_count: geometries.len() as u32,
+            light_count: lights.len() as u32,
+            texture_count: scene.textures.len() as u32,
+            bounds_min: bounds.min.to_array(),
+            scene_scale: bounds.diagonal().max(1e-3),
+            bounds_max: bounds.max.to_array(),
+            pad: 0,
+        };
+        let refs = Buffer::from_slice(
+            ctx,
+            "scene refs",
+            &[refs_data],
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+        )?;
+        let bytes = [
+            &positions_buf,
+            &attributes_buf,
+            &indices_buf,
+            &geometries_buf,
+            &instances_buf,
+            &materials_buf,
+            &lights_buf,
+            &refs,
+        ]
+        .iter()
+        .map(|b| b.size())
+        .sum();
+        Ok(Self {
+            positions: positions_buf,
+            attributes: attributes_buf,
+            indices: indices_buf,
+            geometries: geometries_buf,
+            instances: instances_buf,
+            materials: materials_buf,
+            lights: lights_buf,
+            refs,
+            geometry_records: geometries,
+            refs_data,
+            bytes,
+        })
+    }
+
+    /// Writes set-0 binding 0 (`SceneRefs`) of a pass's descriptor set.
+    pub fn bind(&self, set: &DescriptorSet) {
+        set.buffer(0, &self.refs, Binding::UniformBuffer);
+    }
+}
