@@ -19,7 +19,9 @@ pub mod testing;
 mod tests;
 
 use crate::scene::Scene;
-use crate::vk::{vk, Buffer, Context, MemoryLocation, VkError};
+use crate::vk::{
+    vk, Binding, Buffer, Context, DescriptorSet, MemoryHeapInfo, MemoryLocation, VkError,
+};
 use layout::{BvhInstance, BvhNode, BvhTriangle, GpuBvhRefs};
 
 /// Node index of the top-level root.
@@ -184,20 +186,20 @@ impl BvhData {
     }
 }
 
-/// The largest device-local heap (or the largest heap when none is device-local).
-fn largest_heap(ctx: &Context) -> u64 {
-    let heaps = &ctx.info().memory_heaps;
-    heaps
+/// Refuses `needed` bytes when they exceed the largest device-local heap (or the largest
+/// heap when none is device-local).
+pub fn check_fits(
+    heaps: &[MemoryHeapInfo],
+    needed: u64,
+    what: &'static str,
+) -> Result<(), BvhError> {
+    let heap = heaps
         .iter()
         .filter(|h| h.device_local)
         .map(|h| h.size_bytes)
         .max()
         .or_else(|| heaps.iter().map(|h| h.size_bytes).max())
-        .unwrap_or(0)
-}
-
-fn check_fits(ctx: &Context, needed: u64, what: &'static str) -> Result<(), BvhError> {
-    let heap = largest_heap(ctx);
+        .unwrap_or(0);
     if needed > heap {
         return Err(BvhError::TooLarge { needed, heap, what });
     }
@@ -212,6 +214,7 @@ pub struct GpuBvh {
     primitives: Buffer,
     instances: Buffer,
     refs: Buffer,
+    refs_data: GpuBvhRefs,
     stats: BvhStats,
 }
 
@@ -219,14 +222,18 @@ impl GpuBvh {
     /// Builds the BVH of `scene` and uploads it. Checks an upper-bound size estimate against
     /// the device heaps before building and the exact size before allocating.
     pub fn build(ctx: &Context, scene: &Scene, opts: &BvhBuildOptions) -> Result<Self, BvhError> {
-        check_fits(ctx, BvhData::estimate_bytes(scene), "estimate")?;
+        check_fits(
+            &ctx.info().memory_heaps,
+            BvhData::estimate_bytes(scene),
+            "estimate",
+        )?;
         let data = BvhData::build(scene, opts)?;
         Self::upload(ctx, &data)
     }
 
     /// Uploads a host-built BVH.
     pub fn upload(ctx: &Context, data: &BvhData) -> Result<Self, BvhError> {
-        check_fits(ctx, data.byte_size(), "exact")?;
+        check_fits(&ctx.info().memory_heaps, data.byte_size(), "exact")?;
         let usage = vk::BufferUsageFlags::empty();
         let nodes = Buffer::from_slice(ctx, "bvh nodes", &data.nodes, usage)?;
         let triangles = Buffer::from_slice(ctx, "bvh triangles", &data.triangles, usage)?;
@@ -256,6 +263,7 @@ impl GpuBvh {
             primitives,
             instances,
             refs,
+            refs_data,
             stats: data.stats.clone(),
         })
     }
@@ -263,6 +271,16 @@ impl GpuBvh {
     /// The `BvhRefs` uniform buffer (bind at set 0, binding 2 as a uniform buffer).
     pub fn refs_buffer(&self) -> &Buffer {
         &self.refs
+    }
+
+    /// What the `BvhRefs` uniform holds.
+    pub fn refs_data(&self) -> &GpuBvhRefs {
+        &self.refs_data
+    }
+
+    /// Binds the `BvhRefs` uniform at set 0, binding 2 (the ray backend's binding).
+    pub fn bind(&self, set: &DescriptorSet) {
+        set.buffer(2, &self.refs, Binding::UniformBuffer);
     }
 
     /// Build statistics.

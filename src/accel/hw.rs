@@ -52,11 +52,19 @@ struct AccelStructure {
 }
 
 impl AccelStructure {
-    fn new(ctx: &Context, name: &str, ty: vk::AccelerationStructureTypeKHR, size: u64) -> VkResult<Self> {
-        let api = ctx.accel().cloned().ok_or_else(|| VkError::MissingFeature {
-            device: ctx.info().name.clone(),
-            feature: "VK_KHR_acceleration_structure".into(),
-        })?;
+    fn new(
+        ctx: &Context,
+        name: &str,
+        ty: vk::AccelerationStructureTypeKHR,
+        size: u64,
+    ) -> VkResult<Self> {
+        let api = ctx
+            .accel()
+            .cloned()
+            .ok_or_else(|| VkError::MissingFeature {
+                device: ctx.info().name.clone(),
+                feature: "VK_KHR_acceleration_structure".into(),
+            })?;
         let buffer = Buffer::new(
             ctx,
             name,
@@ -69,11 +77,15 @@ impl AccelStructure {
             .size(size)
             .ty(ty);
         // SAFETY: the buffer has AS-storage usage and at least `size` bytes at offset 0.
-        let handle = unsafe { api.create_acceleration_structure(&info, None) }.map_err(|result| VkError::Call {
-            call: "vkCreateAccelerationStructureKHR",
-            result,
-        })?;
-        let address_info = vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(handle);
+        let handle =
+            unsafe { api.create_acceleration_structure(&info, None) }.map_err(|result| {
+                VkError::Call {
+                    call: "vkCreateAccelerationStructureKHR",
+                    result,
+                }
+            })?;
+        let address_info =
+            vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(handle);
         // SAFETY: valid handle.
         let address = unsafe { api.get_acceleration_structure_device_address(&address_info) };
         Ok(Self {
@@ -126,10 +138,14 @@ impl HwAccel {
             device: ctx.info().name.clone(),
             feature: "VK_KHR_acceleration_structure".into(),
         })?;
-        let props = ctx.info().as_properties.clone().ok_or_else(|| VkError::MissingFeature {
-            device: ctx.info().name.clone(),
-            feature: "VK_KHR_acceleration_structure".into(),
-        })?;
+        let props = ctx
+            .info()
+            .as_properties
+            .clone()
+            .ok_or_else(|| VkError::MissingFeature {
+                device: ctx.info().name.clone(),
+                feature: "VK_KHR_acceleration_structure".into(),
+            })?;
         let scratch_align = u64::from(props.min_scratch_offset_alignment.max(1));
         if scene.instances.len() as u64 > props.max_instance_count {
             return Err(VkError::Limit(format!(
@@ -201,8 +217,15 @@ impl HwAccel {
             };
             sizes.push(size);
         }
-        let blas_bytes_uncompacted: u64 = sizes.iter().map(|s| align_up(s.acceleration_structure_size, 256)).sum();
-        let max_scratch = sizes.iter().map(|s| s.build_scratch_size).max().unwrap_or(0);
+        let blas_bytes_uncompacted: u64 = sizes
+            .iter()
+            .map(|s| align_up(s.acceleration_structure_size, 256))
+            .sum();
+        let max_scratch = sizes
+            .iter()
+            .map(|s| s.build_scratch_size)
+            .max()
+            .unwrap_or(0);
         let heap = ctx
             .info()
             .memory_heaps
@@ -244,10 +267,14 @@ impl HwAccel {
                 .query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR)
                 .query_count(blas.len() as u32);
             // SAFETY: valid create info.
-            Some(unsafe { ctx.device().create_query_pool(&info, None) }.map_err(|result| VkError::Call {
-                call: "vkCreateQueryPool",
-                result,
-            })?)
+            Some(
+                unsafe { ctx.device().create_query_pool(&info, None) }.map_err(|result| {
+                    VkError::Call {
+                        call: "vkCreateQueryPool",
+                        result,
+                    }
+                })?,
+            )
         };
         let compacted_sizes = {
             let (_scratch, scratch_address) = scratch_buffer(ctx, max_scratch, scratch_align)?;
@@ -267,7 +294,8 @@ impl HwAccel {
                         .scratch_data(vk::DeviceOrHostAddressKHR {
                             device_address: scratch_address,
                         });
-                    let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(*count)];
+                    let range = [vk::AccelerationStructureBuildRangeInfoKHR::default()
+                        .primitive_count(*count)];
                     // SAFETY: inputs, destination and scratch are alive and sized by the size query.
                     unsafe { api.cmd_build_acceleration_structures(cmd, &[info], &[&range[..]]) };
                     // The builds share one scratch buffer: serialise them.
@@ -280,7 +308,8 @@ impl HwAccel {
                     let handles: Vec<_> = blas.iter().map(|b| b.handle).collect();
                     // SAFETY: the pool has one query per BLAS; the builds completed (barrier above).
                     unsafe {
-                        ctx.device().cmd_reset_query_pool(cmd, pool, 0, handles.len() as u32);
+                        ctx.device()
+                            .cmd_reset_query_pool(cmd, pool, 0, handles.len() as u32);
                         api.cmd_write_acceleration_structures_properties(
                             cmd,
                             &handles,
@@ -324,7 +353,11 @@ impl HwAccel {
         // Compaction: copy each BLAS into a right-sized one and free the original.
         let mut compacted = Vec::with_capacity(blas.len());
         for (i, size) in compacted_sizes.iter().enumerate() {
-            let size = if *size == 0 { sizes[i].acceleration_structure_size } else { *size };
+            let size = if *size == 0 {
+                sizes[i].acceleration_structure_size
+            } else {
+                *size
+            };
             compacted.push(AccelStructure::new(
                 ctx,
                 &format!("BLAS {i} compacted"),
@@ -364,7 +397,10 @@ impl HwAccel {
             .iter()
             .enumerate()
             .filter_map(|(i, inst)| {
-                let b = blas_of_geometry.get(inst.geometry as usize).copied().flatten()?;
+                let b = blas_of_geometry
+                    .get(inst.geometry as usize)
+                    .copied()
+                    .flatten()?;
                 let m = inst.transform;
                 let mut transform = [0f32; 12];
                 for r in 0..3 {
@@ -376,7 +412,8 @@ impl HwAccel {
                     transform,
                     custom_index_and_mask: (i as u32 & 0x00FF_FFFF) | (0xFF << 24),
                     // Culling off: front faces are decided in shading, the same way in both backends.
-                    sbt_offset_and_flags: vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() << 24,
+                    sbt_offset_and_flags: vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE
+                        .as_raw() << 24,
                     blas_address: compacted[b].address,
                 })
             })
@@ -420,19 +457,21 @@ impl HwAccel {
             vk::AccelerationStructureTypeKHR::TOP_LEVEL,
             size.acceleration_structure_size,
         )?;
-        let (_scratch, scratch_address) = scratch_buffer(ctx, size.build_scratch_size, scratch_align)?;
+        let (_scratch, scratch_address) =
+            scratch_buffer(ctx, size.build_scratch_size, scratch_align)?;
         stats.scratch_bytes = stats.scratch_bytes.max(size.build_scratch_size);
         ctx.run("TLAS build", |cmd| {
             if let Some(p) = profiler.as_mut() {
                 p.reset(cmd);
                 p.begin(cmd, "tlas");
             }
-            let info = info
-                .dst_acceleration_structure(tlas.handle)
-                .scratch_data(vk::DeviceOrHostAddressKHR {
+            let info = info.dst_acceleration_structure(tlas.handle).scratch_data(
+                vk::DeviceOrHostAddressKHR {
                     device_address: scratch_address,
-                });
-            let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+                },
+            );
+            let range =
+                [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
             // SAFETY: instances reference live compacted BLAS; sizes come from the size query.
             unsafe { api.cmd_build_acceleration_structures(cmd, &[info], &[&range[..]]) };
             if let Some(p) = profiler.as_mut() {

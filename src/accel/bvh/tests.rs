@@ -360,3 +360,29 @@ fn degenerate_inputs_do_not_panic() {
         Err(BvhError::InvalidScene(_))
     ));
 }
+
+#[test]
+fn size_checks_use_the_largest_device_local_heap() {
+    use crate::vk::MemoryHeapInfo;
+    let heaps = [
+        MemoryHeapInfo {
+            size_bytes: 1 << 30,
+            device_local: true,
+        },
+        MemoryHeapInfo {
+            size_bytes: 1 << 34,
+            device_local: false,
+        },
+    ];
+    assert!(check_fits(&heaps, 1 << 29, "exact").is_ok());
+    let err = check_fits(&heaps, (1 << 30) + 1, "estimate").unwrap_err();
+    assert!(matches!(err, BvhError::TooLarge { heap, .. } if heap == 1 << 30));
+    assert!(err.to_string().contains("1073741825 bytes"), "{err}");
+    assert!(check_fits(&[], 1, "exact").is_err());
+    // The estimate bounds the exact size.
+    let mut rng = Rng::new(9);
+    let scene = instanced_grid(&mut rng, 3, 3);
+    let data = BvhData::build(&scene, &BvhBuildOptions::default()).unwrap();
+    assert!(data.byte_size() <= BvhData::estimate_bytes(&scene));
+    assert!(data.byte_size() * 3 >= BvhData::estimate_bytes(&scene));
+}
