@@ -6,6 +6,7 @@
 //! Modules: [`vk`] (Vulkan plumbing), [`accel`] (ray backends), [`shaders`] (embedded SPIR-V).
 
 pub mod accel;
+pub mod render;
 pub mod scene;
 pub mod vk;
 
@@ -20,6 +21,9 @@ pub enum Error {
     /// A Vulkan failure.
     #[error(transparent)]
     Vk(#[from] vk::VkError),
+    /// Invalid output.
+    #[error(transparent)]
+    Output(#[from] render::output::OutputError),
     /// The requested ray backend is unavailable.
     #[error(transparent)]
     Backend(#[from] accel::BackendUnavailable),

@@ -76,3 +76,57 @@ impl BackendChoice {
         }
     }
 }
+
+/// The built ray backend of a scene, bound at set 0 binding 2 of every ray-tracing pass.
+pub enum RayBackend {
+    /// BLAS/TLAS for ray queries.
+    Hw(hw::HwAccel),
+}
+
+impl RayBackend {
+    /// Builds the backend's structures for an uploaded scene.
+    pub fn build(
+        ctx: &crate::vk::Context,
+        scene: &crate::scene::Scene,
+        gpu: &crate::scene::gpu::GpuScene,
+        backend: Backend,
+    ) -> crate::Result<Self> {
+        match backend {
+            Backend::Hw => Ok(Self::Hw(hw::HwAccel::build(ctx, scene, gpu)?)),
+            Backend::Bvh => Err(crate::vk::VkError::Limit(
+                "the compute BVH backend is not built yet".into(),
+            )
+            .into()),
+        }
+    }
+
+    /// Which backend this is.
+    pub fn kind(&self) -> Backend {
+        match self {
+            Self::Hw(_) => Backend::Hw,
+        }
+    }
+
+    /// The descriptor type of binding 2 for this backend.
+    pub fn binding(&self) -> crate::vk::Binding {
+        match self {
+            Self::Hw(_) => crate::vk::Binding::AccelerationStructure,
+        }
+    }
+
+    /// Writes binding 2 of a pass's set.
+    pub fn bind(&self, set: &crate::vk::DescriptorSet) {
+        match self {
+            Self::Hw(a) => {
+                set.acceleration_structure(2, a.tlas());
+            }
+        }
+    }
+
+    /// Build statistics as JSON.
+    pub fn stats_json(&self) -> serde_json::Value {
+        match self {
+            Self::Hw(a) => serde_json::to_value(&a.stats).unwrap_or_default(),
+        }
+    }
+}

@@ -2,6 +2,7 @@
 
 pub mod gpu;
 pub mod layout;
+pub mod procedural;
 pub mod types;
 
 pub use types::*;

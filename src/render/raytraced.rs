@@ -1,0 +1,147 @@
+//! The pure ray-traced (Whitted) pass: `shaders/raytrace.comp`, one thread per pixel.
+
+use ash::vk;
+
+use super::frame::{GpuFrame, SamplerKind, FLAG_ADAPTIVE_CORNERS, FLAG_WRITE_AOV};
+use super::{Aov, PassContext};
+use crate::accel::Backend;
+use crate::vk::{
+    memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler,
+    MemoryLocation, VkResult,
+};
+
+/// Ray counter slots: primary, shadow, reflection, refraction, samples.
+pub const COUNTER_SLOTS: usize = 5;
+
+/// Pipeline and per-resolution buffers of the ray-traced pass.
+pub struct RaytracedPass {
+    pipeline: ComputePipeline,
+    set: DescriptorSet,
+    /// Linear HDR colour, `vec4` per pixel.
+    pub color: Buffer,
+    /// AOVs per pixel.
+    pub aov: Buffer,
+    /// Ray counters.
+    pub counters: Buffer,
+    _corners: Buffer,
+    frame: Buffer,
+    frame_data: GpuFrame,
+}
+
+fn spirv(backend: Backend) -> &'static [u8] {
+    match backend {
+        Backend::Hw => crate::shaders::RAYTRACE_COMP_HW,
+        Backend::Bvh => crate::shaders::RAYTRACE_COMP_HW,
+    }
+}
+
+impl RaytracedPass {
+    /// Creates the pipeline and buffers for `frame`'s resolution.
+    pub fn new(ctx: &Context, pass: &PassContext<'_>, frame: GpuFrame) -> VkResult<Self> {
+        let bindings = [
+            Binding::UniformBuffer,
+            Binding::SampledImages(pass.texture_capacity()),
+            pass.backend.binding(),
+            Binding::UniformBuffer,
+            Binding::StorageBuffer,
+            Binding::StorageBuffer,
+            Binding::StorageBuffer,
+            Binding::StorageBuffer,
+        ];
+        let pipeline =
+            ComputePipeline::new(ctx, "raytrace", spirv(pass.backend.kind()), &bindings, 4)?;
+        let pixels = u64::from(frame.width) * u64::from(frame.height);
+        let none = vk::BufferUsageFlags::empty();
+        let color = Buffer::new(ctx, "rt colour", pixels * 16, none, MemoryLocation::GpuOnly)?;
+        let aov = Buffer::new(
+            ctx,
+            "rt aov",
+            pixels * std::mem::size_of::<Aov>() as u64,
+            none,
+            MemoryLocation::GpuOnly,
+        )?;
+        let counters = Buffer::new(
+            ctx,
+            "rt counters",
+            COUNTER_SLOTS as u64 * 4,
+            none,
+            MemoryLocation::GpuOnly,
+        )?;
+        let corner_count = (u64::from(frame.width) + 1) * (u64::from(frame.height) + 1);
+        let corners = Buffer::new(
+            ctx,
+            "rt adaptive corners",
+            corner_count * 16,
+            none,
+            MemoryLocation::GpuOnly,
+        )?;
+        let frame_buf = Buffer::new(
+            ctx,
+            "rt frame",
+            std::mem::size_of::<GpuFrame>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+        let set = pipeline.allocate_set()?;
+        pass.bind_scene(&set);
+        set.buffer(3, &frame_buf, Binding::UniformBuffer)
+            .buffer(4, &color, Binding::StorageBuffer)
+            .buffer(5, &aov, Binding::StorageBuffer)
+            .buffer(6, &counters, Binding::StorageBuffer)
+            .buffer(7, &corners, Binding::StorageBuffer);
+        let mut this = Self {
+            pipeline,
+            set,
+            color,
+            aov,
+            counters,
+            _corners: corners,
+            frame: frame_buf,
+            frame_data: frame,
+        };
+        this.set_frame(frame)?;
+        Ok(this)
+    }
+
+    /// Updates the frame uniform (camera, settings) for the next `record`.
+    pub fn set_frame(&mut self, frame: GpuFrame) -> VkResult<()> {
+        self.frame_data = frame;
+        self.frame.write(bytemuck::bytes_of(&frame))
+    }
+
+    /// Records the pass: counter reset, the adaptive corner pass when that sampler is on,
+    /// then one thread per pixel.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        profiler: Option<&mut GpuProfiler>,
+        write_aov: bool,
+    ) {
+        let device = ctx.device();
+        let f = self.frame_data;
+        // SAFETY: recording command buffer; the counters buffer is ours.
+        unsafe { device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0) };
+        memory_barrier(device, cmd);
+        let mut profiler = profiler;
+        if let Some(p) = profiler.as_deref_mut() {
+            p.begin(cmd, "rt");
+        }
+        if f.sampler_kind == SamplerKind::Adaptive as u32 {
+            let push = FLAG_ADAPTIVE_CORNERS.to_le_bytes();
+            let groups = [(f.width + 1).div_ceil(8), (f.height + 1).div_ceil(8), 1];
+            self.pipeline.dispatch(cmd, Some(&self.set), &push, groups);
+            memory_barrier(device, cmd);
+        }
+        let push = if write_aov { FLAG_WRITE_AOV } else { 0 }.to_le_bytes();
+        self.pipeline.dispatch(
+            cmd,
+            Some(&self.set),
+            &push,
+            [f.width.div_ceil(8), f.height.div_ceil(8), 1],
+        );
+        if let Some(p) = profiler {
+            p.end(cmd);
+        }
+    }
+}
