@@ -18,10 +18,11 @@ fn settings(size: u32) -> RenderSettings {
     }
 }
 
+/// Every backend the device runs (lavapipe: both).
 fn backends(ctx: &rqr::vk::Context) -> Vec<Backend> {
-    let mut b = vec![BackendChoice::Auto.resolve(ctx.info()).unwrap().0];
-    if !b.contains(&Backend::Hw) && ctx.features().ray_query {
-        b.push(Backend::Hw);
+    let mut b = vec![Backend::Bvh];
+    if ctx.features().ray_query {
+        b.insert(0, Backend::Hw);
     }
     b
 }
