@@ -80,9 +80,9 @@ impl BackendChoice {
 /// The built ray backend of a scene, bound at set 0 binding 2 of every ray-tracing pass.
 pub enum RayBackend {
     /// BLAS/TLAS for ray queries.
-    Hw(Box<hw::HwAccel>),
+    Hw(hw::HwAccel),
     /// rqr's two-level BVH for compute traversal.
-    Bvh(bvh::GpuBvh),
+    Bvh(Box<bvh::GpuBvh>),
 }
 
 impl RayBackend {
@@ -94,8 +94,12 @@ impl RayBackend {
         backend: Backend,
     ) -> crate::Result<Self> {
         match backend {
-            Backend::Hw => Ok(Self::Hw(Box::new(hw::HwAccel::build(ctx, scene, gpu)?))),
-            Backend::Bvh => Ok(Self::Bvh(bvh::GpuBvh::build(ctx, scene, &bvh::BvhBuildOptions::default())?)),
+            Backend::Hw => Ok(Self::Hw(hw::HwAccel::build(ctx, scene, gpu)?)),
+            Backend::Bvh => Ok(Self::Bvh(Box::new(bvh::GpuBvh::build(
+                ctx,
+                scene,
+                &bvh::BvhBuildOptions::default(),
+            )?))),
         }
     }
 
