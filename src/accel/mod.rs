@@ -80,7 +80,7 @@ impl BackendChoice {
 /// The built ray backend of a scene, bound at set 0 binding 2 of every ray-tracing pass.
 pub enum RayBackend {
     /// BLAS/TLAS for ray queries.
-    Hw(hw::HwAccel),
+    Hw(Box<hw::HwAccel>),
     /// rqr's two-level BVH for compute traversal.
     Bvh(Box<bvh::GpuBvh>),
 }
@@ -94,7 +94,7 @@ impl RayBackend {
         backend: Backend,
     ) -> crate::Result<Self> {
         match backend {
-            Backend::Hw => Ok(Self::Hw(hw::HwAccel::build(ctx, scene, gpu)?)),
+            Backend::Hw => Ok(Self::Hw(Box::new(hw::HwAccel::build(ctx, scene, gpu)?))),
             Backend::Bvh => Ok(Self::Bvh(Box::new(bvh::GpuBvh::build(
                 ctx,
                 scene,
