@@ -129,6 +129,7 @@ pub struct Renderer {
     pub gpu: GpuScene,
     /// Ray backend.
     pub backend: RayBackend,
+    _textures: crate::scene::textures::GpuTextures,
     textures: Vec<(vk::ImageView, vk::Sampler)>,
     scene_scale: f32,
 }
@@ -136,13 +137,16 @@ pub struct Renderer {
 impl Renderer {
     /// Uploads `scene` and builds the chosen backend.
     pub fn new(ctx: &Context, scene: &Scene, backend: Backend) -> crate::Result<Self> {
-        let gpu = GpuScene::upload(ctx, scene, 0)?;
+        let gpu_textures = crate::scene::textures::GpuTextures::upload(ctx, scene)?;
+        let textures = gpu_textures.descriptors();
+        let gpu = GpuScene::upload(ctx, scene, textures.len() as u32)?;
         let backend = RayBackend::build(ctx, scene, &gpu, backend)?;
         Ok(Self {
             scene_scale: gpu.refs_data.scene_scale,
             gpu,
             backend,
-            textures: Vec::new(),
+            _textures: gpu_textures,
+            textures,
         })
     }
 
