@@ -55,6 +55,9 @@ pub struct ContextOptions {
     pub device: DeviceSelector,
     /// Enable the Khronos validation layer. `None`: on when `RQR_VALIDATION=1`.
     pub validation: Option<bool>,
+    /// Add synchronization validation (hazards between commands) to the validation layer;
+    /// it slows every command down several times. `None`: on when `RQR_SYNC_VALIDATION=1`.
+    pub sync_validation: Option<bool>,
     /// How long a submission may run before it is reported as a timeout.
     pub fence_timeout: Duration,
 }
@@ -64,6 +67,7 @@ impl Default for ContextOptions {
         Self {
             device: DeviceSelector::Auto,
             validation: None,
+            sync_validation: None,
             fence_timeout: DEFAULT_FENCE_TIMEOUT,
         }
     }
@@ -193,9 +197,24 @@ pub fn validation_layer_available(entry: &ash::Entry) -> bool {
         .unwrap_or(false)
 }
 
+/// Whether the validation layer provides instance extension `name` (`VK_EXT_validation_features`
+/// comes with the layer, not with the loader).
+fn layer_has_extension(entry: &ash::Entry, name: &CStr) -> bool {
+    // SAFETY: plain enumeration call with a NUL-terminated layer name.
+    unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+        .map(|exts| {
+            exts.iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+        })
+        .unwrap_or(false)
+}
+
+/// Creates the instance; `sync` adds synchronization validation to `validation`. Returns
+/// whether validation is active.
 pub(crate) fn create_instance(
     entry: &ash::Entry,
     validation: bool,
+    sync: bool,
 ) -> VkResult<(ash::Instance, bool)> {
     let app_name = CString::new("rqr").unwrap();
     let app = vk::ApplicationInfo::default()
@@ -226,10 +245,24 @@ pub(crate) fn create_instance(
     } else {
         vec![]
     };
-    let info = vk::InstanceCreateInfo::default()
+    let sync_validation =
+        use_validation && sync && layer_has_extension(entry, ext::validation_features::NAME);
+    if sync && !sync_validation {
+        log::warn!("synchronization validation requested but unavailable (needs the validation layer with VK_EXT_validation_features)");
+    }
+    if sync_validation {
+        extensions.push(ext::validation_features::NAME.as_ptr());
+    }
+    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+    let mut info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_extension_names(&extensions)
         .enabled_layer_names(&layers);
+    if sync_validation {
+        info = info.push_next(&mut features);
+    }
+    log::debug!("synchronization validation: {sync_validation}");
     // SAFETY: all pointers in `info` point to locals alive for this call.
     let instance =
         unsafe { entry.create_instance(&info, None) }.map_err(|result| match result {
@@ -304,7 +337,10 @@ impl Context {
         let validation = opts
             .validation
             .unwrap_or_else(|| std::env::var("RQR_VALIDATION").is_ok_and(|v| v == "1"));
-        let (instance, validation) = create_instance(&entry, validation)?;
+        let sync = opts
+            .sync_validation
+            .unwrap_or_else(|| std::env::var("RQR_SYNC_VALIDATION").is_ok_and(|v| v == "1"));
+        let (instance, validation) = create_instance(&entry, validation, sync)?;
         let log = Box::<ValidationLog>::default();
         let debug = if validation {
             let utils = ext::debug_utils::Instance::new(&entry, &instance);

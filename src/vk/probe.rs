@@ -266,7 +266,7 @@ impl DeviceInfo {
 /// `backend` field; `selector` picks `selected`.
 pub fn probe_devices(selector: &DeviceSelector, choice: BackendChoice) -> VkResult<ProbeReport> {
     let entry = load_entry()?;
-    let (instance, _) = create_instance(&entry, false)?;
+    let (instance, _) = create_instance(&entry, false, false)?;
     // SAFETY: plain enumeration call on a live instance.
     let physicals =
         unsafe { instance.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices");
