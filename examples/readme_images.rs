@@ -6,7 +6,9 @@ use rqr::render::{label, RenderSettings, Renderer, SamplerKind};
 use rqr::vk::{Context, ContextOptions};
 
 fn save(path: &str, c: label::Canvas) -> anyhow::Result<()> {
-    image::RgbImage::from_raw(c.width, c.height, c.rgb).unwrap().save(path)?;
+    image::RgbImage::from_raw(c.width, c.height, c.rgb)
+        .unwrap()
+        .save(path)?;
     println!("wrote {path}");
     Ok(())
 }
@@ -36,12 +38,25 @@ fn main() -> anyhow::Result<()> {
     let size = 256;
     let mut depth_images = Vec::new();
     for depth in [1, 2, 3, 5] {
-        let s = RenderSettings { width: size, height: size, max_depth: depth, spp: 4, sampler: SamplerKind::Grid, ..Default::default() };
+        let s = RenderSettings {
+            width: size,
+            height: size,
+            max_depth: depth,
+            spp: 4,
+            sampler: SamplerKind::Grid,
+            ..Default::default()
+        };
         let out = renderer.render_rt(&ctx, &s, &camera, false)?;
         depth_images.push((format!("DEPTH {depth}"), out.rgba8));
     }
-    let panels: Vec<(&str, &[u8], usize)> = depth_images.iter().map(|(n, p)| (n.as_str(), p.as_slice(), 4)).collect();
-    save("docs/images/depths.png", label::side_by_side(size, size, &panels))?;
+    let panels: Vec<(&str, &[u8], usize)> = depth_images
+        .iter()
+        .map(|(n, p)| (n.as_str(), p.as_slice(), 4))
+        .collect();
+    save(
+        "docs/images/depths.png",
+        label::side_by_side(size, size, &panels),
+    )?;
 
     // Sampling modes: a 32-pixel crop around the box's top edge, zoomed 5x.
     let full = 384;
@@ -57,9 +72,20 @@ fn main() -> anyhow::Result<()> {
     ];
     let mut crops = Vec::new();
     for (name, sampler, spp) in modes {
-        let s = RenderSettings { width: full, height: full, spp, sampler, adaptive_depth: 3, ..Default::default() };
+        let s = RenderSettings {
+            width: full,
+            height: full,
+            spp,
+            sampler,
+            adaptive_depth: 3,
+            ..Default::default()
+        };
         let out = renderer.render_rt(&ctx, &s, &camera, false)?;
-        let label = if sampler == SamplerKind::Adaptive { format!("ADAPT {:.1}", out.mean_spp()) } else { name.to_string() };
+        let label = if sampler == SamplerKind::Adaptive {
+            format!("ADAPT {:.1}", out.mean_spp())
+        } else {
+            name.to_string()
+        };
         crops.push((label, crop_zoom(&out.rgba8, full, cx, cy, crop, zoom)));
         if sampler == SamplerKind::Center {
             let mut c = label::Canvas::new(full, full, [0, 0, 0]);
@@ -67,7 +93,13 @@ fn main() -> anyhow::Result<()> {
             save("docs/images/builtin.png", c)?;
         }
     }
-    let panels: Vec<(&str, &[u8], usize)> = crops.iter().map(|(n, p)| (n.as_str(), p.as_slice(), 4)).collect();
-    save("docs/images/sampling.png", label::side_by_side(crop * zoom, crop * zoom, &panels))?;
+    let panels: Vec<(&str, &[u8], usize)> = crops
+        .iter()
+        .map(|(n, p)| (n.as_str(), p.as_slice(), 4))
+        .collect();
+    save(
+        "docs/images/sampling.png",
+        label::side_by_side(crop * zoom, crop * zoom, &panels),
+    )?;
     Ok(())
 }

@@ -11,7 +11,9 @@ use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{Camera, LoadOptions, Scene};
 
 fn asset(rel: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/gltf").join(rel);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/gltf")
+        .join(rel);
     rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -21,8 +23,12 @@ fn views(scene: &Scene) -> Vec<Camera> {
     let centre = scene.bounds.center();
     let orbit = |deg: f32, lift: f32| {
         let mut c = base;
-        let pivot = Mat4::from_translation(centre) * Mat4::from_rotation_y(deg.to_radians()) * Mat4::from_translation(-centre);
-        c.camera_to_world = Mat4::from_translation(Vec3::Y * lift * scene.bounds.diagonal()) * pivot * c.camera_to_world;
+        let pivot = Mat4::from_translation(centre)
+            * Mat4::from_rotation_y(deg.to_radians())
+            * Mat4::from_translation(-centre);
+        c.camera_to_world = Mat4::from_translation(Vec3::Y * lift * scene.bounds.diagonal())
+            * pivot
+            * c.camera_to_world;
         c
     };
     let mut v = vec![base, orbit(35.0, 0.1), orbit(-35.0, 0.2)];
@@ -32,7 +38,10 @@ fn views(scene: &Scene) -> Vec<Camera> {
 
 fn cross_check(name: &str, scene: &Scene) {
     let ctx = common::gpu();
-    assert!(ctx.features().ray_query, "the cross-check needs a device with ray queries (lavapipe has them)");
+    assert!(
+        ctx.features().ray_query,
+        "the cross-check needs a device with ray queries (lavapipe has them)"
+    );
     let hw = Renderer::new(&ctx, scene, Backend::Hw).unwrap();
     let bvh = Renderer::new(&ctx, scene, Backend::Bvh).unwrap();
     let settings = RenderSettings {
@@ -55,12 +64,24 @@ fn cross_check(name: &str, scene: &Scene) {
             if x.instance() >= 0 {
                 hits += 1;
                 let rel = (x.depth() - y.depth()).abs() / x.depth().max(1e-6);
-                assert!(rel <= 1e-5, "{name} view {v}: depth {} vs {} (rel {rel:e})", x.depth(), y.depth());
+                assert!(
+                    rel <= 1e-5,
+                    "{name} view {v}: depth {} vs {} (rel {rel:e})",
+                    x.depth(),
+                    y.depth()
+                );
             }
         }
-        assert!(hits > pixels / 20, "{name} view {v}: only {hits} pixels hit anything");
+        assert!(
+            hits > pixels / 20,
+            "{name} view {v}: only {hits} pixels hit anything"
+        );
         let agree = 1.0 - id_mismatch as f64 / pixels as f64;
-        assert!(agree >= 0.9999, "{name} view {v}: instance+primitive agree on {:.4} % ({id_mismatch} pixels differ)", agree * 100.0);
+        assert!(
+            agree >= 0.9999,
+            "{name} view {v}: instance+primitive agree on {:.4} % ({id_mismatch} pixels differ)",
+            agree * 100.0
+        );
         // Same hits → same shadow rays (trace_any) and the same secondary ray counts.
         assert_eq!(a.rays.shadow, b.rays.shadow, "{name} view {v}: shadow rays");
     }
@@ -74,15 +95,24 @@ fn builtin_scene_backends_agree() {
 
 #[test]
 fn instanced_scene_backends_agree() {
-    cross_check("SimpleInstancing", &asset("SimpleInstancing/SimpleInstancing.glb"));
+    cross_check(
+        "SimpleInstancing",
+        &asset("SimpleInstancing/SimpleInstancing.glb"),
+    );
 }
 
 #[test]
 fn alpha_mask_scene_backends_agree() {
-    cross_check("AlphaBlendModeTest", &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"));
+    cross_check(
+        "AlphaBlendModeTest",
+        &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
+    );
 }
 
 #[test]
 fn many_triangle_scene_backends_agree() {
-    cross_check("TransmissionRoughnessTest (78k triangles)", &asset("TransmissionRoughnessTest/TransmissionRoughnessTest.glb"));
+    cross_check(
+        "TransmissionRoughnessTest (78k triangles)",
+        &asset("TransmissionRoughnessTest/TransmissionRoughnessTest.glb"),
+    );
 }
