@@ -196,3 +196,40 @@ fn compare_writes_every_file_with_a_consistent_report() {
     let d = rqr::render::compare::compare(rt.width(), rt.height(), rt.as_raw(), rt.as_raw());
     assert_eq!(d.flip_mean, 0.0);
 }
+
+#[test]
+fn bench_reports_build_and_ray_throughput_per_backend() {
+    let out = rqr()
+        .args([
+            "bench",
+            "--all-backends",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--repeat",
+            "1",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let backends = j["backends"].as_array().unwrap();
+    assert!(!backends.is_empty());
+    for b in backends {
+        let primary = &b["primary"];
+        assert_eq!(primary["rays"], 32 * 24, "one primary ray per pixel");
+        // One bounce per primary hit.
+        assert_eq!(b["incoherent"]["rays"], primary["hits"]);
+        for kind in ["primary", "incoherent"] {
+            let m = b[kind]["mrays_per_s"].as_f64().unwrap();
+            assert!(m.is_finite() && m > 0.0, "{kind}: {m}");
+        }
+        assert!(b["build"].is_object());
+    }
+}

@@ -7,6 +7,7 @@ pub mod hybrid;
 pub mod label;
 pub mod optics;
 pub mod output;
+pub mod raybench;
 pub mod raytraced;
 pub mod sampling;
 pub mod tonemap;
