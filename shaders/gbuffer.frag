@@ -7,6 +7,9 @@
 #include "surface.glsl"
 
 layout(push_constant) uniform Push { uint instance; } pc;
+// Only alpha-MASK draws use the pipeline with the test: a shader that can discard disables
+// early depth testing (on lavapipe it then shades every overdrawn fragment).
+layout(constant_id = 0) const bool ALPHA_TEST = true;
 
 layout(location = 0) in vec3 in_bary;
 layout(location = 1) flat in uint in_prim;
@@ -21,7 +24,7 @@ layout(location = 6) out vec4 g_bary;       // barycentrics (b1, b2), motion vec
 
 void main() {
     vec2 bary = in_bary.yz;
-    if (!alpha_accepts(pc.instance, in_prim, bary)) {
+    if (ALPHA_TEST && !alpha_accepts(pc.instance, in_prim, bary)) {
         discard;
     }
     // The primary ray through this fragment's sample position (pixel centre + jitter).

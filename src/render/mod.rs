@@ -319,7 +319,13 @@ impl Renderer {
             };
             memory_barrier(ctx.device(), cmd);
             for (i, ((_, g, h), w)) in passes.iter().zip(&weights).enumerate() {
-                g.record(ctx, cmd, scene_draws, profiler.as_mut());
+                g.record(
+                    ctx,
+                    cmd,
+                    scene_draws,
+                    setup.camera_to_world.w_axis.truncate(),
+                    profiler.as_mut(),
+                );
                 let mut flags = 0;
                 if i == 0 {
                     flags |= hybrid::HYBRID_FIRST_SAMPLE;
