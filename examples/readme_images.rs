@@ -58,9 +58,9 @@ fn main() -> anyhow::Result<()> {
         label::side_by_side(size, size, &panels),
     )?;
 
-    // Sampling modes: a 32-pixel crop around the box's top edge, zoomed 5x.
+    // Sampling modes: a 32-pixel crop around the box top-right corner, zoomed 5x.
     let full = 384;
-    let (cx, cy, crop, zoom) = (112, 150, 32, 5);
+    let (cx, cy, crop, zoom) = (158, 172, 32, 5);
     let modes = [
         ("CENTER 1", SamplerKind::Center, 1),
         ("GRID 16", SamplerKind::Grid, 16),
