@@ -368,3 +368,14 @@ fn adaptive_sampling_refines_edges_only() {
     );
     common::assert_validation_clean(&ctx);
 }
+
+/// Alpha MASK (tested at mip 0 by the same alpha_accepts() in traversal and raster) and BLEND
+/// (a hit plus a straight continuation ray in both paths).
+#[test]
+fn hybrid_matches_ray_traced_with_alpha_mask_and_blend() {
+    assert_hybrid_matches_rt(
+        "AlphaBlendModeTest",
+        &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
+        128,
+    );
+}
