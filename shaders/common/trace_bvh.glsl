@@ -113,83 +113,116 @@ vec3 bvh_transform(BvhInstance inst, vec3 p, float w) {
     return vec3(dot(inst.world_to_object[0], q), dot(inst.world_to_object[1], q), dot(inst.world_to_object[2], q));
 }
 
-// Both queries: any_hit returns at the first accepted hit.
-Hit bvh_traverse(vec3 origin, vec3 dir, float tmin, float tmax, const bool any_hit) {
-    BvhNodeBuf nodes = BvhNodeBuf(bvh.nodes);
-    BvhTriangleBuf tris = BvhTriangleBuf(bvh.triangles);
-    BvhInstanceBuf insts = BvhInstanceBuf(bvh.instances);
+#ifdef BVH_STATS
+// Per-invocation traversal counters for benchmarks (compile with -DBVH_STATS).
+uint bvh_stat_nodes = 0u;
+uint bvh_stat_tris = 0u;
+uint bvh_stat_iters = 0u;
+#define BVH_COUNT(x) x++
+#else
+#define BVH_COUNT(x)
+#endif
 
+#define BVH_LINK_POP 0xFFFFFFFFu
+#define BVH_NO_BLAS 0xFFFFFFFFu
+
+// Both queries: any_hit returns at the first accepted hit.
+//
+// The loop is a two-stage pipeline so that SIMD lanes (a CPU Vulkan's vector lanes, a GPU's
+// subgroup) keep doing the same kind of work: every iteration, each lane tests at most one
+// pending triangle (the triangle unit) and advances its node walk by one step (the node unit).
+// A bottom-level leaf hands its triangle range to the triangle unit and the walk goes on; the
+// walk only waits when it reaches another leaf, an instance change or the end while triangles
+// are still pending (those belong to the current object-space ray).
+Hit bvh_traverse(vec3 origin, vec3 dir, float tmin, float tmax, const bool any_hit) {
     Hit best = miss_hit(tmax);
     BvhRay world = bvh_make_ray(origin, dir);
     BvhRay ray = world;
     uint stack[BVH_STACK_SIZE];
+    float tstack[BVH_STACK_SIZE]; // entry distance of each pushed child
     uint sp = 0u;
-    // Stack height when the current bottom level was entered; ~0 while in the top level.
-    uint blas_sp = 0xFFFFFFFFu;
+    // Stack height when the current bottom level was entered; BVH_NO_BLAS in the top level.
+    uint blas_sp = BVH_NO_BLAS;
     uint inst = 0u;
     uint inst_flags = 0u;
-    uint link = bvh.tlas_root;
+    uint link = bvh.tlas_root; // next node or leaf to visit; BVH_LINK_POP: take the stack top
+    uint tri = 0u;             // pending triangles [tri, tri_end) of the current leaf
+    uint tri_end = 0u;
 
     while (true) {
-        bool descend = false;
+        BVH_COUNT(bvh_stat_iters);
+        // Triangle unit.
+        if (tri < tri_end) {
+            BVH_COUNT(bvh_stat_tris);
+            BvhTriangle tv = bvh_load_triangle(tri);
+            float t;
+            vec2 bary;
+            if (bvh_intersect_triangle(ray, tv, tmin, best.t, t, bary)) {
+                if ((inst_flags & BVH_INSTANCE_ALPHA_TEST) == 0u || alpha_accepts(inst, tv.primitive, bary)) {
+                    best.t = t;
+                    best.instance = int(inst);
+                    best.primitive = int(tv.primitive);
+                    best.barycentrics = bary;
+                    if (any_hit) {
+                        return best;
+                    }
+                }
+            }
+            tri++;
+        }
+        // Node unit.
         if ((link & BVH_LINK_LEAF) == 0u) {
-            BvhNode n = nodes.v[link];
+            BVH_COUNT(bvh_stat_nodes);
+            BvhNode n = bvh_load_node(link);
             float t0, t1;
-            bool h0 = bvh_slab(ray, n.c0.bmin, n.c0.bmax, tmin, best.t, t0);
-            bool h1 = bvh_slab(ray, n.c1.bmin, n.c1.bmax, tmin, best.t, t1);
+            bool h0 = bvh_slab(ray, n.min0, n.max0, tmin, best.t, t0);
+            bool h1 = bvh_slab(ray, n.min1, n.max1, tmin, best.t, t1);
             if (h0 && h1) {
                 bool first0 = t0 <= t1;
                 // The stack bound is checked on the host (BvhError::TooDeep); the guard only
                 // keeps a corrupt BVH from writing out of bounds.
                 if (sp < BVH_STACK_SIZE) {
-                    stack[sp++] = first0 ? n.c1.link : n.c0.link;
+                    tstack[sp] = first0 ? t1 : t0;
+                    stack[sp++] = first0 ? n.link1 : n.link0;
                 }
-                link = first0 ? n.c0.link : n.c1.link;
-                descend = true;
-            } else if (h0 || h1) {
-                link = h0 ? n.c0.link : n.c1.link;
-                descend = true;
+                link = first0 ? n.link0 : n.link1;
+            } else {
+                link = h0 ? n.link0 : (h1 ? n.link1 : BVH_LINK_POP);
             }
-        } else if (blas_sp == 0xFFFFFFFFu) {
-            // Top-level leaf: enter the instance's bottom level in object space. t keeps its
-            // meaning because dir is transformed without renormalising.
-            inst = link & BVH_LINK_FIRST_MASK;
-            BvhInstance bi = insts.v[inst];
-            ray = bvh_make_ray(bvh_transform(bi, origin, 1.0), bvh_transform(bi, dir, 0.0));
-            inst_flags = bi.flags;
-            blas_sp = sp;
-            link = bi.blas_root;
-            descend = true;
-        } else {
-            uint first = link & BVH_LINK_FIRST_MASK;
-            uint end = first + ((link >> BVH_LINK_COUNT_SHIFT) & 15u) + 1u;
-            for (uint i = first; i < end; ++i) {
-                float t;
-                vec2 bary;
-                if (bvh_intersect_triangle(ray, tris.v[i], tmin, best.t, t, bary)) {
-                    uint prim = BvhPrimitiveBuf(bvh.primitives).v[i];
-                    if ((inst_flags & BVH_INSTANCE_ALPHA_TEST) == 0u || alpha_accepts(inst, prim, bary)) {
-                        best.t = t;
-                        best.instance = int(inst);
-                        best.primitive = int(prim);
-                        best.barycentrics = bary;
-                        if (any_hit) {
-                            return best;
-                        }
-                    }
-                }
+        } else if (link != BVH_LINK_POP) {
+            if (blas_sp == BVH_NO_BLAS) {
+                // Top-level leaf: enter the instance's bottom level in object space. t keeps
+                // its meaning because dir is transformed without renormalising.
+                inst = link & BVH_LINK_FIRST_MASK;
+                BvhInstance bi = bvh_load_instance(inst);
+                ray = bvh_make_ray(bvh_transform(bi, origin, 1.0), bvh_transform(bi, dir, 0.0));
+                inst_flags = bi.flags;
+                blas_sp = sp;
+                link = bi.blas_root;
+            } else if (tri >= tri_end) {
+                tri = link & BVH_LINK_FIRST_MASK;
+                tri_end = tri + ((link >> BVH_LINK_COUNT_SHIFT) & 15u) + 1u;
+                link = BVH_LINK_POP;
             }
         }
-        if (!descend) {
-            if (sp == blas_sp) {
+        if (link == BVH_LINK_POP) {
+            bool drained = tri >= tri_end;
+            if (sp == blas_sp && drained) {
                 // The bottom level is exhausted: back to the world-space ray.
                 ray = world;
-                blas_sp = 0xFFFFFFFFu;
+                blas_sp = BVH_NO_BLAS;
             }
-            if (sp == 0u) {
-                break;
+            if (sp != blas_sp) {
+                if (sp > 0u) {
+                    // Entries farther than the closest hit so far are dropped without a load.
+                    --sp;
+                    if (tstack[sp] <= best.t) {
+                        link = stack[sp];
+                    }
+                } else if (drained) {
+                    break;
+                }
             }
-            link = stack[--sp];
         }
     }
     return best;

@@ -12,7 +12,7 @@ use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 
 use super::cpu::world_to_object_rows;
 use super::layout::{
-    leaf_link, BvhChild, BvhInstance, BvhNode, BvhTriangle, BVH_INSTANCE_ALPHA_TEST,
+    leaf_link, BvhBox, BvhChild, BvhInstance, BvhNode, BvhTriangle, BVH_INSTANCE_ALPHA_TEST,
     BVH_STACK_SIZE, LINK_FIRST_MASK, MAX_LEAF_PRIMITIVES,
 };
 use super::{BvhBuildOptions, BvhData, BvhError, BvhStats, PlocSearch};
@@ -106,18 +106,15 @@ fn flatten(
             leaf(&bvh.primitive_indices[first..first + n.prim_count as usize])?
         };
         let c = BvhChild {
-            min,
+            bounds: BvhBox { min, max },
             link,
-            max,
             prim_count: counts[src],
         };
         Ok((c, inner))
     };
     if bvh.nodes[0].is_leaf() {
         let (c, _) = child(0)?;
-        nodes.push(BvhNode {
-            children: [c, BvhChild::EMPTY],
-        });
+        nodes.push(BvhNode::from_children([c, BvhChild::EMPTY]));
         return Ok((root_index, 1));
     }
     // Depth-first pre-order: a node is followed by its first subtree, so the path a coherent
@@ -129,12 +126,12 @@ fn flatten(
         max_depth = max_depth.max(depth);
         let index = nodes.len();
         if let Some((p, k)) = parent {
-            nodes[p].children[k].link = node_index(index)?;
+            nodes[p].links[k] = node_index(index)?;
         }
         let first = bvh.nodes[src].first_index as usize;
         let (c0, inner0) = child(first)?;
         let (c1, inner1) = child(first + 1)?;
-        nodes.push(BvhNode { children: [c0, c1] });
+        nodes.push(BvhNode::from_children([c0, c1]));
         if inner1 {
             stack.push((first + 1, Some((index, 1)), depth + 1));
         }
@@ -145,10 +142,9 @@ fn flatten(
     Ok((root_index, max_depth))
 }
 
-/// One geometry's usable triangles: exact vertex copies and original primitive indices.
+/// One geometry's usable triangles: exact vertex copies with their original primitive index.
 struct GeometryTris {
     tris: Vec<BvhTriangle>,
-    prims: Vec<u32>,
     aabbs: Vec<ObAabb>,
     bounds: ObAabb,
 }
@@ -164,7 +160,6 @@ fn gather_geometry(scene: &Scene, g: usize) -> Result<GeometryTris, BvhError> {
     let n = geom.indices.len() / 3;
     let mut out = GeometryTris {
         tris: Vec::with_capacity(n),
-        prims: Vec::with_capacity(n),
         aabbs: Vec::with_capacity(n),
         bounds: ObAabb::empty(),
     };
@@ -192,8 +187,8 @@ fn gather_geometry(scene: &Scene, g: usize) -> Result<GeometryTris, BvhError> {
             v0: v[0].to_array(),
             v1: v[1].to_array(),
             v2: v[2].to_array(),
+            primitive: prim as u32,
         });
-        out.prims.push(prim as u32);
     }
     Ok(out)
 }
@@ -235,7 +230,6 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
     let t_blas = Instant::now();
     let mut blas_nodes: Vec<BvhNode> = Vec::new();
     let mut triangles: Vec<BvhTriangle> = Vec::new();
-    let mut primitives: Vec<u32> = Vec::new();
     // Per geometry: (root node index relative to blas_nodes, object bounds).
     let mut blas: Vec<Option<(u32, ObAabb)>> = vec![None; scene.geometries.len()];
     let mut alpha = vec![false; scene.geometries.len()];
@@ -266,7 +260,6 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
             let first = triangles.len() as u32;
             for &p in prims {
                 triangles.push(gt.tris[p as usize]);
-                primitives.push(gt.prims[p as usize]);
             }
             leaf_link(first, prims.len() as u32).ok_or_else(|| BvhError::too_many("triangles"))
         })?;
@@ -304,9 +297,7 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
     }
     let mut nodes: Vec<BvhNode> = Vec::new();
     if inst_aabbs.is_empty() {
-        nodes.push(BvhNode {
-            children: [BvhChild::EMPTY; 2],
-        });
+        nodes.push(BvhNode::from_children([BvhChild::EMPTY; 2]));
         stats.tlas_depth = 1;
     } else {
         let tlas = build_bvh2(&inst_aabbs, opts, 1);
@@ -331,9 +322,9 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
         return Err(BvhError::too_many("nodes"));
     }
     for mut n in blas_nodes {
-        for c in &mut n.children {
-            if !c.is_empty() && super::layout::decode_link(c.link).is_ok() {
-                c.link += offset;
+        for k in 0..2 {
+            if n.prim_counts[k] != 0 && super::layout::decode_link(n.links[k]).is_ok() {
+                n.links[k] += offset;
             }
         }
         nodes.push(n);
@@ -371,7 +362,6 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
     let mut data = BvhData {
         nodes,
         triangles,
-        primitives,
         instances,
         stats,
     };

@@ -4,7 +4,7 @@
 
 use glam::{Mat4, Vec2, Vec3};
 
-use super::layout::{decode_link, BvhChild, BVH_INSTANCE_ALPHA_TEST};
+use super::layout::{decode_link, BvhBox, BvhChild, BVH_INSTANCE_ALPHA_TEST};
 use super::{BvhData, TLAS_ROOT};
 use crate::scene::{AlphaMode, Scene};
 
@@ -93,14 +93,14 @@ impl RayPre {
     /// Slab test of a child box: `Some(t_entry)` when `[t_entry, t_exit]` overlaps
     /// `[tmin, tmax]`. Near and far planes are picked by the sign of `inv_dir`, so an inverted
     /// (empty) box never hits.
-    pub fn slab(&self, child: &BvhChild, tmin: f32, tmax: f32) -> Option<f32> {
+    pub fn slab(&self, bounds: &BvhBox, tmin: f32, tmax: f32) -> Option<f32> {
         let mut entry = tmin;
         let mut exit = tmax;
         for a in 0..3 {
             let (near, far) = if self.inv_dir[a] < 0.0 {
-                (child.max[a], child.min[a])
+                (bounds.max[a], bounds.min[a])
             } else {
-                (child.min[a], child.max[a])
+                (bounds.min[a], bounds.max[a])
             };
             entry = entry.max(near.mul_add(self.inv_dir[a], self.o_times_inv[a]));
             exit = exit.min(far.mul_add(self.inv_dir[a], self.o_times_inv[a]));
@@ -249,7 +249,7 @@ impl BvhData {
         // (node, instance whose bottom level this is, or None in the top level)
         let mut stack: Vec<(u32, Option<u32>)> = vec![(TLAS_ROOT, None)];
         while let Some((node, inst)) = stack.pop() {
-            for child in &self.nodes[node as usize].children {
+            for child in &self.nodes[node as usize].children() {
                 if child.is_empty() {
                     continue;
                 }
@@ -258,9 +258,9 @@ impl BvhData {
                     (Err((i, _)), None) => {
                         stack.push((self.instances[i as usize].blas_root, Some(i)))
                     }
-                    (Err((first, count)), Some(i)) => {
-                        out.extend((first..first + count).map(|t| (i, self.primitives[t as usize])))
-                    }
+                    (Err((first, count)), Some(i)) => out.extend(
+                        (first..first + count).map(|t| (i, self.triangles[t as usize].primitive)),
+                    ),
                 }
             }
         }
@@ -281,10 +281,10 @@ impl BvhData {
         let mut stack: Vec<(u32, RayPre, Option<u32>)> = vec![(TLAS_ROOT, world, None)];
         while let Some((node, pre, inst)) = stack.pop() {
             let n = &self.nodes[node as usize];
-            let mut hits: Vec<(f32, &BvhChild)> = n
-                .children
-                .iter()
-                .filter_map(|c| pre.slab(c, ray.tmin, tmax).map(|t| (t, c)))
+            let mut hits: Vec<(f32, BvhChild)> = n
+                .children()
+                .into_iter()
+                .filter_map(|c| pre.slab(&c.bounds, ray.tmin, tmax).map(|t| (t, c)))
                 .collect();
             // Farther child pushed first so the nearer one is popped next.
             hits.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -313,7 +313,7 @@ impl BvhData {
                             ) else {
                                 continue;
                             };
-                            let prim = self.primitives[tri as usize];
+                            let prim = tr.primitive;
                             if on_hit(i, prim, t, Vec2::new(b1, b2), alpha_test) {
                                 if any {
                                     return;

@@ -4,9 +4,10 @@
 //!
 //! # Node layout (64 bytes)
 //!
-//! A [`BvhNode`] is an inner node of a binary BVH that stores the boxes of **both** children, so
-//! one node fetch lets traversal slab-test two boxes and descend into the nearer one first. A
-//! child is addressed by a 32-bit [`BvhChild::link`]:
+//! A [`BvhNode`] is an inner node of a binary BVH that stores the boxes of **both** children
+//! (`min0 max0 min1 max1`, 48 bytes), then their links (8 bytes) and primitive counts (8 bytes),
+//! so one node fetch lets traversal slab-test two boxes and descend into the nearer one first.
+//! A child is addressed by a 32-bit link:
 //!
 //! | bit 31 | bits 27..=30 | bits 0..=26 |
 //! |---|---|---|
@@ -57,27 +58,42 @@ pub fn decode_link(link: u32) -> Result<u32, (u32, u32)> {
     }
 }
 
-/// One child of a [`BvhNode`]: its box and where it leads (32 bytes).
+/// An axis-aligned box of a node's child (24 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct BvhChild {
-    /// Box minimum corner (conservatively padded, see the module docs).
+pub struct BvhBox {
+    /// Minimum corner (conservatively padded, see the builder).
     pub min: [f32; 3],
+    /// Maximum corner.
+    pub max: [f32; 3],
+}
+
+impl BvhBox {
+    /// The inverted box of an absent child: no ray hits it.
+    pub const EMPTY: Self = Self {
+        min: [f32::INFINITY; 3],
+        max: [f32::NEG_INFINITY; 3],
+    };
+}
+
+/// One child of a node as the builder and the CPU traversal see it (not a GPU record: the
+/// node stores its two children's fields interleaved, see [`BvhNode`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhChild {
+    /// The child's box.
+    pub bounds: BvhBox,
     /// Inner node index or packed leaf (see [`decode_link`]).
     pub link: u32,
-    /// Box maximum corner.
-    pub max: [f32; 3],
-    /// Number of triangles (bottom level) or instances (top level) below this child; only
-    /// statistics and tests read it.
+    /// Triangles (bottom level) or instances (top level) below this child; 0 for an absent
+    /// child.
     pub prim_count: u32,
 }
 
 impl BvhChild {
     /// The absent child: an inverted box no ray hits.
     pub const EMPTY: Self = Self {
-        min: [f32::INFINITY; 3],
+        bounds: BvhBox::EMPTY,
         link: LINK_EMPTY,
-        max: [f32::NEG_INFINITY; 3],
         prim_count: 0,
     };
 
@@ -87,17 +103,49 @@ impl BvhChild {
     }
 }
 
-/// An inner node: both children's boxes and links (64 bytes, one cache line).
+/// An inner node: both children's boxes and links (64 bytes, one cache line). Traversal
+/// reads only the first 56 bytes (boxes and links, as seven 64-bit loads); `prim_counts`
+/// serve statistics and tests.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct BvhNode {
-    /// The two children.
-    pub children: [BvhChild; 2],
+    /// Boxes of child 0 and child 1.
+    pub boxes: [BvhBox; 2],
+    /// Links of child 0 and child 1.
+    pub links: [u32; 2],
+    /// Primitives below each child (0: absent child).
+    pub prim_counts: [u32; 2],
+}
+
+impl BvhNode {
+    /// A node from its two children.
+    pub fn from_children(c: [BvhChild; 2]) -> Self {
+        Self {
+            boxes: [c[0].bounds, c[1].bounds],
+            links: [c[0].link, c[1].link],
+            prim_counts: [c[0].prim_count, c[1].prim_count],
+        }
+    }
+
+    /// Child `k` (0 or 1).
+    pub fn child(&self, k: usize) -> BvhChild {
+        BvhChild {
+            bounds: self.boxes[k],
+            link: self.links[k],
+            prim_count: self.prim_counts[k],
+        }
+    }
+
+    /// Both children.
+    pub fn children(&self) -> [BvhChild; 2] {
+        [self.child(0), self.child(1)]
+    }
 }
 
 /// A triangle in leaf order: its three object-space vertices, copied bit-exactly from the
 /// geometry so that triangles sharing an edge see identical vertex values (watertightness
-/// depends on it; an edge-vector form `v0, v1 - v0` would not be exact).
+/// depends on it; an edge-vector form `v0, v1 - v0` would not be exact), and its index in the
+/// geometry's original index order (40 bytes: five 64-bit loads).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct BvhTriangle {
@@ -107,6 +155,8 @@ pub struct BvhTriangle {
     pub v1: [f32; 3],
     /// Vertex 2.
     pub v2: [f32; 3],
+    /// Triangle index within the geometry (original index order).
+    pub primitive: u32,
 }
 
 /// Per scene instance: what traversal needs to enter its bottom level (64 bytes).
@@ -133,8 +183,6 @@ pub struct GpuBvhRefs {
     pub nodes: u64,
     /// `BvhTriangle[]` in leaf order, every bottom level one after the other.
     pub triangles: u64,
-    /// `uint[]` parallel to `triangles`: the triangle's index in its geometry's index list.
-    pub primitives: u64,
     /// `BvhInstance[]`, one per scene instance.
     pub instances: u64,
     /// Number of nodes.
@@ -148,11 +196,10 @@ pub struct GpuBvhRefs {
 }
 
 const _: () = {
-    assert!(std::mem::size_of::<BvhChild>() == 32);
     assert!(std::mem::size_of::<BvhNode>() == 64);
-    assert!(std::mem::size_of::<BvhTriangle>() == 36);
+    assert!(std::mem::size_of::<BvhTriangle>() == 40);
     assert!(std::mem::size_of::<BvhInstance>() == 64);
-    assert!(std::mem::size_of::<GpuBvhRefs>() == 48);
+    assert!(std::mem::size_of::<GpuBvhRefs>() == 40);
 };
 
 #[cfg(test)]

@@ -11,11 +11,12 @@ use super::*;
 use crate::scene::Instance;
 
 fn contains(outer: &BvhChild, p: Vec3) -> bool {
-    (0..3).all(|a| outer.min[a] <= p[a] && p[a] <= outer.max[a])
+    let b = &outer.bounds;
+    (0..3).all(|a| b.min[a] <= p[a] && p[a] <= b.max[a])
 }
 
 fn box_inside(outer: &BvhChild, inner: &BvhChild) -> bool {
-    contains(outer, inner.min.into()) && contains(outer, inner.max.into())
+    contains(outer, inner.bounds.min.into()) && contains(outer, inner.bounds.max.into())
 }
 
 /// Checks every structural invariant; returns the number of leaves visited.
@@ -52,9 +53,9 @@ fn check_invariants(scene: &Scene, data: &BvhData, max_leaf: u32) -> usize {
     let mut stack: Vec<(u32, Option<u32>, Option<BvhChild>)> = vec![(TLAS_ROOT, None, None)];
     while let Some((node, inst, parent)) = stack.pop() {
         let n = &data.nodes[node as usize];
-        for c in &n.children {
+        for c in &n.children() {
             if c.is_empty() {
-                assert_eq!(c.min, [f32::INFINITY; 3]);
+                assert_eq!(c.bounds.min, [f32::INFINITY; 3]);
                 continue;
             }
             if let Some(p) = &parent {
@@ -64,11 +65,7 @@ fn check_invariants(scene: &Scene, data: &BvhData, max_leaf: u32) -> usize {
                 (Ok(next), _) => {
                     assert!((next as usize) < data.nodes.len());
                     assert!(next > node, "pre-order: children after parents");
-                    let below: u32 = data.nodes[next as usize]
-                        .children
-                        .iter()
-                        .map(|g| g.prim_count)
-                        .sum();
+                    let below: u32 = data.nodes[next as usize].prim_counts.iter().sum();
                     assert_eq!(below, c.prim_count);
                     stack.push((next, inst, Some(*c)));
                 }
@@ -100,7 +97,6 @@ fn check_invariants(scene: &Scene, data: &BvhData, max_leaf: u32) -> usize {
         }
     }
     assert_eq!(data.stats.node_count, data.nodes.len());
-    assert_eq!(data.primitives.len(), data.triangles.len());
     assert!(data.stats.max_depth <= layout::BVH_STACK_SIZE);
     assert!(data.byte_size() <= BvhData::estimate_bytes(scene));
     leaves
