@@ -19,7 +19,9 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
-pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use frame::{
+    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SamplerKind, Tonemap,
+};
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]
@@ -174,7 +176,7 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .validate(ctx.info().max_image_dimension_2d)
+            .check_device(ctx.info(), RenderPath::RayTraced, ctx.allocated_bytes())
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
         let frame = GpuFrame::new(settings, &setup, self.scene_scale);
@@ -233,7 +235,7 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .validate(ctx.info().max_image_dimension_2d)
+            .check_device(ctx.info(), RenderPath::Hybrid, ctx.allocated_bytes())
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let positions: Vec<[f32; 2]> = (0..settings.spp)
             .map(|s| sampling::pixel_independent_sample(settings.sampler, s, settings.spp, settings.seed))
