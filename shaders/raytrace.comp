@@ -1,4 +1,4 @@
-// variants: hw
+// variants: hw bvh
 #version 460
 // Pure ray-traced path: one thread per pixel, all of its samples; Whitted trace/shade.
 // Bindings: 0-2 scene/textures/ray backend, 3 frame, 4 colour out, 5 AOVs, 6 ray counters,
@@ -42,44 +42,15 @@ vec3 radiance_at(vec2 film, inout PrimaryInfo info) {
 // colours differ by more than the threshold is subdivided: 3 new rays give the quadrant's other
 // corners and centre, recursively up to adaptive_depth levels; every leaf quadrant contributes
 // its area times the mean of its two samples.
+//
+// Written as a state machine around ONE radiance_at() call site: lavapipe's LLVM JIT time grows
+// with every inlined copy of the Whitted loop, so the shader traces from a single place.
 struct Quad { vec2 a; vec3 ca; vec2 m; vec3 cm; float area; uint depth; };
 #define QUAD_STACK 24
 
 float differ(vec3 x, vec3 y) {
     vec3 d = abs(min(x, vec3(1.0)) - min(y, vec3(1.0)));
     return max(d.x, max(d.y, d.z));
-}
-
-vec3 adaptive_pixel(uvec2 pix, inout PrimaryInfo info, inout uint samples) {
-    uint stride = frame.width + 1u;
-    vec2 base = vec2(pix);
-    vec2 centre = base + 0.5;
-    vec3 cc = radiance_at(centre, info);
-    samples += 1u;
-    Quad stack[QUAD_STACK];
-    int sp = 0;
-    for (uint k = 0u; k < 4u; ++k) {
-        uvec2 corner = pix + uvec2(k & 1u, k >> 1u);
-        stack[sp++] = Quad(vec2(corner), corners[corner.y * stride + corner.x].rgb, centre, cc, 0.25, 0u);
-    }
-    vec3 sum = vec3(0.0);
-    PrimaryInfo scratch = no_info();
-    while (sp > 0) {
-        Quad q = stack[--sp];
-        if (q.depth >= frame.adaptive_depth || differ(q.ca, q.cm) <= frame.adaptive_threshold || sp + 4 > QUAD_STACK) {
-            sum += q.area * 0.5 * (q.ca + q.cm);
-            continue;
-        }
-        vec2 b1 = vec2(q.a.x, q.m.y), b2 = vec2(q.m.x, q.a.y), mid = 0.5 * (q.a + q.m);
-        vec3 c1 = radiance_at(b1, scratch), c2 = radiance_at(b2, scratch), cmid = radiance_at(mid, scratch);
-        samples += 3u;
-        float a = q.area * 0.25;
-        stack[sp++] = Quad(q.a, q.ca, mid, cmid, a, q.depth + 1u);
-        stack[sp++] = Quad(b1, c1, mid, cmid, a, q.depth + 1u);
-        stack[sp++] = Quad(b2, c2, mid, cmid, a, q.depth + 1u);
-        stack[sp++] = Quad(q.m, q.cm, mid, cmid, a, q.depth + 1u);
-    }
-    return sum;
 }
 
 void flush_counters(uint samples) {
@@ -91,27 +62,60 @@ void flush_counters(uint samples) {
 
 void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;
-    if ((pc.flags & FLAG_ADAPTIVE_CORNERS) != 0u) {
-        if (pix.x > frame.width || pix.y > frame.height) return;
-        PrimaryInfo info = no_info();
-        corners[pix.y * (frame.width + 1u) + pix.x] = vec4(radiance_at(vec2(pix), info), 1.0);
-        flush_counters(1u);
-        return;
-    }
-    if (pix.x >= frame.width || pix.y >= frame.height) return;
-    uint index = pix.y * frame.width + pix.x;
+    bool corner_pass = (pc.flags & FLAG_ADAPTIVE_CORNERS) != 0u;
+    uvec2 extent = corner_pass ? uvec2(frame.width + 1u, frame.height + 1u) : uvec2(frame.width, frame.height);
+    if (pix.x >= extent.x || pix.y >= extent.y) return;
+    bool adaptive = !corner_pass && frame.sampler_kind == SAMPLER_ADAPTIVE;
+    uint stride = frame.width + 1u;
+
     PrimaryInfo info = no_info();
     vec3 sum = vec3(0.0);
     float weight_sum = 0.0;
     uint samples = 0u;
-    if (frame.sampler_kind == SAMPLER_ADAPTIVE) {
-        sum = adaptive_pixel(pix, info, samples);
-        weight_sum = 1.0;
-    } else {
-        for (uint s = 0u; s < frame.spp; ++s) {
-            vec2 u = sample_2d(frame.sampler_kind, pix, s, frame.spp, frame.seed);
-            vec2 film;
-            float w = 1.0;
+
+    // Adaptive state.
+    Quad stack[QUAD_STACK];
+    int sp = 0;
+    bool subdividing = false;
+    Quad current;
+    vec2 pending_pos[3];
+    vec3 pending_col[3];
+    uint pending = 0u;
+
+    for (uint job = 0u; ; ++job) {
+        vec2 film;
+        float w = 1.0;
+        if (corner_pass) {
+            if (job > 0u) break;
+            film = vec2(pix);
+        } else if (adaptive) {
+            if (job == 0u) {
+                film = vec2(pix) + 0.5;
+            } else if (subdividing) {
+                film = pending_pos[pending];
+            } else {
+                // Retire leaf quadrants until one needs subdividing.
+                bool found = false;
+                while (sp > 0 && !found) {
+                    Quad q = stack[--sp];
+                    if (q.depth >= frame.adaptive_depth || differ(q.ca, q.cm) <= frame.adaptive_threshold || sp + 4 > QUAD_STACK) {
+                        sum += q.area * 0.5 * (q.ca + q.cm);
+                    } else {
+                        current = q;
+                        found = true;
+                    }
+                }
+                if (!found) break;
+                subdividing = true;
+                pending = 0u;
+                pending_pos[0] = vec2(current.a.x, current.m.y);
+                pending_pos[1] = vec2(current.m.x, current.a.y);
+                pending_pos[2] = 0.5 * (current.a + current.m);
+                film = pending_pos[0];
+            }
+        } else {
+            if (job >= frame.spp) break;
+            vec2 u = sample_2d(frame.sampler_kind, pix, job, frame.spp, frame.seed);
             if (frame.filter_kind == FILTER_TENT) {
                 // Tent of radius one pixel around the centre: positions span [-1, 1), weighted.
                 vec2 o = u * 2.0 - 1.0;
@@ -120,21 +124,51 @@ void main() {
             } else {
                 film = vec2(pix) + u;
             }
-            PrimaryInfo sample_info = no_info();
-            vec3 c = radiance_at(film, sample_info);
-            if (s == 0u) info = sample_info;
+        }
+
+        PrimaryInfo sample_info = no_info();
+        vec3 c = radiance_at(film, sample_info);
+        samples += 1u;
+        if (job == 0u) info = sample_info;
+
+        if (corner_pass) {
+            corners[pix.y * stride + pix.x] = vec4(c, 1.0);
+        } else if (adaptive) {
+            if (job == 0u) {
+                for (uint k = 0u; k < 4u; ++k) {
+                    uvec2 corner = pix + uvec2(k & 1u, k >> 1u);
+                    stack[sp++] = Quad(vec2(corner), corners[corner.y * stride + corner.x].rgb, film, c, 0.25, 0u);
+                }
+            } else {
+                pending_col[pending++] = c;
+                if (pending == 3u) {
+                    vec2 mid = pending_pos[2];
+                    vec3 cmid = pending_col[2];
+                    float a = current.area * 0.25;
+                    uint d = current.depth + 1u;
+                    stack[sp++] = Quad(current.a, current.ca, mid, cmid, a, d);
+                    stack[sp++] = Quad(pending_pos[0], pending_col[0], mid, cmid, a, d);
+                    stack[sp++] = Quad(pending_pos[1], pending_col[1], mid, cmid, a, d);
+                    stack[sp++] = Quad(current.m, current.cm, mid, cmid, a, d);
+                    subdividing = false;
+                }
+            }
+        } else {
             sum += w * c;
             weight_sum += w;
-            samples += 1u;
         }
     }
-    color_out[index] = vec4(weight_sum > 0.0 ? sum / weight_sum : vec3(0.0), 1.0);
-    if ((pc.flags & FLAG_WRITE_AOV) != 0u) {
-        Aov a;
-        a.normal_depth = vec4(info.normal, info.hit ? info.t : 0.0);
-        a.position_inst = vec4(info.position, float(info.hit ? info.instance : -1));
-        a.bary_prim = vec4(info.bary, float(info.hit ? info.primitive : -1), float(samples));
-        aov_out[index] = a;
+
+    if (!corner_pass) {
+        uint index = pix.y * frame.width + pix.x;
+        color_out[index] = vec4(adaptive ? sum : (weight_sum > 0.0 ? sum / weight_sum : vec3(0.0)), 1.0);
+        if ((pc.flags & FLAG_WRITE_AOV) != 0u) {
+            Aov a;
+            a.normal_depth = vec4(info.normal, info.hit ? info.t : 0.0);
+            a.position_inst = vec4(info.position, float(info.hit ? info.instance : -1));
+            a.bary_prim = vec4(info.bary, float(info.hit ? info.primitive : -1), float(samples));
+            aov_out[index] = a;
+        }
     }
     flush_counters(samples);
 }

@@ -36,7 +36,9 @@ float srgb(float x) {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
-    vec3 c = max(color_in[i].rgb, vec3(0.0)) * pc.scale;
+    // Colour buffers may hold (weighted sum, weight sum) from accumulation: resolve first.
+    vec4 v = color_in[i];
+    vec3 c = max(v.a > 0.0 ? v.rgb / v.a : v.rgb, vec3(0.0)) * pc.scale;
     if (pc.op == 1u) c = aces(c);
     else if (pc.op == 2u) c = khronos_neutral(c);
     uvec3 b = uvec3(round(vec3(srgb(c.r), srgb(c.g), srgb(c.b)) * 255.0));

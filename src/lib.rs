@@ -3,7 +3,8 @@
 //! `VK_KHR_ray_query` where the device has them, otherwise through rqr's own BVH traversed in
 //! compute shaders.
 //!
-//! Modules: [`vk`] (Vulkan plumbing), [`accel`] (ray backends), [`shaders`] (embedded SPIR-V).
+//! Modules: [`vk`] (Vulkan plumbing), [`accel`] (ray backends), [`scene`] (glTF loading and
+//! texture upload), [`shaders`] (embedded SPIR-V).
 
 pub mod accel;
 pub mod render;
@@ -27,6 +28,9 @@ pub enum Error {
     /// The requested ray backend is unavailable.
     #[error(transparent)]
     Backend(#[from] accel::BackendUnavailable),
+    /// A scene file could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] scene::SceneError),
     /// Building or uploading the compute BVH failed.
     #[error(transparent)]
     Bvh(#[from] accel::bvh::BvhError),

@@ -151,7 +151,7 @@ enum Which {
 
 /// Traces `rays` through `bvh_trace.comp` with the chosen backend.
 fn trace_gpu(ctx: &Context, scene: &Scene, rays: &[Ray], which: Which) -> Vec<TestHit> {
-    let gpu_scene = GpuScene::upload(ctx, scene).unwrap();
+    let gpu_scene = GpuScene::upload(ctx, scene, 0).unwrap();
     let input: Vec<TestRay> = rays
         .iter()
         .map(|r| TestRay {

@@ -4,17 +4,6 @@
 #ifndef RQR_FRAME_GLSL
 #define RQR_FRAME_GLSL
 
-#define SAMPLER_CENTER 0u
-#define SAMPLER_GRID 1u
-#define SAMPLER_JITTER 2u
-#define SAMPLER_HALTON 3u
-#define SAMPLER_SOBOL 4u
-#define SAMPLER_BLUENOISE 5u
-#define SAMPLER_ADAPTIVE 6u
-
-#define FILTER_BOX 0u
-#define FILTER_TENT 1u
-
 #define FLAG_NO_SPECULAR 1u
 #define FLAG_SKY 2u
 #define FLAG_WRITE_AOV 4u
@@ -25,6 +14,9 @@ layout(set = 0, binding = 3, scalar) uniform Frame {
     mat4 view;
     mat4 proj;
     mat4 view_proj;
+    mat4 prev_view_proj;
+    vec2 jitter;
+    vec2 pad1;
     vec3 camera_pos;
     float tan_half_fov_y;
     float aspect;

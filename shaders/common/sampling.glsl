@@ -2,6 +2,18 @@
 #ifndef RQR_SAMPLING_GLSL
 #define RQR_SAMPLING_GLSL
 
+#define SAMPLER_CENTER 0u
+#define SAMPLER_GRID 1u
+#define SAMPLER_JITTER 2u
+#define SAMPLER_HALTON 3u
+#define SAMPLER_SOBOL 4u
+#define SAMPLER_BLUENOISE 5u
+#define SAMPLER_ADAPTIVE 6u
+
+#define FILTER_BOX 0u
+#define FILTER_TENT 1u
+
+
 uint hash_u32(uint x) {
     // lowbias32 (Chris Wellons): a well-mixed 32-bit integer hash.
     x ^= x >> 16; x *= 0x7feb352du;
@@ -55,21 +67,21 @@ vec2 sobol_owen(uint index, uint seed) {
 float ign(vec2 pixel) { return fract(52.9829189 * fract(dot(pixel, vec2(0.06711056, 0.00583715)))); }
 
 // Sample `s` of `n` for pixel `pixel` in [0,1)^2 (the filter maps it to the footprint).
+// center/grid/halton/sobol place sample s at the same offset in every pixel, so a raster pass
+// jittered by that offset sees exactly the same positions (the hybrid path relies on it); jitter
+// and bluenoise vary per pixel (ray-traced path only).
 vec2 sample_2d(uint kind, uvec2 pixel, uint s, uint n, uint seed) {
-    uint pix_seed = hash_u32(pixel.x * 73856093u ^ pixel.y * 19349663u ^ seed);
     uint k = max(1u, uint(round(sqrt(float(n)))));
     if (kind == SAMPLER_GRID) {
         return (vec2(s % k, s / k) + 0.5) / float(k);
     } else if (kind == SAMPLER_JITTER) {
+        uint pix_seed = hash_u32(pixel.x * 73856093u ^ pixel.y * 19349663u ^ seed);
         vec2 j = vec2(u32_to_unit(hash_u32(pix_seed ^ (2u * s))), u32_to_unit(hash_u32(pix_seed ^ (2u * s + 1u))));
         return (vec2(s % k, s / k) + j) / float(k);
     } else if (kind == SAMPLER_HALTON) {
-        // Halton (2,3) with a per-pixel Cranley-Patterson rotation so pixels decorrelate.
-        vec2 h = vec2(radical_inverse(2u, s + 1u), radical_inverse(3u, s + 1u));
-        vec2 shift = vec2(u32_to_unit(hash_u32(pix_seed)), u32_to_unit(hash_u32(pix_seed + 1u)));
-        return fract(h + shift);
+        return vec2(radical_inverse(2u, s + 1u), radical_inverse(3u, s + 1u));
     } else if (kind == SAMPLER_SOBOL) {
-        return sobol_owen(s, pix_seed);
+        return sobol_owen(s, seed);
     } else if (kind == SAMPLER_BLUENOISE) {
         vec2 r2 = fract(vec2(s) * vec2(0.7548776662466927, 0.5698402909980532));
         return fract(r2 + vec2(ign(vec2(pixel)), ign(vec2(pixel) + vec2(5.588238, 5.588238))));

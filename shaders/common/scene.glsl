@@ -149,7 +149,7 @@ float surface_alpha(GpuMaterial m, uint instance, uint prim, vec2 bary) {
     if ((g.flags & GEOMETRY_HAS_COLORS) != 0u) {
         alpha *= w.x * scene_vertex(tri.x).color.a + w.y * scene_vertex(tri.y).color.a + w.z * scene_vertex(tri.z).color.a;
     }
-    if (m.base_color_texture.texture >= 0) {
+    if (m.base_color_texture.texture >= 0 && uint(m.base_color_texture.texture) < scene.texture_count) {
         GpuVertex a = scene_vertex(tri.x), b = scene_vertex(tri.y), c = scene_vertex(tri.z);
         vec2 uv0 = w.x * a.uv0 + w.y * b.uv0 + w.z * c.uv0;
         vec2 uv1 = w.x * a.uv1 + w.y * b.uv1 + w.z * c.uv1;

@@ -10,6 +10,9 @@
 // frame.min_weight. Alpha BLEND continues the ray straight through with weight (1 - alpha).
 #ifndef RQR_SHADE_GLSL
 #define RQR_SHADE_GLSL
+#include "surface.glsl"
+
+float eps_offset() { return frame.epsilon; }
 
 #define RAY_PRIMARY 0u
 #define RAY_SHADOW 1u
@@ -17,142 +20,9 @@
 #define RAY_REFRACTION 3u
 
 #define STACK_SIZE 20
-#define BIG_FLOAT 3.0e38
 
 // Rays traced by this invocation, by kind; flushed once with atomics at the end.
 uint rays_by_kind[4] = uint[4](0u, 0u, 0u, 0u);
-
-struct Surface {
-    vec3 position;
-    vec3 ng;          // geometric normal, facing the incoming ray
-    vec3 n;           // shading normal (normal-mapped), same side as ng
-    vec3 ng_front;    // geometric normal of the glTF front face (unflipped)
-    bool front_face;
-    vec3 base_color;
-    float alpha;
-    float metallic;
-    float roughness;
-    vec3 emissive;
-    float occlusion;
-    float transmission;
-    float ior;
-    vec3 atten_color;
-    float atten_dist;
-    uint alpha_mode;
-    uint material;
-};
-
-float eps_offset() { return frame.epsilon; }
-
-vec4 sample_slot(GpuTextureSlot slot, vec2 uv0, vec2 uv1, float lod_base) {
-    ivec2 size = textureSize(textures[nonuniformEXT(slot.texture)], 0);
-    float lod = lod_base + 0.5 * log2(float(size.x) * float(size.y));
-    return textureLod(textures[nonuniformEXT(slot.texture)], texture_uv(slot, uv0, uv1), max(lod, 0.0));
-}
-
-// Shades the material of triangle (instance, prim) at barycentrics `bary`.
-// `cone_width` is the ray cone's width at the hit (texture LOD, Akenine-Moller et al. 2019);
-// pass a negative width to sample mip 0. `dir` is the unit ray direction.
-Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_width) {
-    GpuInstance inst = scene_instance(instance);
-    GpuGeometry g = scene_geometry(inst.geometry);
-    GpuMaterial m = scene_material(g.material);
-    uvec3 tri = scene_triangle(g, prim);
-    vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
-    vec3 p0 = scene_position(tri.x), p1 = scene_position(tri.y), p2 = scene_position(tri.z);
-    GpuVertex a = scene_vertex(tri.x), b = scene_vertex(tri.y), c = scene_vertex(tri.z);
-
-    Surface s;
-    s.material = g.material;
-    mat3 n2w = mat3(inst.normal_to_world);
-    s.position = (inst.object_to_world * vec4(w.x * p0 + w.y * p1 + w.z * p2, 1.0)).xyz;
-    vec3 ng_obj = cross(p1 - p0, p2 - p0);
-    s.ng_front = normalize(n2w * ng_obj);
-    s.front_face = dot(s.ng_front, dir) < 0.0;
-    s.ng = s.front_face ? s.ng_front : -s.ng_front;
-    vec3 n = n2w * (w.x * a.normal + w.y * b.normal + w.z * c.normal);
-    n = dot(n, n) > 0.0 ? normalize(n) : s.ng_front;
-    vec2 uv0 = w.x * a.uv0 + w.y * b.uv0 + w.z * c.uv0;
-    vec2 uv1 = w.x * a.uv1 + w.y * b.uv1 + w.z * c.uv1;
-    vec4 vcolor = w.x * a.color + w.y * b.color + w.z * c.color;
-
-    float lod_base = -100.0;
-    if (cone_width > 0.0) {
-        mat3 o2w = mat3(inst.object_to_world);
-        float world_area = length(cross(o2w * (p1 - p0), o2w * (p2 - p0)));
-        float uv_area = abs((b.uv0.x - a.uv0.x) * (c.uv0.y - a.uv0.y) - (c.uv0.x - a.uv0.x) * (b.uv0.y - a.uv0.y));
-        float cos_theta = max(abs(dot(s.ng, dir)), 1e-3);
-        if (world_area > 0.0 && uv_area > 0.0) {
-            lod_base = 0.5 * log2(uv_area / world_area) + log2(cone_width / cos_theta);
-        }
-    }
-
-    vec4 base = m.base_color * vcolor;
-    if (m.base_color_texture.texture >= 0) {
-        base *= sample_slot(m.base_color_texture, uv0, uv1, lod_base);
-    }
-    s.base_color = base.rgb;
-    s.alpha = m.alpha_mode == ALPHA_OPAQUE ? 1.0 : base.a;
-    s.alpha_mode = m.alpha_mode;
-    s.metallic = m.metallic;
-    s.roughness = m.roughness;
-    if (m.metallic_roughness_texture.texture >= 0) {
-        vec4 mr = sample_slot(m.metallic_roughness_texture, uv0, uv1, lod_base);
-        s.roughness *= mr.g;
-        s.metallic *= mr.b;
-    }
-    s.metallic = clamp(s.metallic, 0.0, 1.0);
-    s.roughness = clamp(s.roughness, 0.0, 1.0);
-    s.emissive = m.emissive;
-    if (m.emissive_texture.texture >= 0) {
-        s.emissive *= sample_slot(m.emissive_texture, uv0, uv1, lod_base).rgb;
-    }
-    s.occlusion = 1.0;
-    if (m.occlusion_texture.texture >= 0) {
-        s.occlusion = 1.0 + m.occlusion_strength * (sample_slot(m.occlusion_texture, uv0, uv1, lod_base).r - 1.0);
-    }
-    s.transmission = m.transmission;
-    if (m.transmission_texture.texture >= 0) {
-        s.transmission *= sample_slot(m.transmission_texture, uv0, uv1, lod_base).r;
-    }
-    s.ior = m.ior;
-    s.atten_color = m.attenuation_color;
-    s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
-
-    if (m.normal_texture.texture >= 0 && (g.flags & GEOMETRY_HAS_TANGENTS) != 0u) {
-        vec4 t4 = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;
-        vec3 t = mat3(inst.object_to_world) * t4.xyz;
-        t = normalize(t - n * dot(n, t));
-        vec3 bt = cross(n, t) * (t4.w < 0.0 ? -1.0 : 1.0);
-        vec3 tn = sample_slot(m.normal_texture, uv0, uv1, lod_base).xyz * 2.0 - 1.0;
-        tn.xy *= m.normal_scale;
-        n = normalize(t * tn.x + bt * tn.y + n * tn.z);
-    }
-    s.n = s.front_face ? n : -n;
-    return s;
-}
-
-// Radiance (per unit light radiance) arriving from light `l` at `p`: direction to the light,
-// distance, and the attenuated radiance (inverse square, KHR range window, spot cone).
-vec3 light_incidence(GpuLight l, vec3 p, out vec3 to_light, out float dist) {
-    if (l.kind == LIGHT_DIRECTIONAL) {
-        to_light = -l.direction;
-        dist = BIG_FLOAT;
-        return l.radiance;
-    }
-    vec3 d = l.position - p;
-    float d2 = max(dot(d, d), 1e-12);
-    dist = sqrt(d2);
-    to_light = d / dist;
-    float window = l.range < 1e30 ? pow(clamp(1.0 - pow(dist / l.range, 4.0), 0.0, 1.0), 2.0) : 1.0;
-    vec3 e = l.radiance * window / d2;
-    if (l.kind == LIGHT_SPOT) {
-        float cd = dot(l.direction, -to_light);
-        float t = clamp((cd - l.outer_cos) / max(l.inner_cos - l.outer_cos, 1e-4), 0.0, 1.0);
-        e *= t * t;
-    }
-    return e;
-}
 
 // Direct light with shadow rays: the seed's "for each light: if not inShadow: diffuse + specular".
 vec3 direct_light(Surface s, vec3 v) {
@@ -178,9 +48,12 @@ vec3 direct_light(Surface s, vec3 v) {
         }
         vec3 h = normalize(to_light + v);
         vec3 f = fresnel_schlick(f0, dot(v, h));
-        vec3 brdf = (vec3(1.0) - f) * diffuse_color / PI;
-        if ((frame.flags & FLAG_NO_SPECULAR) == 0u) {
-            brdf += f * d_ggx(max(dot(s.n, h), 0.0), alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha);
+        vec3 brdf;
+        if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
+            brdf = diffuse_color / PI;  // pure Lambert (energy tests)
+        } else {
+            brdf = (vec3(1.0) - f) * diffuse_color / PI
+                + f * d_ggx(max(dot(s.n, h), 0.0), alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha);
         }
         sum += brdf * e * n_dot_l;
     }

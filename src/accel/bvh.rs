@@ -190,13 +190,7 @@ pub fn check_fits(
     needed: u64,
     what: &'static str,
 ) -> Result<(), BvhError> {
-    let heap = heaps
-        .iter()
-        .filter(|h| h.device_local)
-        .map(|h| h.size_bytes)
-        .max()
-        .or_else(|| heaps.iter().map(|h| h.size_bytes).max())
-        .unwrap_or(0);
+    let heap = crate::vk::largest_device_heap(heaps);
     if needed > heap {
         return Err(BvhError::TooLarge { needed, heap, what });
     }

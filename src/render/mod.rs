@@ -1,8 +1,15 @@
 //! Render passes (one module each) and the [`Renderer`] that runs them on an uploaded scene.
 
+pub mod compare;
 pub mod frame;
+pub mod gbuffer;
+pub mod hybrid;
+pub mod label;
+pub mod optics;
 pub mod output;
+pub mod raybench;
 pub mod raytraced;
+pub mod sampling;
 pub mod tonemap;
 
 use ash::vk;
@@ -12,7 +19,9 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
-pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use frame::{
+    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SamplerKind, Tonemap,
+};
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]
@@ -123,6 +132,7 @@ pub struct Renderer {
     pub gpu: GpuScene,
     /// Ray backend.
     pub backend: RayBackend,
+    _textures: crate::scene::textures::GpuTextures,
     textures: Vec<(vk::ImageView, vk::Sampler)>,
     scene_scale: f32,
 }
@@ -130,13 +140,16 @@ pub struct Renderer {
 impl Renderer {
     /// Uploads `scene` and builds the chosen backend.
     pub fn new(ctx: &Context, scene: &Scene, backend: Backend) -> crate::Result<Self> {
-        let gpu = GpuScene::upload(ctx, scene)?;
+        let gpu_textures = crate::scene::textures::GpuTextures::upload(ctx, scene)?;
+        let textures = gpu_textures.descriptors();
+        let gpu = GpuScene::upload(ctx, scene, textures.len() as u32)?;
         let backend = RayBackend::build(ctx, scene, &gpu, backend)?;
         Ok(Self {
             scene_scale: gpu.refs_data.scene_scale,
             gpu,
             backend,
-            textures: Vec::new(),
+            _textures: gpu_textures,
+            textures,
         })
     }
 
@@ -163,7 +176,7 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .validate(ctx.info().max_image_dimension_2d)
+            .check_device(ctx.info(), RenderPath::RayTraced, ctx.allocated_bytes())
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
         let frame = GpuFrame::new(settings, &setup, self.scene_scale);
@@ -208,4 +221,174 @@ impl Renderer {
             gpu_ms,
         })
     }
+}
+
+impl Renderer {
+    /// Renders one image with the hybrid path: per sample, a raster G-buffer pass jittered to
+    /// the sample position, then the shading pass (shadow, reflection, refraction rays).
+    pub fn render_hybrid(
+        &self,
+        ctx: &Context,
+        scene_draws: &[gbuffer::Draw],
+        settings: &RenderSettings,
+        camera: &Camera,
+        write_aov: bool,
+    ) -> crate::Result<RenderOutput> {
+        settings
+            .check_device(ctx.info(), RenderPath::Hybrid, ctx.allocated_bytes())
+            .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
+        let positions: Vec<[f32; 2]> = (0..settings.spp)
+            .map(|s| sampling::pixel_independent_sample(settings.sampler, s, settings.spp, settings.seed))
+            .collect::<Option<_>>()
+            .ok_or_else(|| {
+                crate::vk::VkError::Limit(format!(
+                    "--sampler {:?} varies per pixel (or is adaptive); the hybrid path rasterizes one jittered pass per sample and supports center, grid, halton and sobol",
+                    settings.sampler
+                ).to_lowercase())
+            })?;
+        let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
+        let frame = GpuFrame::new(settings, &setup, self.scene_scale);
+        let extent = vk::Extent2D {
+            width: settings.width,
+            height: settings.height,
+        };
+        let pixels = u64::from(settings.width) * u64::from(settings.height);
+        let none = vk::BufferUsageFlags::empty();
+        use crate::vk::{Buffer, MemoryLocation};
+        let frames: Vec<Buffer> = positions
+            .iter()
+            .map(|_| {
+                Buffer::new(
+                    ctx,
+                    "hybrid frame",
+                    std::mem::size_of::<GpuFrame>() as u64,
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    MemoryLocation::CpuToGpu,
+                )
+            })
+            .collect::<Result<_, _>>()?;
+        let accum = Buffer::new(
+            ctx,
+            "hybrid accumulation",
+            pixels * 16,
+            none,
+            MemoryLocation::GpuOnly,
+        )?;
+        let aov = Buffer::new(
+            ctx,
+            "hybrid aov",
+            pixels * std::mem::size_of::<Aov>() as u64,
+            none,
+            MemoryLocation::GpuOnly,
+        )?;
+        let counters = Buffer::new(
+            ctx,
+            "hybrid counters",
+            raytraced::COUNTER_SLOTS as u64 * 4,
+            none,
+            MemoryLocation::GpuOnly,
+        )?;
+        let pass_ctx = self.pass_context();
+        let mut passes = Vec::with_capacity(positions.len());
+        let mut weights = Vec::with_capacity(positions.len());
+        for (buf, u) in frames.into_iter().zip(&positions) {
+            let (jitter, weight) = match settings.filter {
+                FilterKind::Box => ([u[0] - 0.5, u[1] - 0.5], 1.0),
+                FilterKind::Tent => {
+                    let o = [u[0] * 2.0 - 1.0, u[1] * 2.0 - 1.0];
+                    (o, sampling::tent_weight(o[0], o[1]))
+                }
+            };
+            let mut f = frame;
+            f.jitter = jitter;
+            let mut buf = buf;
+            buf.write(bytemuck::bytes_of(&f))?;
+            let g = gbuffer::GbufferPass::new(ctx, &pass_ctx, &buf, extent)?;
+            let h = hybrid::HybridPass::new(ctx, &pass_ctx, &buf, &accum, &aov, &counters, &g)?;
+            passes.push((buf, g, h));
+            weights.push(weight);
+        }
+        let tonemap = tonemap::TonemapPass::new(ctx, &accum, pixels as u32)?;
+        let mut profiler = GpuProfiler::new(ctx, 4 * positions.len() as u32 + 4).ok();
+        ctx.run("hybrid frame", |cmd| {
+            if let Some(p) = profiler.as_mut() {
+                p.reset(cmd);
+            }
+            // SAFETY: recording command buffer; the counters buffer is ours.
+            unsafe {
+                ctx.device()
+                    .cmd_fill_buffer(cmd, counters.raw(), 0, vk::WHOLE_SIZE, 0)
+            };
+            memory_barrier(ctx.device(), cmd);
+            for (i, ((_, g, h), w)) in passes.iter().zip(&weights).enumerate() {
+                g.record(
+                    ctx,
+                    cmd,
+                    scene_draws,
+                    setup.camera_to_world.w_axis.truncate(),
+                    profiler.as_mut(),
+                );
+                let mut flags = 0;
+                if i == 0 {
+                    flags |= hybrid::HYBRID_FIRST_SAMPLE;
+                    if write_aov {
+                        flags |= hybrid::HYBRID_WRITE_AOV;
+                    }
+                }
+                h.record(cmd, extent, flags, *w, profiler.as_mut());
+                memory_barrier(ctx.device(), cmd);
+            }
+            tonemap.record(cmd, profiler.as_mut(), settings.tonemap, settings.exposure);
+            Ok(())
+        })?;
+        let gpu_ms = match &profiler {
+            Some(p) => merge_scopes(p.results()?),
+            None => Vec::new(),
+        };
+        let c: Vec<u32> = counters.read(ctx)?;
+        let color: Vec<[f32; 4]> = accum.read(ctx)?;
+        let rgba8: Vec<u8> = tonemap.output.read(ctx)?;
+        let aov = if write_aov {
+            aov.read(ctx)?
+        } else {
+            Vec::new()
+        };
+        let n = pixels as usize;
+        Ok(RenderOutput {
+            width: settings.width,
+            height: settings.height,
+            color: color[..n]
+                .iter()
+                .map(|v| {
+                    if v[3] > 0.0 {
+                        [v[0] / v[3], v[1] / v[3], v[2] / v[3], 1.0]
+                    } else {
+                        [v[0], v[1], v[2], 1.0]
+                    }
+                })
+                .collect(),
+            rgba8: rgba8[..n * 4].to_vec(),
+            aov: aov.into_iter().take(n).collect(),
+            rays: RayCounts {
+                primary: u64::from(c[0]),
+                shadow: u64::from(c[1]),
+                reflection: u64::from(c[2]),
+                refraction: u64::from(c[3]),
+            },
+            samples: u64::from(c[4]),
+            gpu_ms,
+        })
+    }
+}
+
+/// Sums scopes of the same name (one per sample) keeping first-seen order.
+fn merge_scopes(scopes: Vec<(String, f64)>) -> Vec<(String, f64)> {
+    let mut out: Vec<(String, f64)> = Vec::new();
+    for (name, ms) in scopes {
+        match out.iter_mut().find(|(n, _)| *n == name) {
+            Some(e) => e.1 += ms,
+            None => out.push((name, ms)),
+        }
+    }
+    out
 }

@@ -102,8 +102,9 @@ pub fn gpu_instance(transform: Mat4, geometry: u32) -> GpuInstance {
 }
 
 impl GpuScene {
-    /// Uploads every record of `scene`.
-    pub fn upload(ctx: &Context, scene: &Scene) -> VkResult<Self> {
+    /// Uploads every record of `scene`. `bound_textures` is how many of its textures the
+    /// passes bind (shaders ignore texture indices at or beyond it).
+    pub fn upload(ctx: &Context, scene: &Scene, bound_textures: u32) -> VkResult<Self> {
         let mut positions: Vec<[f32; 3]> = Vec::new();
         let mut attributes: Vec<GpuVertex> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
@@ -216,7 +217,7 @@ impl GpuScene {
             instance_count: instances.len() as u32,
             geometry_count: geometries.len() as u32,
             light_count: lights.len() as u32,
-            texture_count: scene.textures.len() as u32,
+            texture_count: bound_textures.min(scene.textures.len() as u32),
             bounds_min: bounds.min.to_array(),
             scene_scale: bounds.diagonal().max(1e-3),
             bounds_max: bounds.max.to_array(),

@@ -1,8 +1,27 @@
-//! glTF 2.0 → a plain [`Scene`](types::Scene), then GPU buffers.
+//! glTF 2.0 → a plain [`Scene`], then GPU buffers.
+//!
+//! [`load`] / [`load_slice`] read `.gltf` / `.glb` files, [`load_default`] the built-in
+//! Cornell-style scene; [`auto_camera`] and [`look_at_camera`] make cameras;
+//! [`textures::GpuTextures`] uploads a scene's images.
 
+mod accessor;
+pub mod camera;
+mod default_scene;
+mod error;
+pub mod geometry;
 pub mod gpu;
+mod image;
 pub mod layout;
+mod loader;
 pub mod procedural;
+pub mod textures;
 pub mod types;
 
+pub use camera::{auto_camera, default_lights, look_at_camera};
+pub use default_scene::{load_default, DEFAULT_SCENE_GLB};
+pub use error::SceneError;
+pub use image::MAX_IMAGE_SIZE;
+pub use loader::{
+    load, load_slice, texture_transform_matrix, LoadOptions, MAX_INSTANCES, SUPPORTED_EXTENSIONS,
+};
 pub use types::*;

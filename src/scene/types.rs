@@ -197,7 +197,7 @@ impl Default for Material {
 }
 
 /// Texture wrap mode.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Wrap {
     /// REPEAT.
     #[default]
@@ -209,7 +209,7 @@ pub enum Wrap {
 }
 
 /// Sampler state of a texture.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Sampler {
     /// U wrap.
     pub wrap_s: Wrap,
@@ -221,6 +221,9 @@ pub struct Sampler {
     pub min_linear: bool,
     /// Mip filtering is linear (else nearest); mips are always generated.
     pub mip_linear: bool,
+    /// Whether minification uses the mip chain: false for glTF `minFilter` NEAREST / LINEAR,
+    /// which sample mip 0 only (upload clamps the sampler's max LOD to 0).
+    pub mipmaps: bool,
 }
 
 impl Default for Sampler {
@@ -231,6 +234,7 @@ impl Default for Sampler {
             mag_linear: true,
             min_linear: true,
             mip_linear: true,
+            mipmaps: true,
         }
     }
 }
@@ -335,11 +339,14 @@ pub struct Scene {
     pub geometries: Vec<Geometry>,
     /// Placements of geometries.
     pub instances: Vec<Instance>,
-    /// Materials (always at least one: the glTF default).
+    /// Materials used by the chosen scene, in order of first use (not glTF material
+    /// indices); always at least one (the glTF default material, named `default`, stands in
+    /// for primitives without a material and for scenes without geometry).
     pub materials: Vec<Material>,
-    /// Textures.
+    /// Textures used by the materials, in order of first use. A glTF texture used both as
+    /// colour (sRGB) and as data (linear) appears twice, once per colour space.
     pub textures: Vec<Texture>,
-    /// Decoded images.
+    /// Decoded images, one per (glTF image, colour space) pair in use.
     pub images: Vec<ImageData>,
     /// Punctual lights (a documented default rig when the file has none).
     pub lights: Vec<Light>,
@@ -357,6 +364,10 @@ pub struct Scene {
     pub extensions_unsupported: Vec<String>,
     /// World-space bounds of every instance.
     pub bounds: Aabb,
+    /// World transform of every glTF node reached from the chosen scene (indexed by node;
+    /// `None` for nodes outside it). Instances and cameras already carry theirs; this is for
+    /// tools and tests.
+    pub node_world: Vec<Option<Mat4>>,
 }
 
 impl Scene {

@@ -225,12 +225,15 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        // SAFETY: callers wait for GPU work that uses the buffer before dropping it
-        // (every `Context::run` waits for its fence).
-        unsafe { self.shared.device.destroy_buffer(self.raw, None) };
-        if let Some(a) = self.allocation.take() {
-            free(&self.shared, a);
-        }
+        let (raw, allocation) = (self.raw, self.allocation.take());
+        self.shared.retire(move |shared| {
+            // SAFETY: no pending submission uses the buffer: every `Context::run` waits for
+            // its fence, and `retire` defers past submissions that timed out.
+            unsafe { shared.device.destroy_buffer(raw, None) };
+            if let Some(a) = allocation {
+                free(shared, a);
+            }
+        });
     }
 }
 
@@ -351,17 +354,54 @@ impl Image {
     pub fn view(&self) -> vk::ImageView {
         self.view
     }
+
+    /// Records a full layout transition of every mip level, ordering all prior memory
+    /// accesses before all later ones (simple and always correct; passes are few and large).
+    pub fn transition(&self, cmd: vk::CommandBuffer, old: vk::ImageLayout, new: vk::ImageLayout) {
+        let aspect = if matches!(
+            self.format,
+            vk::Format::D32_SFLOAT | vk::Format::D16_UNORM | vk::Format::X8_D24_UNORM_PACK32
+        ) {
+            vk::ImageAspectFlags::DEPTH
+        } else {
+            vk::ImageAspectFlags::COLOR
+        };
+        let barrier = [vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+            .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+            .dst_access_mask(vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE)
+            .old_layout(old)
+            .new_layout(new)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(self.raw)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: aspect,
+                base_mip_level: 0,
+                level_count: self.mip_levels,
+                base_array_layer: 0,
+                layer_count: 1,
+            })];
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&barrier);
+        // SAFETY: recording command buffer; the image is alive; synchronization2 is enabled.
+        unsafe { self.shared.device.cmd_pipeline_barrier2(cmd, &dep) };
+    }
 }
 
 impl Drop for Image {
     fn drop(&mut self) {
-        // SAFETY: GPU work using the image has completed (every submission waits).
-        unsafe {
-            self.shared.device.destroy_image_view(self.view, None);
-            self.shared.device.destroy_image(self.raw, None);
-        }
-        if let Some(a) = self.allocation.take() {
-            free(&self.shared, a);
-        }
+        let (raw, view, allocation) = (self.raw, self.view, self.allocation.take());
+        self.shared.retire(move |shared| {
+            // SAFETY: GPU work using the image has completed (every submission waits;
+            // `retire` defers past submissions that timed out).
+            unsafe {
+                shared.device.destroy_image_view(view, None);
+                shared.device.destroy_image(raw, None);
+            }
+            if let Some(a) = allocation {
+                free(shared, a);
+            }
+        });
     }
 }

@@ -19,6 +19,8 @@ pub enum Binding {
     SampledImages(u32),
     /// `accelerationStructureEXT`.
     AccelerationStructure,
+    /// No descriptor at this binding number (keeps numbering shared between passes).
+    Unused,
 }
 
 impl Binding {
@@ -29,6 +31,7 @@ impl Binding {
             Self::StorageImage => vk::DescriptorType::STORAGE_IMAGE,
             Self::SampledImages(_) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
             Self::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+            Self::Unused => vk::DescriptorType::SAMPLER,
         }
     }
 
@@ -55,6 +58,7 @@ pub(crate) fn create_set_layout(
     let raw: Vec<_> = bindings
         .iter()
         .enumerate()
+        .filter(|(_, b)| **b != Binding::Unused)
         .map(|(i, b)| {
             vk::DescriptorSetLayoutBinding::default()
                 .binding(i as u32)
@@ -65,6 +69,7 @@ pub(crate) fn create_set_layout(
         .collect();
     let flags: Vec<_> = bindings
         .iter()
+        .filter(|b| **b != Binding::Unused)
         .map(|b| match b {
             Binding::SampledImages(_) => vk::DescriptorBindingFlags::PARTIALLY_BOUND,
             _ => vk::DescriptorBindingFlags::empty(),
@@ -145,10 +150,9 @@ impl ComputePipeline {
             };
             // SAFETY: the module is no longer needed.
             unsafe { device.destroy_shader_module(module, None) };
-            result.map(|p| p[0]).map_err(|(_, r)| VkError::Call {
-                call: "vkCreateComputePipelines",
-                result: r,
-            })
+            result
+                .map(|p| p[0])
+                .map_err(|(_, r)| VkError::from_call("vkCreateComputePipelines", r))
         });
         let pipeline = match pipeline {
             Ok(p) => p,
@@ -220,16 +224,18 @@ impl ComputePipeline {
 
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
-        // SAFETY: no submission using the pipeline is pending (submissions wait).
-        unsafe {
-            self.shared.device.destroy_pipeline(self.pipeline, None);
-            self.shared
-                .device
-                .destroy_pipeline_layout(self.layout, None);
-            self.shared
-                .device
-                .destroy_descriptor_set_layout(self.set_layout, None);
-        }
+        let (pipeline, layout, set_layout) = (self.pipeline, self.layout, self.set_layout);
+        self.shared.retire(move |shared| {
+            // SAFETY: no submission using the pipeline is pending (submissions wait;
+            // `retire` defers past submissions that timed out).
+            unsafe {
+                shared.device.destroy_pipeline(pipeline, None);
+                shared.device.destroy_pipeline_layout(layout, None);
+                shared
+                    .device
+                    .destroy_descriptor_set_layout(set_layout, None);
+            }
+        });
     }
 }
 
@@ -249,6 +255,7 @@ impl DescriptorSet {
         let device = &shared.device;
         let sizes: Vec<_> = bindings
             .iter()
+            .filter(|b| **b != Binding::Unused)
             .map(|b| vk::DescriptorPoolSize {
                 ty: b.descriptor_type(),
                 descriptor_count: b.count(),
@@ -367,8 +374,10 @@ impl DescriptorSet {
 
 impl Drop for DescriptorSet {
     fn drop(&mut self) {
-        // SAFETY: no pending submission uses the set.
-        unsafe { self.shared.device.destroy_descriptor_pool(self.pool, None) };
+        let pool = self.pool;
+        // SAFETY: no pending submission uses the set (`retire` defers past timed-out ones).
+        self.shared
+            .retire(move |shared| unsafe { shared.device.destroy_descriptor_pool(pool, None) });
     }
 }
 
@@ -382,4 +391,240 @@ pub fn memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
     let dep = vk::DependencyInfo::default().memory_barriers(&barrier);
     // SAFETY: recording command buffer; synchronization2 is enabled.
     unsafe { device.cmd_pipeline_barrier2(cmd, &dep) };
+}
+
+/// A graphics pipeline for dynamic rendering with vertex pulling (no vertex input state),
+/// one descriptor set, push constants, dynamic viewport/scissor/cull mode/front face.
+pub struct GraphicsPipeline {
+    shared: Arc<Shared>,
+    bindings: Vec<Binding>,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+}
+
+/// What a [`GraphicsPipeline`] renders into.
+pub struct GraphicsTargets<'a> {
+    /// Colour attachment formats, in location order.
+    pub color_formats: &'a [vk::Format],
+    /// Depth attachment format (depth test LESS, write on).
+    pub depth_format: vk::Format,
+}
+
+impl GraphicsPipeline {
+    /// Builds the pipeline from vertex and fragment SPIR-V (entry points `main`);
+    /// `fragment_constants[i]` specialises the fragment stage's `constant_id = i`.
+    pub fn new(
+        ctx: &Context,
+        vertex: &[u8],
+        fragment: &[u8],
+        bindings: &[Binding],
+        push_size: u32,
+        targets: &GraphicsTargets<'_>,
+        fragment_constants: &[u32],
+    ) -> VkResult<Self> {
+        let device = ctx.device();
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let set_layout = create_set_layout(device, bindings, stages)?;
+        let ranges = [vk::PushConstantRange::default()
+            .stage_flags(stages)
+            .size(push_size)];
+        let set_layouts = [set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(if push_size > 0 { &ranges } else { &[] });
+        // SAFETY: valid create info.
+        let layout = match unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .call("vkCreatePipelineLayout")
+        {
+            Ok(l) => l,
+            Err(e) => {
+                // SAFETY: unused layout.
+                unsafe { device.destroy_descriptor_set_layout(set_layout, None) };
+                return Err(e);
+            }
+        };
+        let destroy_layouts = || {
+            // SAFETY: unused objects.
+            unsafe {
+                device.destroy_pipeline_layout(layout, None);
+                device.destroy_descriptor_set_layout(set_layout, None);
+            }
+        };
+        let mut modules = Vec::new();
+        for code in [vertex, fragment] {
+            let words = match spirv_words(code) {
+                Ok(w) => w,
+                Err(e) => {
+                    destroy_layouts();
+                    return Err(e);
+                }
+            };
+            // SAFETY: valid SPIR-V from build.rs.
+            match unsafe {
+                device
+                    .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
+            } {
+                Ok(m) => modules.push(m),
+                Err(result) => {
+                    // SAFETY: unused modules.
+                    unsafe {
+                        modules
+                            .iter()
+                            .for_each(|&m| device.destroy_shader_module(m, None))
+                    };
+                    destroy_layouts();
+                    return Err(VkError::from_call("vkCreateShaderModule", result));
+                }
+            }
+        }
+        const MAIN: &CStr = c"main";
+        let entries: Vec<_> = (0..fragment_constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry {
+                constant_id: i,
+                offset: i * 4,
+                size: 4,
+            })
+            .collect();
+        let spec = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(fragment_constants));
+        let stage_info = [
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(modules[0])
+                .name(MAIN),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(modules[1])
+                .name(MAIN)
+                .specialization_info(&spec),
+        ];
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
+        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .line_width(1.0);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(true)
+            .depth_write_enable(true)
+            .depth_compare_op(vk::CompareOp::LESS);
+        let blend_attachments: Vec<_> = targets
+            .color_formats
+            .iter()
+            .map(|_| {
+                vk::PipelineColorBlendAttachmentState::default()
+                    .color_write_mask(vk::ColorComponentFlags::RGBA)
+            })
+            .collect();
+        let blend =
+            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let dynamic_states = [
+            vk::DynamicState::VIEWPORT,
+            vk::DynamicState::SCISSOR,
+            vk::DynamicState::CULL_MODE,
+            vk::DynamicState::FRONT_FACE,
+        ];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(targets.color_formats)
+            .depth_attachment_format(targets.depth_format);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stage_info)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(layout)
+            .push_next(&mut rendering);
+        // SAFETY: every referenced struct lives until the call returns.
+        let result =
+            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: modules are no longer needed once the pipeline exists (or failed).
+        unsafe {
+            modules
+                .iter()
+                .for_each(|&m| device.destroy_shader_module(m, None))
+        };
+        let pipeline = match result {
+            Ok(p) => p[0],
+            Err((_, result)) => {
+                destroy_layouts();
+                return Err(VkError::from_call("vkCreateGraphicsPipelines", result));
+            }
+        };
+        Ok(Self {
+            shared: ctx.shared.clone(),
+            bindings: bindings.to_vec(),
+            set_layout,
+            layout,
+            pipeline,
+        })
+    }
+
+    /// Allocates a descriptor set for this pipeline.
+    pub fn allocate_set(&self) -> VkResult<DescriptorSet> {
+        DescriptorSet::new(&self.shared, self.set_layout, &self.bindings)
+    }
+
+    /// Binds the pipeline and its set (call inside a dynamic rendering scope).
+    pub fn bind(&self, cmd: vk::CommandBuffer, set: &DescriptorSet) {
+        // SAFETY: recording command buffer, live objects.
+        unsafe {
+            self.shared.device.cmd_bind_pipeline(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.pipeline,
+            );
+            self.shared.device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.layout,
+                0,
+                &[set.raw],
+                &[],
+            );
+        }
+    }
+
+    /// Sets the push constants of both stages.
+    pub fn push(&self, cmd: vk::CommandBuffer, bytes: &[u8]) {
+        // SAFETY: the range was declared for both stages at creation.
+        unsafe {
+            self.shared.device.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                0,
+                bytes,
+            )
+        };
+    }
+}
+
+impl Drop for GraphicsPipeline {
+    fn drop(&mut self) {
+        let (pipeline, layout, set_layout) = (self.pipeline, self.layout, self.set_layout);
+        self.shared.retire(move |shared| {
+            // SAFETY: no submission using the pipeline is pending (submissions wait;
+            // `retire` defers past submissions that timed out).
+            unsafe {
+                shared.device.destroy_pipeline(pipeline, None);
+                shared.device.destroy_pipeline_layout(layout, None);
+                shared
+                    .device
+                    .destroy_descriptor_set_layout(set_layout, None);
+            }
+        });
+    }
 }

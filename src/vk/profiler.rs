@@ -78,6 +78,9 @@ impl GpuProfiler {
                 query,
             )
         };
+        // lavapipe bins a timestamp into its rasterizer scene and writes it when the scene is
+        // flushed; the barrier flushes it now, before the scope's work runs.
+        super::memory_barrier(&self.shared.device, cmd);
         self.scopes.push((name.to_string(), query));
         self.open = Some(self.scopes.len() - 1);
     }
@@ -130,7 +133,9 @@ impl GpuProfiler {
 
 impl Drop for GpuProfiler {
     fn drop(&mut self) {
-        // SAFETY: submissions using the pool completed.
-        unsafe { self.shared.device.destroy_query_pool(self.pool, None) };
+        let pool = self.pool;
+        // SAFETY: submissions using the pool completed (`retire` defers past timed-out ones).
+        self.shared
+            .retire(move |shared| unsafe { shared.device.destroy_query_pool(pool, None) });
     }
 }

@@ -1,0 +1,75 @@
+#version 460
+// G-buffer raster pass, fragment stage: evaluates the material with the SAME surface_at() as
+// the ray-traced path (ray-cone texture LOD from the camera distance), alpha-tests MASK
+// materials with the same alpha_accepts(), and writes the G-buffer.
+#include "scene.glsl"
+#include "frame.glsl"
+#include "surface.glsl"
+
+layout(push_constant) uniform Push { uint instance; } pc;
+// Only alpha-MASK draws use the pipeline with the test: a shader that can discard disables
+// early depth testing (on lavapipe it then shades every overdrawn fragment).
+layout(constant_id = 0) const bool ALPHA_TEST = true;
+
+layout(location = 0) in vec3 in_bary;
+layout(location = 1) flat in uint in_prim;
+
+layout(location = 0) out vec4 g_position;   // world position, t along the camera ray
+layout(location = 1) out vec4 g_normal;     // shading normal (facing the camera), roughness
+layout(location = 2) out vec4 g_geometric;  // geometric normal of the glTF front face, metallic
+layout(location = 3) out vec4 g_base;       // base colour, alpha
+layout(location = 4) out vec4 g_emissive;   // emissive, occlusion
+layout(location = 5) out uvec4 g_ids;       // instance, primitive, material | front << 31, transmission bits
+layout(location = 6) out vec4 g_bary;       // barycentrics (b1, b2), motion vector in pixels
+
+void main() {
+    vec2 bary = in_bary.yz;
+    if (ALPHA_TEST && !alpha_accepts(pc.instance, in_prim, bary)) {
+        discard;
+    }
+    // The primary ray through this fragment's sample position (pixel centre + jitter).
+    vec2 film = gl_FragCoord.xy + frame.jitter;
+    GpuInstance inst = scene_instance(pc.instance);
+    GpuGeometry g = scene_geometry(inst.geometry);
+    uvec3 tri = scene_triangle(g, in_prim);
+    // Barycentrics from intersecting that ray with the rasterized triangle in object space,
+    // like the ray backends, instead of the rasterizer's interpolation: refraction and
+    // reflection magnify interpolation error, and this keeps hybrid hits within float noise of
+    // ray-traced ones. Clamped to the triangle for samples just outside its edges.
+    {
+        Ray cam = camera_ray(film);
+        vec3 o = (inst.world_to_object * vec4(cam.origin, 1.0)).xyz;
+        vec3 d = mat3(inst.world_to_object) * cam.dir;
+        vec3 a = scene_position(tri.x), e1 = scene_position(tri.y) - a, e2 = scene_position(tri.z) - a;
+        vec3 pv = cross(d, e2);
+        float det = dot(e1, pv);
+        if (abs(det) > 1e-30) {
+            vec3 tv = o - a;
+            vec2 uv = vec2(dot(tv, pv), dot(d, cross(tv, e1))) / det;
+            uv = max(uv, vec2(0.0));
+            float sum = uv.x + uv.y;
+            bary = sum > 1.0 ? uv / sum : uv;
+        }
+    }
+    vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+    vec3 p = (inst.object_to_world * vec4(w.x * scene_position(tri.x) + w.y * scene_position(tri.y) + w.z * scene_position(tri.z), 1.0)).xyz;
+    vec3 dir;
+    float t;
+    if (frame.ortho != 0u) {
+        dir = normalize(mat3(frame.camera_to_world) * vec3(0.0, 0.0, -1.0));
+        t = dot(p - frame.camera_pos, dir);
+    } else {
+        dir = normalize(p - frame.camera_pos);
+        t = length(p - frame.camera_pos);
+    }
+    Surface s = surface_at(pc.instance, in_prim, bary, dir, frame.pixel_spread * t);
+    g_position = vec4(s.position, t);
+    g_normal = vec4(s.n, s.roughness);
+    g_geometric = vec4(s.ng_front, s.metallic);
+    g_base = vec4(s.base_color, s.alpha);
+    g_emissive = vec4(s.emissive, s.occlusion);
+    g_ids = uvec4(pc.instance, in_prim, s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission));
+    vec4 prev = frame.prev_view_proj * vec4(s.position, 1.0);
+    vec2 prev_px = (prev.xy / prev.w * 0.5 + 0.5) * vec2(frame.width, frame.height);
+    g_bary = vec4(bary, prev_px - (gl_FragCoord.xy + frame.jitter));
+}

@@ -1,0 +1,267 @@
+//! Arguments shared by the rendering commands, and the steps they share: loading the scene,
+//! opening the device, choosing the camera, checking outputs before any GPU work.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{bail, Context as _, Result};
+use clap::Args;
+use glam::Vec3;
+use rqr::accel::{Backend, BackendChoice};
+use rqr::render::{FilterKind, RenderSettings, SamplerKind, Tonemap};
+use rqr::scene::{Camera, LoadOptions, Scene};
+use rqr::vk::{Context, ContextOptions, DeviceSelector};
+
+/// Largest image side accepted before a device is opened (the device limit is checked after).
+pub const MAX_SIDE: u32 = 16384;
+
+/// Scene selection.
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// glTF 2.0 file (.gltf or .glb); omitted: the built-in Cornell-style scene.
+    pub scene: Option<PathBuf>,
+    /// Scene index inside the file (default: the file's default scene, else 0).
+    #[arg(long = "scene")]
+    pub scene_index: Option<usize>,
+}
+
+impl SceneArgs {
+    /// Loads the scene.
+    pub fn load(&self) -> Result<Scene> {
+        match &self.scene {
+            None => {
+                if self.scene_index.is_some_and(|i| i > 0) {
+                    bail!("the built-in scene has only scene 0");
+                }
+                Ok(rqr::scene::load_default()?)
+            }
+            Some(path) => Ok(rqr::scene::load(
+                path,
+                &LoadOptions {
+                    scene: self.scene_index,
+                    ..Default::default()
+                },
+            )?),
+        }
+    }
+
+    /// A short name for reports.
+    pub fn name(&self) -> String {
+        self.scene
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| "built-in".into())
+    }
+}
+
+/// Device and backend selection.
+#[derive(Args, Debug, Clone)]
+pub struct DeviceArgs {
+    /// Vulkan device: index or name substring (see `rqr probe`).
+    #[arg(long, default_value = "auto")]
+    pub device: DeviceSelector,
+    /// Ray backend: hardware ray queries, the compute-shader BVH, or auto.
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
+    pub backend: BackendChoice,
+    /// GPU fence timeout per submission, in milliseconds.
+    #[arg(long, default_value_t = 120_000, value_parser = clap::value_parser!(u64).range(1..))]
+    pub timeout_ms: u64,
+}
+
+impl DeviceArgs {
+    /// Opens the device (validation per `RQR_VALIDATION`).
+    pub fn open(&self) -> Result<Context> {
+        Ok(Context::new(&ContextOptions {
+            device: self.device.clone(),
+            validation: None,
+            sync_validation: None,
+            fence_timeout: Duration::from_millis(self.timeout_ms),
+        })?)
+    }
+
+    /// Resolves `--backend` on the opened device.
+    pub fn backend(&self, ctx: &Context) -> Result<(Backend, String)> {
+        Ok(self.backend.resolve(ctx.info())?)
+    }
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}")))
+        .collect::<Result<_, _>>()?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(*x, *y, *z)),
+        [c] if c.is_finite() => Ok(Vec3::splat(*c)),
+        _ => Err(format!("expected x,y,z (or one value), got '{s}'")),
+    }
+}
+
+/// Camera selection and overrides.
+#[derive(Args, Debug, Clone)]
+pub struct CameraArgs {
+    /// glTF camera index (default: the first camera, else an automatic camera).
+    #[arg(long)]
+    pub camera: Option<usize>,
+    /// Camera position override, x,y,z.
+    #[arg(long, value_parser = parse_vec3)]
+    pub look_from: Option<Vec3>,
+    /// Look-at point override, x,y,z.
+    #[arg(long, value_parser = parse_vec3)]
+    pub look_at: Option<Vec3>,
+    /// Vertical field of view override, degrees.
+    #[arg(long)]
+    pub fov: Option<f32>,
+}
+
+impl CameraArgs {
+    /// The camera for an image of `aspect`.
+    pub fn resolve(&self, scene: &Scene, aspect: f32) -> Result<Camera> {
+        let base = match self.camera {
+            Some(i) => *scene.cameras.get(i).with_context(|| {
+                format!(
+                    "--camera {i}: the scene has {} camera(s)",
+                    scene.cameras.len()
+                )
+            })?,
+            None => scene
+                .cameras
+                .first()
+                .copied()
+                .unwrap_or_else(|| rqr::scene::auto_camera(&scene.bounds, aspect)),
+        };
+        if let Some(fov) = self.fov {
+            if !(fov > 0.0 && fov < 180.0) {
+                bail!("--fov {fov} must be in (0, 180) degrees");
+            }
+        }
+        if self.look_from.is_none() && self.look_at.is_none() && self.fov.is_none() {
+            return Ok(base);
+        }
+        let from = self
+            .look_from
+            .unwrap_or(base.camera_to_world.w_axis.truncate());
+        let forward = -base.camera_to_world.z_axis.truncate();
+        let at = self.look_at.unwrap_or(from + forward);
+        if (at - from).length() < 1e-6 {
+            bail!("--look-from and --look-at are the same point");
+        }
+        let yfov = match (self.fov, base.projection) {
+            (Some(f), _) => f.to_radians(),
+            (None, rqr::scene::Projection::Perspective { yfov, .. }) => yfov,
+            (None, _) => 45f32.to_radians(),
+        };
+        Ok(rqr::scene::look_at_camera(from, at, Vec3::Y, yfov))
+    }
+}
+
+fn parse_background(s: &str) -> Result<(Vec3, bool), String> {
+    if s.eq_ignore_ascii_case("sky") {
+        return Ok((Vec3::ONE, true));
+    }
+    if let Some(rest) = s.strip_prefix("sky:") {
+        return parse_vec3(rest).map(|v| (v, true));
+    }
+    parse_vec3(s).map(|v| (v, false))
+}
+
+/// Image and Whitted settings shared by `render` and `compare`.
+#[derive(Args, Debug, Clone)]
+pub struct ImageArgs {
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub height: u32,
+    /// Samples per pixel (grid and jitter need a square number).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Sub-pixel sample placement.
+    #[arg(long, value_enum, default_value_t = SamplerKind::Center)]
+    pub sampler: SamplerKind,
+    /// Reconstruction filter.
+    #[arg(long, value_enum, default_value_t = FilterKind::Box)]
+    pub filter: FilterKind,
+    /// Maximum ray segments per path (1 = primary + shadow rays).
+    #[arg(long, default_value_t = 5)]
+    pub max_depth: u32,
+    /// Stop a path when its weight's largest channel falls below this.
+    #[arg(long, default_value_t = 0.05)]
+    pub min_weight: f32,
+    /// Ray offset along the geometric normal (default: 1e-4 × scene diagonal).
+    #[arg(long)]
+    pub epsilon: Option<f32>,
+    /// Ambient radiance: r,g,b or one value.
+    #[arg(long, value_parser = parse_vec3, default_value = "0.03")]
+    pub ambient: Vec3,
+    /// Background: r,g,b, one value, `sky`, or `sky:r,g,b` (scaled gradient).
+    #[arg(long, value_parser = parse_background, default_value = "0.05")]
+    pub background: (Vec3, bool),
+    /// Adaptive sampler: subdivide where two samples differ by more than this.
+    #[arg(long, default_value_t = 0.1)]
+    pub adaptive_threshold: f32,
+    /// Adaptive sampler: maximum subdivision levels.
+    #[arg(long, default_value_t = 2)]
+    pub adaptive_depth: u32,
+    /// Tonemapping operator for PNG output.
+    #[arg(long, value_enum, default_value_t = Tonemap::KhronosNeutral)]
+    pub tonemap: Tonemap,
+    /// Exposure in EV stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Seed of the random samplers.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+}
+
+impl ImageArgs {
+    /// Render settings; ranges are checked here, before any GPU work.
+    pub fn settings(&self) -> Result<RenderSettings> {
+        let s = RenderSettings {
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            sampler: self.sampler,
+            filter: self.filter,
+            max_depth: self.max_depth,
+            min_weight: self.min_weight,
+            epsilon: self.epsilon,
+            ambient: self.ambient,
+            background: self.background.0,
+            sky: self.background.1,
+            adaptive_threshold: self.adaptive_threshold,
+            adaptive_depth: self.adaptive_depth,
+            no_specular: false,
+            seed: self.seed,
+            tonemap: self.tonemap,
+            exposure: self.exposure,
+        };
+        s.validate(MAX_SIDE)?;
+        Ok(s)
+    }
+}
+
+/// Fails early when `path` cannot be written: missing directory, a directory, read-only.
+pub fn check_output_file(path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!("output directory '{}' does not exist", dir.display());
+    }
+    if path.is_dir() {
+        bail!("output '{}' is a directory", path.display());
+    }
+    let existed = path.exists();
+    std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .with_context(|| format!("cannot write '{}'", path.display()))?;
+    if !existed {
+        let _ = std::fs::remove_file(path);
+    }
+    Ok(())
+}

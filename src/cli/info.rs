@@ -1,0 +1,154 @@
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+use rqr::scene::{self, LoadOptions, Scene};
+use serde::Serialize;
+
+/// `rqr info` arguments.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// glTF 2.0 file (`.gltf` or `.glb`); omitted: the built-in scene.
+    scene: Option<PathBuf>,
+    /// Scene index within the file (default: the file's default scene, else 0).
+    #[arg(long = "scene", value_name = "N")]
+    scene_index: Option<usize>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Loads the scene a command names: a file, or the built-in scene when `path` is `None`.
+pub(crate) fn load_scene(path: Option<&PathBuf>, scene_index: Option<usize>) -> Result<Scene> {
+    Ok(match path {
+        Some(p) => scene::load(
+            p,
+            &LoadOptions {
+                scene: scene_index,
+                ..Default::default()
+            },
+        )?,
+        None if scene_index.unwrap_or(0) == 0 => scene::load_default()?,
+        None => anyhow::bail!("the built-in scene has only scene 0"),
+    })
+}
+
+/// Scene bounds in the `--json` document.
+#[derive(Serialize)]
+struct BoundsJson {
+    min: [f32; 3],
+    max: [f32; 3],
+}
+
+/// The `--json` document (a struct so that keys keep this order).
+#[derive(Serialize)]
+struct InfoJson<'a> {
+    source: &'a str,
+    meshes: usize,
+    primitives: usize,
+    geometries: usize,
+    instances: usize,
+    triangles: usize,
+    unique_triangles: usize,
+    materials: usize,
+    textures: usize,
+    images: usize,
+    lights: usize,
+    default_lights: bool,
+    cameras: usize,
+    extensions_used: &'a [String],
+    extensions_unsupported: &'a [String],
+    /// `null` for a scene without geometry.
+    bounds: Option<BoundsJson>,
+}
+
+fn to_json(s: &Scene) -> InfoJson<'_> {
+    InfoJson {
+        source: &s.source,
+        meshes: s.mesh_count,
+        primitives: s.primitive_count,
+        geometries: s.geometries.len(),
+        instances: s.instances.len(),
+        triangles: s.triangle_count(),
+        unique_triangles: s.unique_triangle_count(),
+        materials: s.materials.len(),
+        textures: s.textures.len(),
+        images: s.images.len(),
+        lights: s.lights.len(),
+        default_lights: s.default_lights,
+        cameras: s.cameras.len(),
+        extensions_used: &s.extensions_used,
+        extensions_unsupported: &s.extensions_unsupported,
+        bounds: (!s.bounds.is_empty()).then(|| BoundsJson {
+            min: s.bounds.min.to_array(),
+            max: s.bounds.max.to_array(),
+        }),
+    }
+}
+
+/// Runs `rqr info`.
+pub fn run(args: &InfoArgs) -> Result<()> {
+    let s = load_scene(args.scene.as_ref(), args.scene_index)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&to_json(&s))?);
+        return Ok(());
+    }
+    let list = |v: &[String]| {
+        if v.is_empty() {
+            "-".to_string()
+        } else {
+            v.join(", ")
+        }
+    };
+    let texels: usize = s.images.iter().map(|i| i.rgba8.len() / 4).sum();
+    let rows: Vec<(&str, String)> = vec![
+        ("source", s.source.clone()),
+        ("meshes", s.mesh_count.to_string()),
+        ("primitives", s.primitive_count.to_string()),
+        ("geometries", s.geometries.len().to_string()),
+        ("instances", s.instances.len().to_string()),
+        ("triangles", s.triangle_count().to_string()),
+        ("unique triangles", s.unique_triangle_count().to_string()),
+        ("materials", s.materials.len().to_string()),
+        (
+            "textures",
+            format!(
+                "{} ({} images, {:.1} Mtexels)",
+                s.textures.len(),
+                s.images.len(),
+                texels as f64 / 1e6
+            ),
+        ),
+        (
+            "lights",
+            if s.default_lights {
+                format!("{} (default rig: the file has none)", s.lights.len())
+            } else {
+                s.lights.len().to_string()
+            },
+        ),
+        ("cameras", s.cameras.len().to_string()),
+        ("extensions used", list(&s.extensions_used)),
+        ("unsupported", list(&s.extensions_unsupported)),
+        (
+            "bounds",
+            if s.bounds.is_empty() {
+                "empty".into()
+            } else {
+                format!(
+                    "[{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
+                    s.bounds.min.x,
+                    s.bounds.min.y,
+                    s.bounds.min.z,
+                    s.bounds.max.x,
+                    s.bounds.max.y,
+                    s.bounds.max.z
+                )
+            },
+        ),
+    ];
+    for (k, v) in rows {
+        println!("{k:<18} {v}");
+    }
+    Ok(())
+}

@@ -1,0 +1,276 @@
+//! G-buffer raster pass of the hybrid path: dynamic rendering, vertex pulling, depth test,
+//! back-face culling honouring doubleSided, alpha MASK discard (`shaders/gbuffer.{vert,frag}`).
+
+use ash::vk;
+
+use super::PassContext;
+use crate::scene::Scene;
+use crate::vk::{
+    Binding, Buffer, Context, DescriptorSet, GpuProfiler, GraphicsPipeline, GraphicsTargets, Image,
+    VkResult,
+};
+
+/// G-buffer attachment formats, in location order (see `gbuffer.frag` for the contents).
+pub const GBUFFER_FORMATS: [vk::Format; 7] = [
+    vk::Format::R32G32B32A32_SFLOAT, // position, t
+    vk::Format::R32G32B32A32_SFLOAT, // shading normal, roughness
+    vk::Format::R32G32B32A32_SFLOAT, // geometric normal, metallic
+    vk::Format::R16G16B16A16_SFLOAT, // base colour, alpha
+    vk::Format::R16G16B16A16_SFLOAT, // emissive, occlusion
+    vk::Format::R32G32B32A32_UINT,   // instance, primitive, material | front face, transmission
+    vk::Format::R32G32B32A32_SFLOAT, // barycentrics, motion vector
+];
+
+/// One draw per scene instance.
+#[derive(Clone, Copy, Debug)]
+pub struct Draw {
+    /// Scene instance index (push constant).
+    pub instance: u32,
+    /// 3 × triangles.
+    pub vertex_count: u32,
+    /// Back-face culling (single-sided material).
+    pub cull_back: bool,
+    /// Mirrored transform: clockwise triangles are front-facing.
+    pub mirrored: bool,
+    /// Alpha-MASK material: drawn with the alpha-testing pipeline.
+    pub alpha_test: bool,
+    /// World-space centre of the instance's bounds (front-to-back ordering).
+    pub center: glam::Vec3,
+}
+
+/// Per-instance draws of a scene, in instance order.
+pub fn draws(scene: &Scene) -> Vec<Draw> {
+    scene
+        .instances
+        .iter()
+        .enumerate()
+        .filter_map(|(i, inst)| {
+            let g = scene.geometries.get(inst.geometry as usize)?;
+            let material = scene.materials.get(g.material as usize);
+            let double_sided = material.is_some_and(|m| m.double_sided);
+            let mut bounds = crate::scene::Aabb::EMPTY;
+            for p in &g.positions {
+                bounds.grow(inst.transform.transform_point3(*p));
+            }
+            (g.triangle_count() > 0).then(|| Draw {
+                instance: i as u32,
+                vertex_count: (g.triangle_count() * 3) as u32,
+                cull_back: !double_sided,
+                mirrored: inst.flips_winding(),
+                alpha_test: material.is_some_and(|m| m.alpha_mode == crate::scene::AlphaMode::Mask),
+                center: bounds.center(),
+            })
+        })
+        .collect()
+}
+
+/// The raster pass and its attachments.
+pub struct GbufferPass {
+    pipeline: GraphicsPipeline,
+    masked_pipeline: GraphicsPipeline,
+    set: DescriptorSet,
+    masked_set: DescriptorSet,
+    /// Colour attachments (also read as storage images by the shading pass).
+    pub images: Vec<Image>,
+    depth: Image,
+    extent: vk::Extent2D,
+}
+
+impl GbufferPass {
+    /// Creates the pipeline and attachments at `extent`; `frame` is the Frame uniform buffer.
+    pub fn new(
+        ctx: &Context,
+        pass: &PassContext<'_>,
+        frame: &Buffer,
+        extent: vk::Extent2D,
+    ) -> VkResult<Self> {
+        let bindings = [
+            Binding::UniformBuffer,
+            Binding::SampledImages(pass.texture_capacity()),
+            Binding::Unused,
+            Binding::UniformBuffer,
+        ];
+        let targets = GraphicsTargets {
+            color_formats: &GBUFFER_FORMATS,
+            depth_format: vk::Format::D32_SFLOAT,
+        };
+        let make = |alpha_test: u32| {
+            GraphicsPipeline::new(
+                ctx,
+                crate::shaders::GBUFFER_VERT,
+                crate::shaders::GBUFFER_FRAG,
+                &bindings,
+                4,
+                &targets,
+                &[alpha_test],
+            )
+        };
+        let (pipeline, masked_pipeline) = (make(0)?, make(1)?);
+        let bind = |p: &GraphicsPipeline| -> VkResult<DescriptorSet> {
+            let set = p.allocate_set()?;
+            pass.scene.bind(&set);
+            set.sampled_images(1, pass.textures);
+            set.buffer(3, frame, Binding::UniformBuffer);
+            Ok(set)
+        };
+        let (set, masked_set) = (bind(&pipeline)?, bind(&masked_pipeline)?);
+        let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
+            | vk::ImageUsageFlags::STORAGE
+            | vk::ImageUsageFlags::TRANSFER_SRC;
+        let images = GBUFFER_FORMATS
+            .iter()
+            .enumerate()
+            .map(|(i, &f)| Image::new(ctx, &format!("gbuffer {i}"), extent, f, usage, 1))
+            .collect::<VkResult<Vec<_>>>()?;
+        let depth = Image::new(
+            ctx,
+            "gbuffer depth",
+            extent,
+            vk::Format::D32_SFLOAT,
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            1,
+        )?;
+        Ok(Self {
+            pipeline,
+            masked_pipeline,
+            set,
+            masked_set,
+            images,
+            depth,
+            extent,
+        })
+    }
+
+    /// Records the raster pass; afterwards every colour image is in `GENERAL` layout.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        draws: &[Draw],
+        camera_pos: glam::Vec3,
+        profiler: Option<&mut GpuProfiler>,
+    ) {
+        let device = ctx.device();
+        let mut profiler = profiler;
+        if let Some(p) = profiler.as_deref_mut() {
+            p.begin(cmd, "gbuffer");
+        }
+        for image in &self.images {
+            image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
+        }
+        self.depth.transition(
+            cmd,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+        );
+        let colors: Vec<_> = self
+            .images
+            .iter()
+            .enumerate()
+            .map(|(i, image)| {
+                let clear = if GBUFFER_FORMATS[i] == vk::Format::R32G32B32A32_UINT {
+                    vk::ClearColorValue {
+                        uint32: [u32::MAX; 4],
+                    }
+                } else {
+                    vk::ClearColorValue { float32: [0.0; 4] }
+                };
+                vk::RenderingAttachmentInfo::default()
+                    .image_view(image.view())
+                    .image_layout(vk::ImageLayout::GENERAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue { color: clear })
+            })
+            .collect();
+        let depth = vk::RenderingAttachmentInfo::default()
+            .image_view(self.depth.view())
+            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: 1.0,
+                    stencil: 0,
+                },
+            });
+        let area = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: self.extent,
+        };
+        let info = vk::RenderingInfo::default()
+            .render_area(area)
+            .layer_count(1)
+            .color_attachments(&colors)
+            .depth_attachment(&depth);
+        // SAFETY: recording command buffer; attachments are in the layouts named above.
+        unsafe {
+            device.cmd_begin_rendering(cmd, &info);
+            device.cmd_set_viewport(
+                cmd,
+                0,
+                &[vk::Viewport {
+                    x: 0.0,
+                    y: 0.0,
+                    width: self.extent.width as f32,
+                    height: self.extent.height as f32,
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                }],
+            );
+            device.cmd_set_scissor(cmd, 0, &[area]);
+        }
+        // Opaque draws first, front to back, so early depth testing skips hidden fragments;
+        // alpha-tested draws last with their own pipeline.
+        let mut order: Vec<&Draw> = draws.iter().collect();
+        order.sort_by(|a, b| {
+            let da = (a.center - camera_pos).length_squared();
+            let db = (b.center - camera_pos).length_squared();
+            a.alpha_test.cmp(&b.alpha_test).then(da.total_cmp(&db))
+        });
+        let mut bound = None;
+        for d in order {
+            if bound != Some(d.alpha_test) {
+                let (p, set) = if d.alpha_test {
+                    (&self.masked_pipeline, &self.masked_set)
+                } else {
+                    (&self.pipeline, &self.set)
+                };
+                p.bind(cmd, set);
+                bound = Some(d.alpha_test);
+            }
+            let p = if d.alpha_test {
+                &self.masked_pipeline
+            } else {
+                &self.pipeline
+            };
+            p.push(cmd, &d.instance.to_le_bytes());
+            // SAFETY: inside the rendering scope; dynamic states declared by the pipeline.
+            unsafe {
+                device.cmd_set_cull_mode(
+                    cmd,
+                    if d.cull_back {
+                        vk::CullModeFlags::BACK
+                    } else {
+                        vk::CullModeFlags::NONE
+                    },
+                );
+                device.cmd_set_front_face(
+                    cmd,
+                    if d.mirrored {
+                        vk::FrontFace::CLOCKWISE
+                    } else {
+                        vk::FrontFace::COUNTER_CLOCKWISE
+                    },
+                );
+                device.cmd_draw(cmd, d.vertex_count, 1, 0, 0);
+            }
+        }
+        // SAFETY: matches cmd_begin_rendering above.
+        unsafe { device.cmd_end_rendering(cmd) };
+        crate::vk::memory_barrier(device, cmd);
+        if let Some(p) = profiler {
+            p.end(cmd);
+        }
+    }
+}

@@ -1,0 +1,1504 @@
+//! glTF 2.0 (`.gltf` with external / embedded / data-URI resources, and `.glb`) → [`Scene`].
+//!
+//! The JSON is deserialised with `gltf-json`, but nothing of the `gltf` crate's own
+//! validation or accessor reading is used: both can panic on malformed input. Every index,
+//! offset and length is checked here instead, and every error names the file and the element.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use ::gltf::json as gj;
+use gj::validation::Checked;
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+
+use super::accessor::{self, Buffers, Elements};
+use super::camera::{camera_pose, default_lights};
+use super::error::SceneError;
+use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topology};
+use super::image::{self as img, MAX_IMAGE_SIZE};
+use super::types::*;
+
+/// Extensions rqr implements. Others in `extensionsUsed` are ignored with a warning; others
+/// in `extensionsRequired` make loading fail.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+    "KHR_mesh_quantization",
+    "EXT_mesh_gpu_instancing",
+];
+
+/// Most instances a scene may expand to (node hierarchy × EXT_mesh_gpu_instancing); guards
+/// against files whose node graph shares subtrees exponentially.
+pub const MAX_INSTANCES: usize = 1 << 22;
+
+/// How to load a file.
+#[derive(Clone, Debug)]
+pub struct LoadOptions {
+    /// Scene to load (`--scene N`); `None`: the file's default scene, else scene 0.
+    pub scene: Option<usize>,
+    /// Largest accepted image width or height, in pixels.
+    pub max_image_size: u32,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self {
+            scene: None,
+            max_image_size: MAX_IMAGE_SIZE,
+        }
+    }
+}
+
+/// Loads a `.gltf` or `.glb` file; relative URIs resolve against its directory.
+pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+        file: name.clone(),
+        source,
+    })?;
+    load_slice(&bytes, path.parent(), &name, opts)
+}
+
+/// Loads glTF or GLB bytes. `base_dir` resolves relative URIs (`None`: only embedded and
+/// data-URI resources are allowed); `name` is the file name used in errors and
+/// [`Scene::source`].
+pub fn load_slice(
+    bytes: &[u8],
+    base_dir: Option<&Path>,
+    name: &str,
+    opts: &LoadOptions,
+) -> Result<Scene, SceneError> {
+    let format = |message: String| SceneError::Format {
+        file: name.to_string(),
+        message,
+    };
+    let (json, bin) = if bytes.starts_with(b"glTF") {
+        split_glb(bytes).map_err(format)?
+    } else {
+        (bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes), None)
+    };
+    let root: gj::Root =
+        gj::deserialize::from_slice(json).map_err(|e| format(format!("invalid glTF JSON: {e}")))?;
+    if !root.asset.version.starts_with("2.") {
+        return Err(format(format!(
+            "glTF version {} is not supported (only 2.x)",
+            root.asset.version
+        )));
+    }
+    let mut loader = Loader {
+        file: name.to_string(),
+        base_dir,
+        opts,
+        buffers: Buffers { data: Vec::new() },
+        scene: Scene {
+            source: name.to_string(),
+            ..Default::default()
+        },
+        geometry_of: HashMap::new(),
+        geometry_bounds: Vec::new(),
+        material_of: HashMap::new(),
+        texture_of: HashMap::new(),
+        image_of: HashMap::new(),
+        image_sources: Vec::new(),
+        root,
+    };
+    loader.check_extensions()?;
+    loader.load_buffers(bin)?;
+    loader.check_node_graph()?;
+    loader.load_scene()?;
+    loader.decode_images()?;
+    Ok(loader.finish())
+}
+
+/// Splits a GLB container into its JSON chunk and optional BIN chunk.
+fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
+    let u32_at = |o: usize| -> Option<u32> {
+        bytes
+            .get(o..o + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let (Some(version), Some(length)) = (u32_at(4), u32_at(8)) else {
+        return Err(format!(
+            "truncated GLB: {} bytes, shorter than the 12-byte header",
+            bytes.len()
+        ));
+    };
+    if version != 2 {
+        return Err(format!("GLB version {version} is not supported (only 2)"));
+    }
+    let length = length as usize;
+    if length > bytes.len() {
+        return Err(format!(
+            "truncated GLB: header says {length} bytes, file has {}",
+            bytes.len()
+        ));
+    }
+    if length < 20 {
+        return Err(format!(
+            "malformed GLB: length {length} leaves no JSON chunk"
+        ));
+    }
+    let mut offset = 12;
+    let mut json = None;
+    let mut bin = None;
+    while offset + 8 <= length {
+        let (Some(chunk_len), Some(kind)) = (u32_at(offset), u32_at(offset + 4)) else {
+            break;
+        };
+        let start = offset + 8;
+        let end = start
+            .checked_add(chunk_len as usize)
+            .filter(|&e| e <= length)
+            .ok_or_else(|| {
+                format!(
+                    "truncated GLB: chunk at offset {offset} claims {chunk_len} bytes, only {} remain",
+                    length - start
+                )
+            })?;
+        let data = &bytes[start..end];
+        match &kind.to_le_bytes() {
+            b"JSON" if json.is_none() && offset == 12 => json = Some(data),
+            b"JSON" => return Err("malformed GLB: unexpected second JSON chunk".into()),
+            b"BIN\0" if json.is_some() && bin.is_none() => bin = Some(data),
+            b"BIN\0" => return Err("malformed GLB: misplaced BIN chunk".into()),
+            _ if offset == 12 => return Err("malformed GLB: the first chunk is not JSON".into()),
+            // Unknown chunks after the JSON chunk are allowed and ignored.
+            _ => {}
+        }
+        // Chunks are 4-byte aligned; a misaligned length is tolerated.
+        offset = end.div_ceil(4) * 4;
+    }
+    let json = json.ok_or_else(|| "malformed GLB: no JSON chunk".to_string())?;
+    Ok((json, bin))
+}
+
+/// Where an image's encoded bytes come from.
+enum ImageBytes<'a> {
+    Borrowed(&'a [u8]),
+    Owned(Vec<u8>),
+}
+
+struct Loader<'a> {
+    file: String,
+    base_dir: Option<&'a Path>,
+    opts: &'a LoadOptions,
+    root: gj::Root,
+    buffers: Buffers,
+    scene: Scene,
+    /// (mesh, primitive) → geometry; `None` for skipped (non-triangle) primitives.
+    geometry_of: HashMap<(usize, usize), Option<u32>>,
+    /// Object-space bounds, parallel to `scene.geometries`.
+    geometry_bounds: Vec<Aabb>,
+    /// glTF material (None: the default material) → scene material.
+    material_of: HashMap<Option<usize>, u32>,
+    /// (glTF texture, sRGB) → scene texture.
+    texture_of: HashMap<(usize, bool), u32>,
+    /// (glTF image, sRGB) → scene image.
+    image_of: HashMap<(usize, bool), u32>,
+    /// glTF image of each scene image, decoded at the end.
+    image_sources: Vec<usize>,
+}
+
+fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
+    match c {
+        Checked::Valid(v) => Some(*v),
+        Checked::Invalid => None,
+    }
+}
+
+impl Loader<'_> {
+    fn err(&self, element: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError::element(&self.file, element, message)
+    }
+
+    fn check_extensions(&mut self) -> Result<(), SceneError> {
+        let unsupported_required: Vec<String> = self
+            .root
+            .extensions_required
+            .iter()
+            .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
+            .cloned()
+            .collect();
+        if !unsupported_required.is_empty() {
+            return Err(SceneError::UnsupportedExtensions {
+                file: self.file.clone(),
+                extensions: unsupported_required,
+            });
+        }
+        self.scene.extensions_used = self.root.extensions_used.clone();
+        self.scene.extensions_unsupported = self
+            .root
+            .extensions_used
+            .iter()
+            .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
+            .cloned()
+            .collect();
+        if !self.scene.extensions_unsupported.is_empty() {
+            log::warn!(
+                "{}: ignoring unsupported glTF extension(s): {}",
+                self.file,
+                self.scene.extensions_unsupported.join(", ")
+            );
+        }
+        Ok(())
+    }
+
+    /// Reads a URI's bytes: a data URI or a file relative to the base directory.
+    fn read_uri(&self, element: &str, uri: &str) -> Result<Vec<u8>, SceneError> {
+        if let Some(parsed) = img::parse_data_uri(uri) {
+            return parsed
+                .map(|(_, data)| data)
+                .map_err(|e| self.err(element, e));
+        }
+        if let Some((scheme, _)) = uri.split_once(':') {
+            // A one-letter "scheme" is a Windows drive letter, not a URI scheme.
+            if scheme.len() > 1
+                && scheme
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+            {
+                return Err(self.err(
+                    element,
+                    format!("URI scheme '{scheme}:' is not supported (only relative paths and data: URIs)"),
+                ));
+            }
+        }
+        let Some(base) = self.base_dir else {
+            return Err(self.err(
+                element,
+                format!("external file '{uri}' cannot be resolved: no base directory (embedded data only)"),
+            ));
+        };
+        let path = base.join(img::percent_decode(uri));
+        std::fs::read(&path)
+            .map_err(|e| self.err(element, format!("cannot read '{}': {e}", path.display())))
+    }
+
+    fn load_buffers(&mut self, bin: Option<&[u8]>) -> Result<(), SceneError> {
+        let mut data = Vec::with_capacity(self.root.buffers.len());
+        for (i, b) in self.root.buffers.iter().enumerate() {
+            let element = match &b.uri {
+                Some(uri) if !uri.starts_with("data:") => format!("buffer {i} ({uri})"),
+                _ => format!("buffer {i}"),
+            };
+            let mut bytes = match &b.uri {
+                Some(uri) => self.read_uri(&element, uri)?,
+                None if i == 0 => bin
+                    .ok_or_else(|| {
+                        self.err(&element, "has no uri and the file has no GLB BIN chunk")
+                    })?
+                    .to_vec(),
+                None => {
+                    return Err(self.err(
+                        &element,
+                        "has no uri (only buffer 0 may refer to the GLB BIN chunk)",
+                    ))
+                }
+            };
+            let want = b.byte_length.0;
+            if (bytes.len() as u64) < want {
+                return Err(self.err(
+                    &element,
+                    format!(
+                        "byteLength is {want} but only {} bytes are available",
+                        bytes.len()
+                    ),
+                ));
+            }
+            bytes.truncate(want as usize);
+            data.push(bytes);
+        }
+        self.buffers = Buffers { data };
+        Ok(())
+    }
+
+    /// Checks child indices and rejects cycles (iterative DFS, so deep trees cannot
+    /// overflow the stack).
+    fn check_node_graph(&self) -> Result<(), SceneError> {
+        let nodes = &self.root.nodes;
+        for (n, node) in nodes.iter().enumerate() {
+            for c in node.children.iter().flatten() {
+                if c.value() >= nodes.len() {
+                    return Err(self.err(
+                        format!("node {n}"),
+                        format!("child {} does not exist ({} nodes)", c.value(), nodes.len()),
+                    ));
+                }
+            }
+        }
+        #[derive(Clone, Copy, PartialEq)]
+        enum State {
+            New,
+            OnPath,
+            Done,
+        }
+        let mut state = vec![State::New; nodes.len()];
+        let children = |n: usize| nodes[n].children.as_deref().unwrap_or(&[]);
+        for start in 0..nodes.len() {
+            if state[start] != State::New {
+                continue;
+            }
+            // (node, next child position)
+            let mut path: Vec<(usize, usize)> = vec![(start, 0)];
+            state[start] = State::OnPath;
+            while let Some(top) = path.last_mut() {
+                let n = top.0;
+                if let Some(c) = children(n).get(top.1) {
+                    top.1 += 1;
+                    let c = c.value();
+                    match state[c] {
+                        State::New => {
+                            state[c] = State::OnPath;
+                            path.push((c, 0));
+                        }
+                        State::OnPath => {
+                            let from = path.iter().position(|&(p, _)| p == c).unwrap_or(0);
+                            let cycle: Vec<String> = path[from..]
+                                .iter()
+                                .map(|&(p, _)| format!("node {p}"))
+                                .chain(std::iter::once(format!("node {c}")))
+                                .collect();
+                            return Err(self.err(
+                                format!("node {c}"),
+                                format!("node hierarchy has a cycle: {}", cycle.join(" -> ")),
+                            ));
+                        }
+                        State::Done => {}
+                    }
+                } else {
+                    state[n] = State::Done;
+                    path.pop();
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn node_local(&self, n: usize) -> Result<Mat4, SceneError> {
+        let node = &self.root.nodes[n];
+        let m = if let Some(m) = node.matrix {
+            Mat4::from_cols_array(&m)
+        } else {
+            let t = Vec3::from(node.translation.unwrap_or([0.0; 3]));
+            let r = node
+                .rotation
+                .map_or(Quat::IDENTITY, |q| Quat::from_array(q.0));
+            let s = Vec3::from(node.scale.unwrap_or([1.0; 3]));
+            if r.length_squared() == 0.0 {
+                return Err(self.err(format!("node {n}"), "rotation is a zero quaternion"));
+            }
+            Mat4::from_scale_rotation_translation(s, r.normalize(), t)
+        };
+        if !m.is_finite() {
+            return Err(self.err(format!("node {n}"), "transform is not finite"));
+        }
+        Ok(m)
+    }
+
+    fn load_scene(&mut self) -> Result<(), SceneError> {
+        let roots: Vec<usize> = if self.root.scenes.is_empty() {
+            if let Some(s) = self.opts.scene {
+                return Err(self.err(
+                    format!("scene {s}"),
+                    "does not exist (the file has no scenes)",
+                ));
+            }
+            // A file without scenes: show every root node rather than nothing.
+            let mut is_child = vec![false; self.root.nodes.len()];
+            for node in &self.root.nodes {
+                for c in node.children.iter().flatten() {
+                    is_child[c.value()] = true;
+                }
+            }
+            if !self.root.nodes.is_empty() {
+                log::warn!("{}: no scenes; showing every root node", self.file);
+            }
+            (0..self.root.nodes.len())
+                .filter(|&n| !is_child[n])
+                .collect()
+        } else {
+            let (index, what) = match (self.opts.scene, &self.root.scene) {
+                (Some(s), _) => (s, ""),
+                (None, Some(s)) => (s.value(), " (the file's default scene)"),
+                (None, None) => (0, ""),
+            };
+            let scene = self.root.scenes.get(index).ok_or_else(|| {
+                self.err(
+                    format!("scene {index}{what}"),
+                    format!(
+                        "does not exist (the file has {} scenes)",
+                        self.root.scenes.len()
+                    ),
+                )
+            })?;
+            let mut roots = Vec::with_capacity(scene.nodes.len());
+            for r in &scene.nodes {
+                if r.value() >= self.root.nodes.len() {
+                    return Err(self.err(
+                        format!("scene {index}"),
+                        format!(
+                            "node {} does not exist ({} nodes)",
+                            r.value(),
+                            self.root.nodes.len()
+                        ),
+                    ));
+                }
+                roots.push(r.value());
+            }
+            roots
+        };
+        self.scene.mesh_count = self.root.meshes.len();
+        self.scene.primitive_count = self.root.meshes.iter().map(|m| m.primitives.len()).sum();
+
+        self.scene.node_world = vec![None; self.root.nodes.len()];
+        let mut cameras: Vec<(usize, Camera)> = Vec::new();
+        let mut lights: Vec<(usize, Light)> = Vec::new();
+        let mut visits = 0usize;
+        let mut stack: Vec<(usize, Mat4)> =
+            roots.iter().rev().map(|&r| (r, Mat4::IDENTITY)).collect();
+        while let Some((n, parent)) = stack.pop() {
+            visits += 1;
+            if visits > MAX_INSTANCES {
+                return Err(self.err(
+                    format!("node {n}"),
+                    format!("the node hierarchy expands to more than {MAX_INSTANCES} nodes"),
+                ));
+            }
+            let world = parent * self.node_local(n)?;
+            if !world.is_finite() {
+                return Err(self.err(format!("node {n}"), "world transform is not finite"));
+            }
+            let slot = &mut self.scene.node_world[n];
+            if slot.is_none() {
+                *slot = Some(world);
+            }
+            let node = &self.root.nodes[n];
+            if let Some(mesh) = node.mesh {
+                self.place_mesh(n, mesh.value(), world)?;
+            }
+            let node = &self.root.nodes[n];
+            if let Some(c) = node.camera {
+                cameras.push((n, self.camera(n, c.value(), world)?));
+            }
+            if let Some(l) = node
+                .extensions
+                .as_ref()
+                .and_then(|e| e.khr_lights_punctual.as_ref())
+            {
+                lights.push((n, self.light(n, l.light.value(), world)?));
+            }
+            for c in self.root.nodes[n].children.iter().flatten().rev() {
+                stack.push((c.value(), world));
+            }
+        }
+        cameras.sort_by_key(|(n, _)| *n);
+        lights.sort_by_key(|(n, _)| *n);
+        self.scene.cameras = cameras.into_iter().map(|(_, c)| c).collect();
+        self.scene.lights = lights.into_iter().map(|(_, l)| l).collect();
+        if self.scene.lights.is_empty() {
+            self.scene.lights = default_lights();
+            self.scene.default_lights = true;
+        }
+        Ok(())
+    }
+
+    /// Instance transforms of a node's mesh: EXT_mesh_gpu_instancing's TRS per instance, or
+    /// the identity.
+    fn gpu_instances(&self, n: usize) -> Result<Vec<Mat4>, SceneError> {
+        let Some(ext) = self.root.nodes[n]
+            .extensions
+            .as_ref()
+            .and_then(|e| e.others.get("EXT_mesh_gpu_instancing"))
+        else {
+            return Ok(vec![Mat4::IDENTITY]);
+        };
+        let element = format!("node {n} EXT_mesh_gpu_instancing");
+        let attrs = ext
+            .get("attributes")
+            .and_then(|a| a.as_object())
+            .ok_or_else(|| self.err(&element, "missing 'attributes'"))?;
+        let read = |name: &str, comps: usize| -> Result<Option<Vec<f32>>, SceneError> {
+            let Some(v) = attrs.get(name) else {
+                return Ok(None);
+            };
+            let index = v
+                .as_u64()
+                .ok_or_else(|| self.err(&element, format!("{name} is not an accessor index")))?;
+            let e = accessor::read_f32(&self.root, &self.buffers, index as usize)
+                .map_err(|m| self.err(&element, format!("{name} accessor {index}: {m}")))?;
+            if e.comps != comps {
+                return Err(self.err(
+                    &element,
+                    format!(
+                        "{name} accessor {index} has {} components, expected {comps}",
+                        e.comps
+                    ),
+                ));
+            }
+            Ok(Some(e.values))
+        };
+        let t = read("TRANSLATION", 3)?;
+        let r = read("ROTATION", 4)?;
+        let s = read("SCALE", 3)?;
+        let counts: Vec<usize> = [(&t, 3), (&r, 4), (&s, 3)]
+            .iter()
+            .filter_map(|(v, c)| v.as_ref().map(|v| v.len() / c))
+            .collect();
+        let Some(&count) = counts.first() else {
+            return Ok(vec![Mat4::IDENTITY]);
+        };
+        if counts.iter().any(|&c| c != count) {
+            return Err(self.err(&element, format!("attribute counts differ: {counts:?}")));
+        }
+        if count > MAX_INSTANCES {
+            return Err(self.err(
+                &element,
+                format!("{count} instances exceed rqr's limit of {MAX_INSTANCES}"),
+            ));
+        }
+        let mut out = Vec::with_capacity(count);
+        for i in 0..count {
+            let tr = t
+                .as_ref()
+                .map_or(Vec3::ZERO, |v| Vec3::from_slice(&v[i * 3..]));
+            let ro = r
+                .as_ref()
+                .map_or(Quat::IDENTITY, |v| Quat::from_slice(&v[i * 4..]));
+            let sc = s
+                .as_ref()
+                .map_or(Vec3::ONE, |v| Vec3::from_slice(&v[i * 3..]));
+            if ro.length_squared() == 0.0 {
+                return Err(self.err(&element, format!("instance {i}: zero rotation quaternion")));
+            }
+            let m = Mat4::from_scale_rotation_translation(sc, ro.normalize(), tr);
+            if !m.is_finite() {
+                return Err(self.err(&element, format!("instance {i}: transform is not finite")));
+            }
+            out.push(m);
+        }
+        Ok(out)
+    }
+
+    fn place_mesh(&mut self, n: usize, mesh: usize, world: Mat4) -> Result<(), SceneError> {
+        let Some(m) = self.root.meshes.get(mesh) else {
+            return Err(self.err(
+                format!("node {n}"),
+                format!(
+                    "mesh {mesh} does not exist ({} meshes)",
+                    self.root.meshes.len()
+                ),
+            ));
+        };
+        let primitives = m.primitives.len();
+        let locals = self.gpu_instances(n)?;
+        for p in 0..primitives {
+            let Some(g) = self.geometry(mesh, p)? else {
+                continue;
+            };
+            if self.scene.instances.len() + locals.len() > MAX_INSTANCES {
+                return Err(self.err(
+                    format!("node {n}"),
+                    format!("the scene expands to more than {MAX_INSTANCES} instances"),
+                ));
+            }
+            for local in &locals {
+                self.scene.instances.push(Instance {
+                    geometry: g,
+                    transform: world * *local,
+                    node: n,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn attribute(
+        &self,
+        element: &str,
+        prim: &gj::mesh::Primitive,
+        semantic: gj::mesh::Semantic,
+        comps: &[usize],
+        vertices: Option<usize>,
+    ) -> Result<Option<Elements<f32>>, SceneError> {
+        let name = match &semantic {
+            gj::mesh::Semantic::Positions => "POSITION".to_string(),
+            gj::mesh::Semantic::Normals => "NORMAL".to_string(),
+            gj::mesh::Semantic::Tangents => "TANGENT".to_string(),
+            gj::mesh::Semantic::TexCoords(i) => format!("TEXCOORD_{i}"),
+            gj::mesh::Semantic::Colors(i) => format!("COLOR_{i}"),
+            other => format!("{other:?}"),
+        };
+        let Some(index) = prim.attributes.get(&Checked::Valid(semantic)) else {
+            return Ok(None);
+        };
+        let index = index.value();
+        let e = accessor::read_f32(&self.root, &self.buffers, index)
+            .map_err(|m| self.err(element, format!("{name} accessor {index}: {m}")))?;
+        if !comps.contains(&e.comps) {
+            return Err(self.err(
+                element,
+                format!(
+                    "{name} accessor {index} has {} components, expected {comps:?}",
+                    e.comps
+                ),
+            ));
+        }
+        if let Some(v) = vertices {
+            if e.count() != v {
+                return Err(self.err(
+                    element,
+                    format!(
+                        "{name} accessor {index} has {} elements but POSITION has {v}",
+                        e.count()
+                    ),
+                ));
+            }
+        }
+        Ok(Some(e))
+    }
+
+    /// The geometry of (mesh, primitive), built on first use.
+    fn geometry(&mut self, mesh: usize, p: usize) -> Result<Option<u32>, SceneError> {
+        if let Some(&g) = self.geometry_of.get(&(mesh, p)) {
+            return Ok(g);
+        }
+        let g = self.build_geometry(mesh, p)?;
+        let index = g.map(|(g, bounds)| {
+            self.scene.geometries.push(g);
+            self.geometry_bounds.push(bounds);
+            (self.scene.geometries.len() - 1) as u32
+        });
+        self.geometry_of.insert((mesh, p), index);
+        Ok(index)
+    }
+
+    fn build_geometry(
+        &mut self,
+        mesh: usize,
+        p: usize,
+    ) -> Result<Option<(Geometry, Aabb)>, SceneError> {
+        use gj::mesh::{Mode, Semantic};
+        let element = format!("mesh {mesh} primitive {p}");
+        let prim = self.root.meshes[mesh].primitives[p].clone();
+        let topology = match checked(&prim.mode) {
+            Some(Mode::Triangles) => Topology::List,
+            Some(Mode::TriangleStrip) => Topology::Strip,
+            Some(Mode::TriangleFan) => Topology::Fan,
+            Some(other) => {
+                log::warn!(
+                    "{}: {element}: skipping {other:?} primitive (rqr renders triangles only)",
+                    self.file
+                );
+                return Ok(None);
+            }
+            None => return Err(self.err(&element, "invalid mode")),
+        };
+        let Some(pos) = self.attribute(&element, &prim, Semantic::Positions, &[3], None)? else {
+            log::warn!(
+                "{}: {element}: skipping primitive without POSITION",
+                self.file
+            );
+            return Ok(None);
+        };
+        let vertex_count = pos.count();
+        let mut bounds = Aabb::EMPTY;
+        let mut positions = Vec::with_capacity(vertex_count);
+        for (i, c) in pos.values.chunks_exact(3).enumerate() {
+            let v = Vec3::from_slice(c);
+            if !v.is_finite() {
+                return Err(self.err(
+                    &element,
+                    format!("POSITION {i} is not finite ({}, {}, {})", c[0], c[1], c[2]),
+                ));
+            }
+            bounds.grow(v);
+            positions.push(v);
+        }
+        let seq: Vec<u32> = match prim.indices {
+            Some(ix) => {
+                let ix = ix.value();
+                let indices = accessor::read_indices(&self.root, &self.buffers, ix)
+                    .map_err(|m| self.err(&element, format!("indices accessor {ix}: {m}")))?;
+                if let Some(bad) = indices.iter().find(|&&i| i as usize >= vertex_count) {
+                    return Err(self.err(
+                        &element,
+                        format!("index {bad} out of range ({vertex_count} vertices)"),
+                    ));
+                }
+                indices
+            }
+            None => (0..vertex_count as u32).collect(),
+        };
+        if topology == Topology::List && seq.len() % 3 != 0 {
+            log::warn!(
+                "{}: {element}: {} indices is not a multiple of 3; dropping the remainder",
+                self.file,
+                seq.len()
+            );
+        }
+        let indices = triangulate(topology, &seq);
+        let vc = Some(vertex_count);
+        let normals = self.attribute(&element, &prim, Semantic::Normals, &[3], vc)?;
+        let tangents = self.attribute(&element, &prim, Semantic::Tangents, &[4], vc)?;
+        let uv0 = self.attribute(&element, &prim, Semantic::TexCoords(0), &[2], vc)?;
+        let uv1 = self.attribute(&element, &prim, Semantic::TexCoords(1), &[2], vc)?;
+        let colors = self.attribute(&element, &prim, Semantic::Colors(0), &[3, 4], vc)?;
+
+        let material = match prim.material {
+            Some(m) if m.value() >= self.root.materials.len() => {
+                return Err(self.err(
+                    &element,
+                    format!(
+                        "material {} does not exist ({} materials)",
+                        m.value(),
+                        self.root.materials.len()
+                    ),
+                ))
+            }
+            m => self.material(m.map(|m| m.value()))?,
+        };
+        let normal_map_uv = self.scene.materials[material as usize]
+            .normal_texture
+            .map(|t| t.tex_coord);
+
+        let mut g = Geometry {
+            positions,
+            indices,
+            material,
+            mesh,
+            primitive: p,
+            ..Default::default()
+        };
+        let mut fixed = 0usize;
+        if let Some(n) = normals {
+            g.normals = n
+                .values
+                .chunks_exact(3)
+                .map(|c| {
+                    let v = Vec3::from_slice(c);
+                    match v.try_normalize() {
+                        Some(u) => u,
+                        None => {
+                            fixed += 1;
+                            Vec3::Z
+                        }
+                    }
+                })
+                .collect();
+        }
+        if let (Some(t), Some(_)) = (tangents, normal_map_uv) {
+            g.tangents = t
+                .values
+                .chunks_exact(4)
+                .map(|c| {
+                    let v = Vec4::from_slice(c);
+                    let xyz = v.truncate().try_normalize().unwrap_or_else(|| {
+                        fixed += 1;
+                        Vec3::X
+                    });
+                    xyz.extend(if v.w < 0.0 { -1.0 } else { 1.0 })
+                })
+                .collect();
+        }
+        let uv = |e: Option<Elements<f32>>, fixed: &mut usize| -> Vec<Vec2> {
+            e.map(|e| {
+                e.values
+                    .chunks_exact(2)
+                    .map(|c| {
+                        let v = Vec2::from_slice(c);
+                        if v.is_finite() {
+                            v
+                        } else {
+                            *fixed += 1;
+                            Vec2::ZERO
+                        }
+                    })
+                    .collect()
+            })
+            .unwrap_or_default()
+        };
+        g.uv0 = uv(uv0, &mut fixed);
+        g.uv1 = uv(uv1, &mut fixed);
+        if let Some(c) = colors {
+            let comps = c.comps;
+            g.colors = c
+                .values
+                .chunks_exact(comps)
+                .map(|c| {
+                    let v = if comps == 3 {
+                        Vec3::from_slice(c).extend(1.0)
+                    } else {
+                        Vec4::from_slice(c)
+                    };
+                    if v.is_finite() {
+                        v
+                    } else {
+                        fixed += 1;
+                        Vec4::ONE
+                    }
+                })
+                .collect();
+        }
+        if fixed > 0 {
+            log::warn!(
+                "{}: {element}: replaced {fixed} zero-length or non-finite normal/tangent/uv/colour values",
+                self.file
+            );
+        }
+        if g.normals.is_empty() {
+            compute_flat_normals(&mut g);
+        }
+        if let Some(set) = normal_map_uv {
+            if g.tangents.is_empty() && !compute_tangents(&mut g, set) {
+                log::warn!(
+                    "{}: {element}: cannot compute tangents for the normal map (TEXCOORD_{set} missing or degenerate); the normal map is ignored",
+                    self.file
+                );
+            }
+        }
+        Ok(Some((g, bounds)))
+    }
+
+    /// The scene material for glTF material `index` (None: the glTF default material).
+    fn material(&mut self, index: Option<usize>) -> Result<u32, SceneError> {
+        if let Some(&m) = self.material_of.get(&index) {
+            return Ok(m);
+        }
+        let mat = match index {
+            None => Material {
+                name: "default".into(),
+                ..Default::default()
+            },
+            Some(i) => self.convert_material(i)?,
+        };
+        self.scene.materials.push(mat);
+        let m = (self.scene.materials.len() - 1) as u32;
+        self.material_of.insert(index, m);
+        Ok(m)
+    }
+
+    fn convert_material(&mut self, i: usize) -> Result<Material, SceneError> {
+        let j = self.root.materials[i].clone();
+        let el = format!("material {i}");
+        let pbr = &j.pbr_metallic_roughness;
+        let info_transform = |info: &gj::texture::Info| {
+            info.extensions
+                .as_ref()
+                .and_then(|e| e.texture_transform.clone())
+        };
+        let other_transform = |others: Option<&serde_json::Map<String, serde_json::Value>>| {
+            others
+                .and_then(|o| o.get("KHR_texture_transform"))
+                .map(|v| {
+                    serde_json::from_value::<gj::extensions::texture::TextureTransform>(v.clone())
+                })
+        };
+        let mut m = Material {
+            name: j.name.clone().unwrap_or_default(),
+            base_color: Vec4::from(pbr.base_color_factor.0),
+            metallic: pbr.metallic_factor.0,
+            roughness: pbr.roughness_factor.0,
+            emissive: Vec3::from(j.emissive_factor.0),
+            alpha_mode: match checked(&j.alpha_mode) {
+                Some(gj::material::AlphaMode::Opaque) => AlphaMode::Opaque,
+                Some(gj::material::AlphaMode::Mask) => AlphaMode::Mask,
+                Some(gj::material::AlphaMode::Blend) => AlphaMode::Blend,
+                None => return Err(self.err(&el, "invalid alphaMode")),
+            },
+            alpha_cutoff: j.alpha_cutoff.map_or(0.5, |c| c.0),
+            double_sided: j.double_sided,
+            ..Default::default()
+        };
+        if let Some(t) = &pbr.base_color_texture {
+            m.base_color_texture = Some(self.texture_ref(
+                &el,
+                "baseColorTexture",
+                t.index.value(),
+                t.tex_coord,
+                info_transform(t),
+                true,
+            )?);
+        }
+        if let Some(t) = &pbr.metallic_roughness_texture {
+            m.metallic_roughness_texture = Some(self.texture_ref(
+                &el,
+                "metallicRoughnessTexture",
+                t.index.value(),
+                t.tex_coord,
+                info_transform(t),
+                false,
+            )?);
+        }
+        if let Some(t) = &j.normal_texture {
+            let tt = other_transform(t.extensions.as_ref().map(|e| &e.others))
+                .transpose()
+                .map_err(|e| self.err(&el, format!("normalTexture KHR_texture_transform: {e}")))?;
+            m.normal_texture = Some(self.texture_ref(
+                &el,
+                "normalTexture",
+                t.index.value(),
+                t.tex_coord,
+                tt,
+                false,
+            )?);
+            m.normal_scale = t.scale;
+        }
+        if let Some(t) = &j.occlusion_texture {
+            let tt = other_transform(t.extensions.as_ref().map(|e| &e.others))
+                .transpose()
+                .map_err(|e| {
+                    self.err(&el, format!("occlusionTexture KHR_texture_transform: {e}"))
+                })?;
+            m.occlusion_texture = Some(self.texture_ref(
+                &el,
+                "occlusionTexture",
+                t.index.value(),
+                t.tex_coord,
+                tt,
+                false,
+            )?);
+            m.occlusion_strength = t.strength.0;
+        }
+        if let Some(t) = &j.emissive_texture {
+            m.emissive_texture = Some(self.texture_ref(
+                &el,
+                "emissiveTexture",
+                t.index.value(),
+                t.tex_coord,
+                info_transform(t),
+                true,
+            )?);
+        }
+        if let Some(ext) = &j.extensions {
+            if let Some(s) = &ext.emissive_strength {
+                m.emissive *= s.emissive_strength.0;
+            }
+            if let Some(t) = &ext.transmission {
+                m.transmission = t.transmission_factor.0;
+                if let Some(tex) = &t.transmission_texture {
+                    m.transmission_texture = Some(self.texture_ref(
+                        &el,
+                        "transmissionTexture",
+                        tex.index.value(),
+                        tex.tex_coord,
+                        info_transform(tex),
+                        false,
+                    )?);
+                }
+            }
+            if let Some(ior) = &ext.ior {
+                m.ior = ior.ior.0;
+            }
+            if let Some(v) = &ext.volume {
+                m.thickness = v.thickness_factor.0;
+                m.attenuation_color = Vec3::from(v.attenuation_color.0);
+                m.attenuation_distance = v.attenuation_distance.0;
+            }
+        }
+        if m.ior != 0.0 && m.ior < 1.0 {
+            return Err(self.err(&el, format!("KHR_materials_ior ior {} is below 1", m.ior)));
+        }
+        if m.attenuation_distance <= 0.0 {
+            return Err(self.err(
+                &el,
+                format!(
+                    "KHR_materials_volume attenuationDistance {} must be positive",
+                    m.attenuation_distance
+                ),
+            ));
+        }
+        Ok(m)
+    }
+
+    fn texture_ref(
+        &mut self,
+        el: &str,
+        slot: &str,
+        texture: usize,
+        tex_coord: u32,
+        transform: Option<gj::extensions::texture::TextureTransform>,
+        srgb: bool,
+    ) -> Result<TextureRef, SceneError> {
+        let element = format!("{el} {slot}");
+        if texture >= self.root.textures.len() {
+            return Err(self.err(
+                &element,
+                format!(
+                    "texture {texture} does not exist ({} textures)",
+                    self.root.textures.len()
+                ),
+            ));
+        }
+        let (matrix, tex_coord) = match transform {
+            Some(t) => (
+                texture_transform_matrix(
+                    Vec2::from(t.offset.0),
+                    t.rotation.0,
+                    Vec2::from(t.scale.0),
+                ),
+                t.tex_coord.unwrap_or(tex_coord),
+            ),
+            None => (Mat3::IDENTITY, tex_coord),
+        };
+        let tex_coord = if tex_coord > 1 {
+            log::warn!(
+                "{}: {element}: TEXCOORD_{tex_coord} is not supported; using TEXCOORD_0",
+                self.file
+            );
+            0
+        } else {
+            tex_coord
+        };
+        Ok(TextureRef {
+            texture: self.texture(texture, srgb)?,
+            tex_coord,
+            transform: matrix,
+        })
+    }
+
+    fn texture(&mut self, t: usize, srgb: bool) -> Result<u32, SceneError> {
+        if let Some(&s) = self.texture_of.get(&(t, srgb)) {
+            return Ok(s);
+        }
+        let tex = &self.root.textures[t];
+        let el = format!("texture {t}");
+        let source = tex.source.value();
+        if source >= self.root.images.len() {
+            return Err(self.err(
+                &el,
+                format!(
+                    "image {source} does not exist ({} images)",
+                    self.root.images.len()
+                ),
+            ));
+        }
+        let sampler = match tex.sampler {
+            None => Sampler::default(),
+            Some(s) => self.sampler(s.value())?,
+        };
+        let image = match self.image_of.get(&(source, srgb)) {
+            Some(&i) => i,
+            None => {
+                self.scene.images.push(ImageData {
+                    width: 0,
+                    height: 0,
+                    rgba8: Vec::new(),
+                    srgb,
+                });
+                self.image_sources.push(source);
+                let i = (self.scene.images.len() - 1) as u32;
+                self.image_of.insert((source, srgb), i);
+                i
+            }
+        };
+        self.scene.textures.push(Texture { image, sampler });
+        let s = (self.scene.textures.len() - 1) as u32;
+        self.texture_of.insert((t, srgb), s);
+        Ok(s)
+    }
+
+    fn sampler(&self, s: usize) -> Result<Sampler, SceneError> {
+        use gj::texture::{MagFilter, MinFilter, WrappingMode};
+        let el = format!("sampler {s}");
+        let j = self.root.samplers.get(s).ok_or_else(|| {
+            self.err(
+                &el,
+                format!("does not exist ({} samplers)", self.root.samplers.len()),
+            )
+        })?;
+        let wrap = |w: &Checked<WrappingMode>, name: &str| match checked(w) {
+            Some(WrappingMode::Repeat) => Ok(Wrap::Repeat),
+            Some(WrappingMode::MirroredRepeat) => Ok(Wrap::MirroredRepeat),
+            Some(WrappingMode::ClampToEdge) => Ok(Wrap::ClampToEdge),
+            None => Err(self.err(&el, format!("invalid {name}"))),
+        };
+        let mag_linear = match j.mag_filter.as_ref().map(checked) {
+            None => true,
+            Some(Some(f)) => f == MagFilter::Linear,
+            Some(None) => return Err(self.err(&el, "invalid magFilter")),
+        };
+        // Undefined minification: trilinear, rqr's choice where glTF leaves it open.
+        let (min_linear, mipmaps, mip_linear) = match j.min_filter.as_ref().map(checked) {
+            None => (true, true, true),
+            Some(Some(f)) => match f {
+                MinFilter::Nearest => (false, false, false),
+                MinFilter::Linear => (true, false, false),
+                MinFilter::NearestMipmapNearest => (false, true, false),
+                MinFilter::LinearMipmapNearest => (true, true, false),
+                MinFilter::NearestMipmapLinear => (false, true, true),
+                MinFilter::LinearMipmapLinear => (true, true, true),
+            },
+            Some(None) => return Err(self.err(&el, "invalid minFilter")),
+        };
+        Ok(Sampler {
+            wrap_s: wrap(&j.wrap_s, "wrapS")?,
+            wrap_t: wrap(&j.wrap_t, "wrapT")?,
+            mag_linear,
+            min_linear,
+            mip_linear,
+            mipmaps,
+        })
+    }
+
+    fn image_bytes(&self, i: usize) -> Result<(ImageBytes<'_>, Option<String>), SceneError> {
+        let j = &self.root.images[i];
+        let el = self.image_element(i);
+        let mime = j.mime_type.as_ref().map(|m| m.0.clone());
+        if let Some(v) = j.buffer_view {
+            let v = v.value();
+            let view = self.root.buffer_views.get(v).ok_or_else(|| {
+                self.err(
+                    &el,
+                    format!(
+                        "buffer view {v} does not exist ({} buffer views)",
+                        self.root.buffer_views.len()
+                    ),
+                )
+            })?;
+            let b = view.buffer.value();
+            let buffer = self.buffers.data.get(b).ok_or_else(|| {
+                self.err(&el, format!("buffer view {v}: buffer {b} does not exist"))
+            })?;
+            let start = view.byte_offset.map_or(0, |o| o.0);
+            let end = start
+                .checked_add(view.byte_length.0)
+                .filter(|&e| e <= buffer.len() as u64);
+            let Some(end) = end else {
+                return Err(self.err(
+                    &el,
+                    format!(
+                        "buffer view {v} (offset {start}, length {}) exceeds buffer {b} ({} bytes)",
+                        view.byte_length.0,
+                        buffer.len()
+                    ),
+                ));
+            };
+            return Ok((
+                ImageBytes::Borrowed(&buffer[start as usize..end as usize]),
+                mime,
+            ));
+        }
+        let Some(uri) = &j.uri else {
+            return Err(self.err(&el, "has neither uri nor bufferView"));
+        };
+        let mime = mime.or_else(|| {
+            img::parse_data_uri(uri)
+                .and_then(|r| r.ok())
+                .map(|(m, _)| m)
+        });
+        Ok((ImageBytes::Owned(self.read_uri(&el, uri)?), mime))
+    }
+
+    fn image_element(&self, i: usize) -> String {
+        match &self.root.images[i].uri {
+            Some(u) if !u.starts_with("data:") => format!("image {i} ({u})"),
+            _ => format!("image {i}"),
+        }
+    }
+
+    /// Decodes every referenced glTF image once (in parallel) and fills the scene images.
+    fn decode_images(&mut self) -> Result<(), SceneError> {
+        let mut unique: Vec<usize> = self.image_sources.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        let mut jobs = Vec::with_capacity(unique.len());
+        for &i in &unique {
+            jobs.push((i, self.image_bytes(i)?));
+        }
+        let max = self.opts.max_image_size;
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(jobs.len())
+            .max(1);
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let jobs_ref = &jobs;
+        let next_ref = &next;
+        let results: Vec<(usize, Result<img::Decoded, String>)> = std::thread::scope(|s| {
+            let handles: Vec<_> = (0..threads)
+                .map(|_| {
+                    s.spawn(move || {
+                        let mut out = Vec::new();
+                        loop {
+                            let k = next_ref.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            let Some((i, (bytes, mime))) = jobs_ref.get(k) else {
+                                break;
+                            };
+                            let data: &[u8] = match bytes {
+                                ImageBytes::Borrowed(b) => b,
+                                ImageBytes::Owned(v) => v,
+                            };
+                            out.push((*i, img::decode(data, mime.as_deref(), max)));
+                        }
+                        out
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| {
+                    h.join().unwrap_or_else(|_| {
+                        vec![(usize::MAX, Err("image decoder panicked".into()))]
+                    })
+                })
+                .collect()
+        });
+        drop(jobs);
+        let mut decoded: HashMap<usize, img::Decoded> = HashMap::new();
+        let mut first_error: Option<(usize, String)> = None;
+        for (i, r) in results {
+            match r {
+                Ok(d) => {
+                    decoded.insert(i, d);
+                }
+                Err(e) => {
+                    if first_error.as_ref().is_none_or(|(j, _)| i < *j) {
+                        first_error = Some((i, e));
+                    }
+                }
+            }
+        }
+        if let Some((i, e)) = first_error {
+            let el = if i < self.root.images.len() {
+                self.image_element(i)
+            } else {
+                "image".into()
+            };
+            return Err(self.err(el, e));
+        }
+        // Each image's pixels move into its first scene image; an image used both as colour
+        // and as data gets a copy (they upload to different formats).
+        for (k, &src) in self.image_sources.iter().enumerate() {
+            let (w, h, pixels) = match self.image_sources[k + 1..].contains(&src) {
+                true => decoded.get(&src).cloned(),
+                false => decoded.remove(&src),
+            }
+            .ok_or_else(|| self.err(self.image_element(src), "was not decoded"))?;
+            let data = &mut self.scene.images[k];
+            data.width = w;
+            data.height = h;
+            data.rgba8 = pixels;
+        }
+        Ok(())
+    }
+
+    fn camera(&self, n: usize, c: usize, world: Mat4) -> Result<Camera, SceneError> {
+        let el = format!("camera {c} (node {n})");
+        let j = self.root.cameras.get(c).ok_or_else(|| {
+            self.err(
+                &el,
+                format!("does not exist ({} cameras)", self.root.cameras.len()),
+            )
+        })?;
+        let projection = match (checked(&j.type_), &j.perspective, &j.orthographic) {
+            (Some(gj::camera::Type::Perspective), Some(p), _) => {
+                if !(p.yfov > 0.0 && p.yfov < std::f32::consts::PI) {
+                    return Err(self.err(&el, format!("yfov {} is outside (0, π)", p.yfov)));
+                }
+                if p.znear <= 0.0 || p.zfar.is_some_and(|f| f <= p.znear) {
+                    return Err(self.err(
+                        &el,
+                        format!("invalid clip planes znear {} zfar {:?}", p.znear, p.zfar),
+                    ));
+                }
+                if p.aspect_ratio.is_some_and(|a| a <= 0.0) {
+                    return Err(self.err(&el, "aspectRatio must be positive"));
+                }
+                Projection::Perspective {
+                    yfov: p.yfov,
+                    aspect: p.aspect_ratio,
+                    znear: p.znear,
+                    zfar: p.zfar,
+                }
+            }
+            (Some(gj::camera::Type::Orthographic), _, Some(o)) => {
+                if o.xmag == 0.0 || o.ymag == 0.0 || o.znear < 0.0 || o.zfar <= o.znear {
+                    return Err(self.err(
+                        &el,
+                        format!(
+                            "invalid orthographic camera (xmag {}, ymag {}, znear {}, zfar {})",
+                            o.xmag, o.ymag, o.znear, o.zfar
+                        ),
+                    ));
+                }
+                Projection::Orthographic {
+                    xmag: o.xmag.abs(),
+                    ymag: o.ymag.abs(),
+                    znear: o.znear,
+                    zfar: o.zfar,
+                }
+            }
+            (Some(t), _, _) => {
+                return Err(self.err(&el, format!("{t:?} camera without its {t:?} properties")))
+            }
+            (None, _, _) => return Err(self.err(&el, "invalid type")),
+        };
+        Ok(Camera {
+            camera_to_world: camera_pose(world),
+            projection,
+        })
+    }
+
+    fn light(&self, n: usize, l: usize, world: Mat4) -> Result<Light, SceneError> {
+        use gj::extensions::scene::khr_lights_punctual::Type;
+        let el = format!("light {l} (node {n})");
+        let lights = self
+            .root
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+            .map_or(&[][..], |k| &k.lights[..]);
+        let j = lights
+            .get(l)
+            .ok_or_else(|| self.err(&el, format!("does not exist ({} lights)", lights.len())))?;
+        let kind = match checked(&j.type_) {
+            Some(Type::Directional) => LightKind::Directional,
+            Some(Type::Point) => LightKind::Point,
+            Some(Type::Spot) => {
+                let spot = j.spot.clone().unwrap_or_default();
+                let (inner, outer) = (spot.inner_cone_angle, spot.outer_cone_angle);
+                if !(0.0 <= inner && inner < outer && outer <= std::f32::consts::FRAC_PI_2 + 1e-6) {
+                    return Err(self.err(
+                        &el,
+                        format!("spot cone angles inner {inner} / outer {outer} must satisfy 0 <= inner < outer <= π/2"),
+                    ));
+                }
+                LightKind::Spot {
+                    inner_cone: inner,
+                    outer_cone: outer,
+                }
+            }
+            None => return Err(self.err(&el, "invalid type")),
+        };
+        if j.intensity < 0.0 {
+            return Err(self.err(&el, format!("intensity {} is negative", j.intensity)));
+        }
+        if j.range.is_some_and(|r| r <= 0.0) {
+            return Err(self.err(&el, "range must be positive"));
+        }
+        Ok(Light {
+            kind,
+            color: Vec3::from(j.color),
+            intensity: j.intensity,
+            range: j.range.unwrap_or(f32::INFINITY),
+            position: world.transform_point3(Vec3::ZERO),
+            direction: world
+                .transform_vector3(Vec3::NEG_Z)
+                .normalize_or(Vec3::NEG_Z),
+        })
+    }
+
+    fn finish(mut self) -> Scene {
+        // Exact bounds (every transformed vertex) unless that is a lot of work; then the
+        // transformed corners of each geometry's box, which is conservative.
+        let work: usize = self
+            .scene
+            .instances
+            .iter()
+            .map(|i| self.scene.geometries[i.geometry as usize].positions.len())
+            .sum();
+        let mut bounds = Aabb::EMPTY;
+        for inst in &self.scene.instances {
+            let g = inst.geometry as usize;
+            if work <= 1 << 25 {
+                for p in &self.scene.geometries[g].positions {
+                    bounds.grow(inst.transform.transform_point3(*p));
+                }
+            } else {
+                let b = self.geometry_bounds[g];
+                for k in 0..8 {
+                    let c = Vec3::new(
+                        if k & 1 == 0 { b.min.x } else { b.max.x },
+                        if k & 2 == 0 { b.min.y } else { b.max.y },
+                        if k & 4 == 0 { b.min.z } else { b.max.z },
+                    );
+                    bounds.grow(inst.transform.transform_point3(c));
+                }
+            }
+        }
+        self.scene.bounds = bounds;
+        if self.scene.materials.is_empty() {
+            self.scene.materials.push(Material {
+                name: "default".into(),
+                ..Default::default()
+            });
+        }
+        self.scene
+    }
+}
+
+/// The KHR_texture_transform matrix `T * R * S` applied to `(u, v, 1)`: scale first, then a
+/// rotation by `rotation` radians (counter-clockwise in UV space:
+/// `u' = cos·u + sin·v, v' = -sin·u + cos·v`, which matches the extension's worked example), then the offset.
+pub fn texture_transform_matrix(offset: Vec2, rotation: f32, scale: Vec2) -> Mat3 {
+    let (s, c) = rotation.sin_cos();
+    let t = Mat3::from_cols(Vec3::X, Vec3::Y, offset.extend(1.0));
+    let r = Mat3::from_cols(Vec3::new(c, -s, 0.0), Vec3::new(s, c, 0.0), Vec3::Z);
+    let sc = Mat3::from_diagonal(scale.extend(1.0));
+    t * r * sc
+}
+
+impl Scene {
+    /// The camera to render with: file camera `index` (`--camera N`), else the scene's first
+    /// camera, else [`auto_camera`](super::auto_camera) framing the bounds at `aspect`.
+    pub fn camera(&self, index: Option<usize>, aspect: f32) -> Result<Camera, SceneError> {
+        match index {
+            Some(i) => self.cameras.get(i).copied().ok_or_else(|| {
+                SceneError::element(
+                    &self.source,
+                    format!("camera {i}"),
+                    format!(
+                        "does not exist (the scene has {} cameras)",
+                        self.cameras.len()
+                    ),
+                )
+            }),
+            None => Ok(self
+                .cameras
+                .first()
+                .copied()
+                .unwrap_or_else(|| super::camera::auto_camera(&self.bounds, aspect))),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_transform_matches_spec_example() {
+        // KHR_texture_transform README: offset (0, 1), rotation 90°, scale 0.5 selects the
+        // lower-left quadrant of the image.
+        let m = texture_transform_matrix(
+            Vec2::new(0.0, 1.0),
+            std::f32::consts::FRAC_PI_2,
+            Vec2::splat(0.5),
+        );
+        for (uv, want) in [
+            (Vec2::new(0.0, 0.0), Vec2::new(0.0, 1.0)),
+            (Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.5)),
+            (Vec2::new(0.0, 1.0), Vec2::new(0.5, 1.0)),
+            (Vec2::new(1.0, 1.0), Vec2::new(0.5, 0.5)),
+        ] {
+            let got = (m * uv.extend(1.0)).truncate();
+            assert!(got.abs_diff_eq(want, 1e-6), "{uv} -> {got}, want {want}");
+        }
+    }
+
+    #[test]
+    fn glb_split_rejects_truncation() {
+        assert!(split_glb(b"glTF").unwrap_err().contains("truncated"));
+        let mut glb = Vec::new();
+        glb.extend_from_slice(b"glTF");
+        glb.extend_from_slice(&2u32.to_le_bytes());
+        glb.extend_from_slice(&40u32.to_le_bytes());
+        glb.extend_from_slice(&100u32.to_le_bytes());
+        glb.extend_from_slice(b"JSON");
+        glb.resize(40, b' ');
+        assert!(split_glb(&glb).unwrap_err().contains("claims 100 bytes"));
+    }
+}
