@@ -8,7 +8,9 @@ pub mod label;
 pub mod optics;
 pub mod output;
 pub mod raytraced;
+pub mod reproject;
 pub mod sampling;
+pub mod sequence;
 pub mod tonemap;
 
 use ash::vk;
