@@ -148,6 +148,8 @@ bool is_filled(uint q) {
     return k != NO_SAMPLE && k >= FILLED_KEY;
 }
 
+void count_candidate(uint q, uint age);
+
 void classify(uint q) {
     uint w = winner[q];
     uint st;
@@ -177,58 +179,69 @@ void classify(uint q) {
     uint kind = st & PX_KIND_MASK;
     if ((params.flags & RP_FRAMELESS) != 0u) {
         if (kind == PX_REUSE || kind == PX_VERIFY) {
-            atomicAdd(counters[C_CANDIDATES], 1u);
-            atomicAdd(counters[C_HISTOGRAM + min(e.meta.w, HISTOGRAM_BINS - 1u)], 1u);
+            count_candidate(q, e.meta.w);
         } else {
             atomicAdd(counters[C_FORCED], 1u);
         }
     }
 }
 
+// Frameless refresh order: oldest first, and among samples of one age by a fixed
+// interleaved-gradient-noise rank of the pixel (Jimenez 2014). A fixed rank makes the refresh
+// sweep through a stratified permutation of the image: what one frame refreshes is spread
+// evenly, and the next frame continues where it stopped.
+float refresh_rank(uvec2 pix) {
+    return fract(52.9829189 * fract(0.06711056 * float(pix.x) + 0.00583715 * float(pix.y)));
+}
+
+// Histogram bin of a candidate: lower bins are refreshed first.
+uint refresh_bin(uint age, float rank) {
+    return (AGE_LEVELS - 1u - min(age, AGE_LEVELS - 1u)) * RANK_LEVELS + min(uint(rank * float(RANK_LEVELS)), RANK_LEVELS - 1u);
+}
+
+void count_candidate(uint q, uint age) {
+    atomicAdd(counters[C_CANDIDATES], 1u);
+    atomicAdd(counters[C_HISTOGRAM + refresh_bin(age, refresh_rank(pixel_of(q)))], 1u);
+}
+
 // Frameless budget: re-trace frameless_fraction of all pixels per frame. Pixels that must be
-// traced anyway count first; the rest of the budget goes to the oldest candidates. Finds the
-// age at which the budget runs out and the share of that age's candidates to take.
+// traced anyway count first; the rest of the budget goes to candidates in refresh order. Finds
+// the bin where the budget runs out and the share of that bin to take.
 void threshold() {
     uint budget = uint(ceil(params.frameless_fraction * float(pixel_count())));
     uint forced = counters[C_FORCED];
     uint extra = budget > forced ? budget - forced : 0u;
-    uint age = NO_SAMPLE;
+    uint bin = NO_SAMPLE;
     float fraction = 0.0;
     if (extra > 0u) {
         uint acc = 0u;
-        age = 0u;
-        fraction = 1.0;
-        for (int a = int(HISTOGRAM_BINS) - 1; a >= 0; --a) {
-            uint h = counters[C_HISTOGRAM + uint(a)];
+        bin = HISTOGRAM_BINS;
+        for (uint b = 0u; b < HISTOGRAM_BINS; ++b) {
+            uint h = counters[C_HISTOGRAM + b];
             if (h > 0u && acc + h >= extra) {
-                age = uint(a);
+                bin = b;
                 fraction = float(extra - acc) / float(h);
                 break;
             }
             acc += h;
         }
     }
-    counters[C_THRESHOLD_AGE] = age;
+    counters[C_THRESHOLD_BIN] = bin;
     counters[C_THRESHOLD_FRACTION] = floatBitsToUint(fraction);
-}
-
-// Interleaved gradient noise (Jimenez 2014) shifted by the golden ratio per frame: among
-// samples of equal age, the refreshed ones are spread evenly over the image and rotate.
-float dither(uvec2 pix) {
-    float ign = fract(52.9829189 * fract(0.06711056 * float(pix.x) + 0.00583715 * float(pix.y)));
-    return fract(ign + 0.61803398875 * float(params.frame_index % 4096u));
 }
 
 void select_frameless(uint q) {
     uint st = state[q];
     uint kind = st & PX_KIND_MASK;
-    uint age_limit = counters[C_THRESHOLD_AGE];
-    if ((kind != PX_REUSE && kind != PX_VERIFY) || age_limit == NO_SAMPLE) {
+    uint limit = counters[C_THRESHOLD_BIN];
+    if ((kind != PX_REUSE && kind != PX_VERIFY) || limit == NO_SAMPLE) {
         return;
     }
-    uint age = min(cache_prev[winner[q]].meta.w, HISTOGRAM_BINS - 1u);
-    float fraction = uintBitsToFloat(counters[C_THRESHOLD_FRACTION]);
-    if (age > age_limit || (age == age_limit && dither(pixel_of(q)) < fraction)) {
+    float rank = refresh_rank(pixel_of(q));
+    uint bin = refresh_bin(cache_prev[winner[q]].meta.w, rank);
+    // Within the last bin, the rank's finer digits decide.
+    float within = fract(rank * float(RANK_LEVELS));
+    if (bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]))) {
         state[q] = PX_TRACE | PX_FRAMELESS;
     }
 }

@@ -54,11 +54,13 @@ struct CacheEntry {
 #define C_VERIFY_RAYS 14u
 #define C_CANDIDATES 15u
 #define C_FORCED 16u
-#define C_THRESHOLD_AGE 17u
+#define C_THRESHOLD_BIN 17u
 #define C_THRESHOLD_FRACTION 18u
 #define C_FILLED 19u
 #define C_HISTOGRAM 32u
-#define HISTOGRAM_BINS 256u
+#define AGE_LEVELS 64u
+#define RANK_LEVELS 64u
+#define HISTOGRAM_BINS (AGE_LEVELS * RANK_LEVELS)
 
 // Params flags.
 #define RP_REUSE 1u        // reproject the previous frame's cache
@@ -72,7 +74,7 @@ layout(set = 0, binding = 4, scalar) uniform Params {
     uint max_age;              // a sample older than this is re-traced
     float frameless_fraction;  // share of pixels re-traced per frame (0..1)
     float subsample_threshold; // adaptive sub-sampling: largest channel difference to interpolate
-    uint frame_index;          // global frame number (dither of the frameless selection)
+    uint frame_index;          // global frame number
     float plane_threshold;     // plane distance / view depth
     float normal_threshold;    // smallest dot of the two geometric normals
     float edge_threshold;      // rt path: plane distance / view depth between neighbours = an edge

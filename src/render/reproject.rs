@@ -19,7 +19,8 @@
 //!    [`PLANE_DISTANCE_THRESHOLD`], the normals' dot is below [`NORMAL_DOT_THRESHOLD`], the
 //!    material differs, or the new surface is itself view-dependent.
 //! 3. **Frameless** (optional): re-trace at least a given share of all pixels per frame,
-//!    oldest samples first, spread over the image by a dither.
+//!    oldest samples first, and among equally old ones in a fixed stratified order
+//!    (interleaved gradient noise), so the refresh sweeps evenly over the image.
 //! 4. **Trace** the rest with the shared Whitted loop, or with **adaptive sub-sampling**
 //!    (optional): trace every 4×4 block's corners and centre, interpolate the blocks whose
 //!    samples are similar, recurse into 2×2 blocks, then trace what is left.
@@ -272,7 +273,7 @@ const C_EXPIRED: usize = 12;
 const C_FRAMELESS: usize = 13;
 const C_VERIFY_RAYS: usize = 14;
 const C_FILLED: usize = 19;
-const COUNTER_SLOTS: u64 = 32 + 256;
+const COUNTER_SLOTS: u64 = 32 + 64 * 64;
 
 const GROUP: u32 = 64;
 
@@ -509,7 +510,7 @@ impl<'r> Reprojector<'r> {
     }
 
     /// Renders one frame through `camera`, reusing what the cache allows, and caches its
-    /// samples for the next call. `frame_index` only seeds the frameless dither; `draws` are
+    /// samples for the next call. `frame_index` is the global frame number; `draws` are
     /// the scene's raster draws (hybrid path; ignored by the rt path).
     pub fn render(
         &mut self,
