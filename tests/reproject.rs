@@ -653,7 +653,7 @@ fn gltf_camera_animation() {
     assert_eq!(scene.cameras.len(), 1);
     let base = scene.cameras[0];
     let anim = CameraAnimation::load(&file, None, 0, 4.0).unwrap();
-    let path = CameraPath::Animation(anim);
+    let path = CameraPath::Animation(Box::new(anim));
     let c0 = path.camera(&base, 0);
     assert!((c0.position() - Vec3::new(0.0, 0.0, 5.0)).length() < 1e-5);
     assert!((c0.forward() - Vec3::NEG_Z).length() < 1e-5);

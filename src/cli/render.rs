@@ -339,12 +339,12 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
             if scene.cameras.is_empty() {
                 bail!("--camera-path gltf: scene has no camera animation (it has no camera)");
             }
-            CameraPath::Animation(CameraAnimation::load(
+            CameraPath::Animation(Box::new(CameraAnimation::load(
                 file,
                 args.scene.scene_index,
                 args.camera.camera.unwrap_or(0),
                 seq.fps,
-            )?)
+            )?))
         }
     };
     let ctx = args.device.open()?;
@@ -424,7 +424,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         "width": settings.width,
         "height": settings.height,
         "frames": [range.start, range.end],
-        "camera_path": seq.camera_path,
+        "camera_path": seq.camera_path.to_string(),
         "reuse": reuse,
     });
     if args.json {
@@ -447,7 +447,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     }
     if let Some(p) = &seq.plot {
         let title = format!(
-            "{} {}x{} {} {:?}",
+            "{} {}x{} {} {}",
             args.scene.name(),
             settings.width,
             settings.height,

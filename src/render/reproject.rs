@@ -293,7 +293,7 @@ fn trace_spirv(backend: Backend) -> &'static [u8] {
 
 /// G-buffer images: the raster pass's (hybrid) or written by the visibility pass (rt).
 enum Visibility {
-    Raster(GbufferPass),
+    Raster(Box<GbufferPass>),
     Traced(Vec<Image>),
 }
 
@@ -385,7 +385,9 @@ impl<'r> Reprojector<'r> {
         let jobs = storage("reproject jobs", pixels * 4)?;
         let counters = storage("reproject counters", COUNTER_SLOTS * 4)?;
         let visibility = match path {
-            RenderPath::Hybrid => Visibility::Raster(GbufferPass::new(ctx, &pass, &frame, extent)?),
+            RenderPath::Hybrid => {
+                Visibility::Raster(Box::new(GbufferPass::new(ctx, &pass, &frame, extent)?))
+            }
             RenderPath::Rt => Visibility::Traced(
                 GBUFFER_FORMATS
                     .iter()

@@ -58,6 +58,17 @@ impl FromStr for CameraPathSpec {
     }
 }
 
+impl std::fmt::Display for CameraPathSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Static => write!(f, "static"),
+            Self::Orbit(d) => write!(f, "orbit:{d}"),
+            Self::Dolly(d) => write!(f, "dolly:{d}"),
+            Self::Gltf => write!(f, "gltf"),
+        }
+    }
+}
+
 /// A camera path resolved against a scene: the camera of every frame number.
 #[derive(Clone, Debug, PartialEq)]
 pub enum CameraPath {
@@ -77,7 +88,7 @@ pub enum CameraPath {
         distance_per_frame: f32,
     },
     /// The glTF animation of the camera's node, sampled at `frame / fps` seconds.
-    Animation(CameraAnimation),
+    Animation(Box<CameraAnimation>),
 }
 
 impl CameraPath {
@@ -641,7 +652,21 @@ impl<'r> Sequence<'r> {
         };
         self.next = index.checked_add(1);
         let (reference, reference_output) = if self.options.reference {
-            let full = self.full_render(ctx, &camera)?;
+            // Without reuse the frame is itself the full render.
+            let full = if self.reprojector.is_some() {
+                self.full_render(ctx, &camera)?
+            } else {
+                RenderOutput {
+                    width: output.width,
+                    height: output.height,
+                    color: output.color.clone(),
+                    rgba8: output.rgba8.clone(),
+                    aov: Vec::new(),
+                    rays: output.rays,
+                    samples: output.samples,
+                    gpu_ms: output.gpu_ms.clone(),
+                }
+            };
             let diff = compare::compare(output.width, output.height, &full.rgba8, &output.rgba8);
             (
                 Some(ReferenceComparison {
@@ -678,7 +703,8 @@ pub fn plot(frames: &[FrameSummary], title: &str) -> super::label::Canvas {
     c.text(margin, 8, title, 1, [20, 20, 20]);
     let n = frames.len().max(2) as f32;
     let x_of = |i: usize| margin as f32 + (w - 2 * margin) as f32 * i as f32 / (n - 1.0);
-    let panels: [(&str, u32, f32, Vec<(&str, [u8; 3], Vec<Option<f32>>)>); 2] = [
+    type Series<'a> = (&'a str, [u8; 3], Vec<Option<f32>>);
+    let panels: [(&str, u32, f32, Vec<Series>); 2] = [
         (
             "share per frame (rays vs full render; pixels)",
             margin,
