@@ -1,4 +1,4 @@
-// variants: hw
+// variants: hw bvh
 #version 460
 // Hybrid path, shading pass: primary visibility comes from the raster G-buffer; shadows,
 // reflections and refractions go through the same whitted() loop as the pure ray-traced pass.

@@ -1,4 +1,4 @@
-// variants: hw
+// variants: hw bvh
 #version 460
 // Pure ray-traced path: one thread per pixel, all of its samples; Whitted trace/shade.
 // Bindings: 0-2 scene/textures/ray backend, 3 frame, 4 colour out, 5 AOVs, 6 ray counters,

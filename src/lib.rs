@@ -31,6 +31,9 @@ pub enum Error {
     /// A scene file could not be loaded.
     #[error(transparent)]
     Scene(#[from] scene::SceneError),
+    /// Building or uploading the compute BVH failed.
+    #[error(transparent)]
+    Bvh(#[from] accel::bvh::BvhError),
 }
 
 /// Result alias for the library.

@@ -266,3 +266,49 @@ fn fence_timeout_returns_error_naming_the_pass() {
     ctx.run("after timeout", |_| Ok(())).unwrap();
     assert_validation_clean(&ctx);
 }
+
+#[test]
+fn sync_validation_reports_a_missing_barrier() {
+    // A transfer clear and a compute write to the same buffer with no barrier between them:
+    // a hazard only synchronization validation sees (RQR_SYNC_VALIDATION=1 in .ci/run).
+    let clear_then_dispatch = |ctx: &vk::Context, barrier: bool| {
+        let (pipeline, set, sink) = busy_pipeline(ctx);
+        ctx.run("hazard", |cmd| {
+            // SAFETY: recording command buffer; the buffer is alive for the submission.
+            unsafe {
+                ctx.device()
+                    .cmd_fill_buffer(cmd, sink.raw(), 0, vk::vk::WHOLE_SIZE, 0)
+            };
+            if barrier {
+                vk::memory_barrier(ctx.device(), cmd);
+            }
+            pipeline.dispatch(cmd, Some(&set), &1u32.to_le_bytes(), [1, 1, 1]);
+            Ok(())
+        })
+        .unwrap();
+    };
+    let ctx = gpu_with_sync();
+    clear_then_dispatch(&ctx, false);
+    let errors = ctx.validation_errors();
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.contains("SYNC-HAZARD-WRITE-AFTER-WRITE")),
+        "synchronization validation missed the hazard: {errors:?}"
+    );
+    // With the barrier rqr's passes use, the same work is clean.
+    let clean = gpu_with_sync();
+    clear_then_dispatch(&clean, true);
+    assert_validation_clean(&clean);
+}
+
+fn gpu_with_sync() -> vk::Context {
+    let ctx = vk::Context::new(&vk::ContextOptions {
+        validation: Some(true),
+        sync_validation: Some(true),
+        ..Default::default()
+    })
+    .expect(common::INSTALL_HINT);
+    assert!(ctx.validation_enabled(), "{}", common::INSTALL_HINT);
+    ctx
+}

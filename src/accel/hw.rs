@@ -1,6 +1,7 @@
 //! Hardware ray backend: one compacted BLAS per unique geometry and one TLAS over instances,
 //! traversed with `VK_KHR_ray_query` (`shaders/common/trace_rayquery.glsl`).
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use ash::{khr, vk};
@@ -8,7 +9,9 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::scene::gpu::GpuScene;
 use crate::scene::{AlphaMode, Scene};
-use crate::vk::{memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkError, VkResult};
+use crate::vk::{
+    memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, Shared, VkError, VkResult,
+};
 
 /// Build statistics of the hardware acceleration structures.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -45,6 +48,7 @@ struct TlasInstance {
 
 /// An acceleration structure and the buffer holding it.
 struct AccelStructure {
+    shared: Arc<Shared>,
     api: khr::acceleration_structure::Device,
     handle: vk::AccelerationStructureKHR,
     buffer: Buffer,
@@ -77,18 +81,14 @@ impl AccelStructure {
             .size(size)
             .ty(ty);
         // SAFETY: the buffer has AS-storage usage and at least `size` bytes at offset 0.
-        let handle =
-            unsafe { api.create_acceleration_structure(&info, None) }.map_err(|result| {
-                VkError::Call {
-                    call: "vkCreateAccelerationStructureKHR",
-                    result,
-                }
-            })?;
+        let handle = unsafe { api.create_acceleration_structure(&info, None) }
+            .map_err(|result| VkError::from_call("vkCreateAccelerationStructureKHR", result))?;
         let address_info =
             vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(handle);
         // SAFETY: valid handle.
         let address = unsafe { api.get_acceleration_structure_device_address(&address_info) };
         Ok(Self {
+            shared: ctx.shared.clone(),
             api,
             handle,
             buffer,
@@ -99,8 +99,11 @@ impl AccelStructure {
 
 impl Drop for AccelStructure {
     fn drop(&mut self) {
-        // SAFETY: submissions using it have completed (every submission waits).
-        unsafe { self.api.destroy_acceleration_structure(self.handle, None) };
+        let (api, handle) = (self.api.clone(), self.handle);
+        // SAFETY: submissions using it have completed (every submission waits; `retire`
+        // defers past submissions that timed out). Queued before its buffer's destruction.
+        self.shared
+            .retire(move |_| unsafe { api.destroy_acceleration_structure(handle, None) });
     }
 }
 
@@ -226,14 +229,7 @@ impl HwAccel {
             .map(|s| s.build_scratch_size)
             .max()
             .unwrap_or(0);
-        let heap = ctx
-            .info()
-            .memory_heaps
-            .iter()
-            .filter(|h| h.device_local)
-            .map(|h| h.size_bytes)
-            .max()
-            .unwrap_or(0);
+        let heap = ctx.info().largest_device_heap();
         let estimate = blas_bytes_uncompacted + max_scratch + scene.instances.len() as u64 * 256;
         if estimate > heap / 10 * 9 {
             return Err(VkError::Limit(format!(
@@ -268,12 +264,8 @@ impl HwAccel {
                 .query_count(blas.len() as u32);
             // SAFETY: valid create info.
             Some(
-                unsafe { ctx.device().create_query_pool(&info, None) }.map_err(|result| {
-                    VkError::Call {
-                        call: "vkCreateQueryPool",
-                        result,
-                    }
-                })?,
+                unsafe { ctx.device().create_query_pool(&info, None) }
+                    .map_err(|result| VkError::from_call("vkCreateQueryPool", result))?,
             )
         };
         let compacted_sizes = {
@@ -333,16 +325,15 @@ impl HwAccel {
                             vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
                         )
                     }
-                    .map_err(|result| VkError::Call {
-                        call: "vkGetQueryPoolResults",
-                        result,
-                    })?;
+                    .map_err(|result| VkError::from_call("vkGetQueryPoolResults", result))?;
                 }
                 Ok(out)
             });
             if let Some(pool) = query_pool {
-                // SAFETY: the submission that used the pool has completed (or failed to start).
-                unsafe { ctx.device().destroy_query_pool(pool, None) };
+                // SAFETY: the submission that used the pool has completed or failed to start
+                // (`retire` defers past one that timed out).
+                ctx.shared
+                    .retire(move |shared| unsafe { shared.device.destroy_query_pool(pool, None) });
             }
             sizes?
         };

@@ -5,6 +5,8 @@ pub mod hw;
 
 use crate::vk::DeviceInfo;
 
+pub mod bvh;
+
 /// What the user asked for with `--backend`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -78,7 +80,9 @@ impl BackendChoice {
 /// The built ray backend of a scene, bound at set 0 binding 2 of every ray-tracing pass.
 pub enum RayBackend {
     /// BLAS/TLAS for ray queries.
-    Hw(hw::HwAccel),
+    Hw(Box<hw::HwAccel>),
+    /// rqr's two-level BVH for compute traversal.
+    Bvh(Box<bvh::GpuBvh>),
 }
 
 impl RayBackend {
@@ -90,11 +94,12 @@ impl RayBackend {
         backend: Backend,
     ) -> crate::Result<Self> {
         match backend {
-            Backend::Hw => Ok(Self::Hw(hw::HwAccel::build(ctx, scene, gpu)?)),
-            Backend::Bvh => Err(crate::vk::VkError::Limit(
-                "the compute BVH backend is not built yet".into(),
-            )
-            .into()),
+            Backend::Hw => Ok(Self::Hw(Box::new(hw::HwAccel::build(ctx, scene, gpu)?))),
+            Backend::Bvh => Ok(Self::Bvh(Box::new(bvh::GpuBvh::build(
+                ctx,
+                scene,
+                &bvh::BvhBuildOptions::default(),
+            )?))),
         }
     }
 
@@ -102,6 +107,7 @@ impl RayBackend {
     pub fn kind(&self) -> Backend {
         match self {
             Self::Hw(_) => Backend::Hw,
+            Self::Bvh(_) => Backend::Bvh,
         }
     }
 
@@ -109,6 +115,7 @@ impl RayBackend {
     pub fn binding(&self) -> crate::vk::Binding {
         match self {
             Self::Hw(_) => crate::vk::Binding::AccelerationStructure,
+            Self::Bvh(_) => crate::vk::Binding::UniformBuffer,
         }
     }
 
@@ -118,6 +125,7 @@ impl RayBackend {
             Self::Hw(a) => {
                 set.acceleration_structure(2, a.tlas());
             }
+            Self::Bvh(b) => b.bind(set),
         }
     }
 
@@ -125,6 +133,16 @@ impl RayBackend {
     pub fn stats_json(&self) -> serde_json::Value {
         match self {
             Self::Hw(a) => serde_json::to_value(&a.stats).unwrap_or_default(),
+            Self::Bvh(b) => {
+                let s = b.stats();
+                serde_json::json!({
+                    "build_ms": s.build_ms, "blas_ms": s.blas_ms, "tlas_ms": s.tlas_ms, "bytes": s.bytes,
+                    "node_count": s.node_count, "tlas_nodes": s.tlas_nodes, "blas_count": s.blas_count,
+                    "triangle_count": s.triangle_count, "instance_count": s.instance_count,
+                    "max_depth": s.max_depth, "max_leaf_size": s.max_leaf_size,
+                    "skipped_triangles": s.skipped_triangles, "skipped_instances": s.skipped_instances,
+                })
+            }
         }
     }
 }

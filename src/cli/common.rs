@@ -74,6 +74,7 @@ impl DeviceArgs {
         Ok(Context::new(&ContextOptions {
             device: self.device.clone(),
             validation: None,
+            sync_validation: None,
             fence_timeout: Duration::from_millis(self.timeout_ms),
         })?)
     }

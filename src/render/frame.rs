@@ -132,7 +132,8 @@ pub const MAX_ADAPTIVE_DEPTH: u32 = 4;
 pub struct SettingsError(pub String);
 
 impl RenderSettings {
-    /// Checks ranges; `max_dimension` is the device's largest 2D image/buffer side.
+    /// Checks ranges; `max_dimension` is the largest image side allowed (rqr's own limit
+    /// before a device is open, the device's `maxImageDimension2D` after).
     pub fn validate(&self, max_dimension: u32) -> Result<(), SettingsError> {
         let bad = |m: String| Err(SettingsError(m));
         if self.width == 0 || self.height == 0 {
@@ -143,7 +144,7 @@ impl RenderSettings {
         }
         if self.width > max_dimension || self.height > max_dimension {
             return bad(format!(
-                "resolution {}x{} exceeds the device limit of {max_dimension} pixels per side",
+                "resolution {}x{} exceeds the limit of {max_dimension} pixels per side",
                 self.width, self.height
             ));
         }
@@ -178,12 +179,132 @@ impl RenderSettings {
                 self.adaptive_depth
             ));
         }
+        if !self.exposure.is_finite() {
+            return bad(format!("--exposure {} must be finite", self.exposure));
+        }
+        if !(self.adaptive_threshold.is_finite() && self.adaptive_threshold >= 0.0) {
+            return bad(format!(
+                "--adaptive-threshold {} must be a finite non-negative number",
+                self.adaptive_threshold
+            ));
+        }
         if let Some(e) = self.epsilon {
             if !(e.is_finite() && e >= 0.0) {
                 return bad(format!(
                     "--epsilon {e} must be a finite non-negative number"
                 ));
             }
+        }
+        Ok(())
+    }
+}
+
+/// Which rendering path a memory estimate is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderPath {
+    /// [`super::Renderer::render_rt`].
+    RayTraced,
+    /// [`super::Renderer::render_hybrid`] (one G-buffer per sample).
+    Hybrid,
+}
+
+/// Bytes per texel of the formats the passes allocate.
+fn format_bytes(format: ash::vk::Format) -> u64 {
+    use ash::vk::Format;
+    match format {
+        Format::R32G32B32A32_SFLOAT | Format::R32G32B32A32_UINT => 16,
+        Format::R16G16B16A16_SFLOAT => 8,
+        _ => 4,
+    }
+}
+
+/// Bytes of one `vec4` (colour, accumulation and adaptive-corner texels).
+const RGBA32F: u64 = 16;
+
+impl RenderSettings {
+    /// Pixels of the image.
+    pub fn pixels(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height)
+    }
+
+    /// Device memory a render at these settings allocates for its own buffers and images:
+    /// colour, AOVs, adaptive corners and tonemap output (ray-traced), or accumulation, AOVs,
+    /// tonemap output and one G-buffer with depth per sample (hybrid). The scene and the ray
+    /// backend come on top (see [`crate::accel`]).
+    pub fn estimate_bytes(&self, path: RenderPath) -> u64 {
+        let pixels = self.pixels();
+        let aov = std::mem::size_of::<super::Aov>() as u64;
+        let tonemapped = 4;
+        match path {
+            RenderPath::RayTraced => {
+                let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1);
+                pixels * (RGBA32F + aov + tonemapped) + corners * RGBA32F
+            }
+            RenderPath::Hybrid => {
+                let gbuffer: u64 = super::gbuffer::GBUFFER_FORMATS
+                    .iter()
+                    .map(|&f| format_bytes(f))
+                    .sum::<u64>()
+                    + 4; // D32 depth
+                pixels * (RGBA32F + aov + tonemapped)
+                    + pixels.saturating_mul(gbuffer * u64::from(self.spp))
+            }
+        }
+    }
+
+    /// The largest buffer a pass binds as one storage buffer (the per-pixel AOVs, or the
+    /// adaptive corners when larger), to compare with `maxStorageBufferRange`.
+    pub fn largest_buffer_bytes(&self) -> u64 {
+        let aov = self.pixels() * std::mem::size_of::<super::Aov>() as u64;
+        let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1) * RGBA32F;
+        aov.max(corners)
+    }
+
+    /// [`Self::validate`] against the device's image limit, then checks that every per-pixel
+    /// buffer fits `maxStorageBufferRange` and that [`Self::estimate_bytes`] plus
+    /// `in_use` bytes fit the largest device-local heap: a clear error before anything is
+    /// allocated, instead of an allocation failure or an invalid descriptor mid-frame.
+    pub fn check_device(
+        &self,
+        info: &crate::vk::DeviceInfo,
+        path: RenderPath,
+        in_use: u64,
+    ) -> Result<(), SettingsError> {
+        self.validate(info.max_image_dimension_2d)?;
+        let mib = |b: u64| b.div_ceil(1 << 20);
+        let largest = self.largest_buffer_bytes();
+        let range = u64::from(info.max_storage_buffer_range);
+        if largest > range {
+            return Err(SettingsError(format!(
+                "resolution {}x{} needs a {} MiB per-pixel buffer, but '{}' binds at most {} MiB per storage buffer (maxStorageBufferRange); lower the resolution",
+                self.width,
+                self.height,
+                mib(largest),
+                info.name,
+                mib(range)
+            )));
+        }
+        let heap = info.largest_device_heap();
+        let needed = self.estimate_bytes(path);
+        if needed.saturating_add(in_use) > heap {
+            return Err(SettingsError(format!(
+                "{}x{} at {} spp ({}) needs about {} MiB of device memory on top of {} MiB in use, more than the {} MiB device heap of '{}'; lower the resolution{}",
+                self.width,
+                self.height,
+                self.spp,
+                match path {
+                    RenderPath::RayTraced => "ray traced",
+                    RenderPath::Hybrid => "hybrid",
+                },
+                mib(needed),
+                mib(in_use),
+                mib(heap),
+                info.name,
+                match path {
+                    RenderPath::RayTraced => "",
+                    RenderPath::Hybrid => " or --spp (the hybrid path keeps one G-buffer per sample)",
+                }
+            )));
         }
         Ok(())
     }

@@ -22,7 +22,7 @@ pub struct HybridPass {
 fn spirv(backend: Backend) -> &'static [u8] {
     match backend {
         Backend::Hw => crate::shaders::HYBRID_COMP_HW,
-        Backend::Bvh => crate::shaders::HYBRID_COMP_HW,
+        Backend::Bvh => crate::shaders::HYBRID_COMP_BVH,
     }
 }
 

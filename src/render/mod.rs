@@ -7,6 +7,7 @@ pub mod hybrid;
 pub mod label;
 pub mod optics;
 pub mod output;
+pub mod raybench;
 pub mod raytraced;
 pub mod reproject;
 pub mod sampling;
@@ -20,7 +21,9 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
-pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use frame::{
+    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SamplerKind, Tonemap,
+};
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]
@@ -131,6 +134,7 @@ pub struct Renderer {
     pub gpu: GpuScene,
     /// Ray backend.
     pub backend: RayBackend,
+    _textures: crate::scene::textures::GpuTextures,
     textures: Vec<(vk::ImageView, vk::Sampler)>,
     scene_scale: f32,
 }
@@ -138,13 +142,16 @@ pub struct Renderer {
 impl Renderer {
     /// Uploads `scene` and builds the chosen backend.
     pub fn new(ctx: &Context, scene: &Scene, backend: Backend) -> crate::Result<Self> {
-        let gpu = GpuScene::upload(ctx, scene, 0)?;
+        let gpu_textures = crate::scene::textures::GpuTextures::upload(ctx, scene)?;
+        let textures = gpu_textures.descriptors();
+        let gpu = GpuScene::upload(ctx, scene, textures.len() as u32)?;
         let backend = RayBackend::build(ctx, scene, &gpu, backend)?;
         Ok(Self {
             scene_scale: gpu.refs_data.scene_scale,
             gpu,
             backend,
-            textures: Vec::new(),
+            _textures: gpu_textures,
+            textures,
         })
     }
 
@@ -171,7 +178,7 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .validate(ctx.info().max_image_dimension_2d)
+            .check_device(ctx.info(), RenderPath::RayTraced, ctx.allocated_bytes())
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
         let frame = GpuFrame::new(settings, &setup, self.scene_scale);
@@ -230,7 +237,7 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .validate(ctx.info().max_image_dimension_2d)
+            .check_device(ctx.info(), RenderPath::Hybrid, ctx.allocated_bytes())
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let positions: Vec<[f32; 2]> = (0..settings.spp)
             .map(|s| sampling::pixel_independent_sample(settings.sampler, s, settings.spp, settings.seed))
@@ -316,7 +323,13 @@ impl Renderer {
             };
             memory_barrier(ctx.device(), cmd);
             for (i, ((_, g, h), w)) in passes.iter().zip(&weights).enumerate() {
-                g.record(ctx, cmd, scene_draws, profiler.as_mut());
+                g.record(
+                    ctx,
+                    cmd,
+                    scene_draws,
+                    setup.camera_to_world.w_axis.truncate(),
+                    profiler.as_mut(),
+                );
                 let mut flags = 0;
                 if i == 0 {
                     flags |= hybrid::HYBRID_FIRST_SAMPLE;

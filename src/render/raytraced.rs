@@ -31,7 +31,7 @@ pub struct RaytracedPass {
 fn spirv(backend: Backend) -> &'static [u8] {
     match backend {
         Backend::Hw => crate::shaders::RAYTRACE_COMP_HW,
-        Backend::Bvh => crate::shaders::RAYTRACE_COMP_HW,
+        Backend::Bvh => crate::shaders::RAYTRACE_COMP_BVH,
     }
 }
 

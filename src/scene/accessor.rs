@@ -6,9 +6,12 @@ use gj::validation::Checked;
 use gltf::json as gj;
 
 /// Upper bound on an accessor's element count. A count is otherwise only bounded by the
-/// buffer it reads (a file), except for accessors without a buffer view (all zeros, or
-/// sparse), whose allocation this cap keeps sane.
+/// buffer it reads (a file).
 pub(crate) const MAX_ACCESSOR_COUNT: u64 = 1 << 27;
+
+/// Upper bound for accessors without a buffer view (zeros plus sparse values): nothing in
+/// the file backs their size, so this cap alone keeps their allocation sane.
+pub(crate) const MAX_UNBACKED_COUNT: u64 = 1 << 24;
 
 /// The resolved bytes of every glTF buffer, indexed like `root.buffers`.
 pub(crate) struct Buffers {
@@ -179,6 +182,11 @@ fn read<T: Copy + Default>(
     if count > MAX_ACCESSOR_COUNT {
         return Err(format!(
             "count {count} exceeds rqr's limit of {MAX_ACCESSOR_COUNT} elements"
+        ));
+    }
+    if acc.buffer_view.is_none() && count > MAX_UNBACKED_COUNT {
+        return Err(format!(
+            "count {count} without a buffer view exceeds rqr's limit of {MAX_UNBACKED_COUNT} elements"
         ));
     }
     let count_us = count as usize;

@@ -73,29 +73,33 @@ pub fn compute_flat_normals(g: &mut Geometry) {
 }
 
 struct Mikk<'a> {
-    g: &'a Geometry,
-    uv: &'a [Vec2],
+    indices: &'a [u32],
+    positions: Vec<Vec3>,
+    normals: &'a [Vec3],
+    uv: Vec<Vec2>,
+    /// Triangles handed to MikkTSpace (index into the triangle list).
+    faces: Vec<usize>,
     corner_tangents: Vec<Vec4>,
 }
 
 impl Mikk<'_> {
     fn vertex(&self, face: usize, vert: usize) -> usize {
-        self.g.indices[face * 3 + vert] as usize
+        self.indices[self.faces[face] * 3 + vert] as usize
     }
 }
 
 impl mikktspace::Geometry for Mikk<'_> {
     fn num_faces(&self) -> usize {
-        self.g.indices.len() / 3
+        self.faces.len()
     }
     fn num_vertices_of_face(&self, _face: usize) -> usize {
         3
     }
     fn position(&self, face: usize, vert: usize) -> [f32; 3] {
-        self.g.positions[self.vertex(face, vert)].to_array()
+        self.positions[self.vertex(face, vert)].to_array()
     }
     fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
-        self.g.normals[self.vertex(face, vert)].to_array()
+        self.normals[self.vertex(face, vert)].to_array()
     }
     fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
         self.uv[self.vertex(face, vert)].to_array()
@@ -104,28 +108,66 @@ impl mikktspace::Geometry for Mikk<'_> {
         // MikkTSpace assumes a bottom-left UV origin; glTF's is top-left, so the bitangent
         // (direction of increasing v) is mirrored and the handedness sign flips.
         let [x, y, z, w] = tangent;
-        self.corner_tangents[face * 3 + vert] = Vec4::new(x, y, z, -w);
+        self.corner_tangents[self.faces[face] * 3 + vert] = Vec4::new(x, y, z, -w);
     }
+}
+
+/// Divides by the largest magnitude so that MikkTSpace's products stay finite; tangent
+/// directions and signs do not change under a uniform positive scale.
+fn normalized<T: Copy + std::ops::Mul<f32, Output = T>>(
+    v: &[T],
+    max_abs: impl Fn(&T) -> f32,
+) -> Vec<T> {
+    let m = v.iter().map(max_abs).fold(0.0f32, f32::max);
+    let k = if m > 0.0 && m.is_finite() {
+        1.0 / m
+    } else {
+        1.0
+    };
+    v.iter().map(|&x| x * k).collect()
 }
 
 /// Computes MikkTSpace tangents from the normals and UV set `uv_set` (0 or 1). Corners of
 /// a shared vertex that get different tangents are split into separate vertices; the rest
-/// stay shared. Returns false (tangents left empty) when the UV set is missing or the
-/// generator fails.
+/// stay shared. Triangles with no area (which the `mikktspace` crate cannot handle) get an
+/// arbitrary tangent perpendicular to the normal. Returns false (tangents left empty) when
+/// the UV set is missing or the generator fails.
 pub fn compute_tangents(g: &mut Geometry, uv_set: u32) -> bool {
     let uv = if uv_set == 1 { &g.uv1 } else { &g.uv0 };
     if uv.len() != g.positions.len() || g.normals.len() != g.positions.len() {
         return false;
     }
+    let positions = normalized(&g.positions, |p| p.abs().max_element());
+    let uv = normalized(uv, |t| t.abs().max_element());
+    let faces: Vec<usize> = g
+        .indices
+        .chunks_exact(3)
+        .enumerate()
+        .filter(|(_, t)| {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+            let area = (b - a).cross(c - a).length_squared();
+            area > 0.0 && area.is_finite()
+        })
+        .map(|(f, _)| f)
+        .collect();
     let mut m = Mikk {
-        g,
+        indices: &g.indices,
+        positions,
+        normals: &g.normals,
         uv,
-        corner_tangents: vec![Vec4::ZERO; g.indices.len()],
+        faces,
+        corner_tangents: vec![Vec4::NAN; g.indices.len()],
     };
-    if !mikktspace::generate_tangents(&mut m) {
+    if !m.faces.is_empty() && !mikktspace::generate_tangents(&mut m) {
         return false;
     }
-    let corner_tangents = m.corner_tangents;
+    let mut corner_tangents = m.corner_tangents;
+    for (k, t) in corner_tangents.iter_mut().enumerate() {
+        if !t.is_finite() || t.truncate().length_squared() == 0.0 {
+            let n = g.normals[g.indices[k] as usize];
+            *t = n.any_orthonormal_vector().extend(1.0);
+        }
+    }
     let old_count = g.positions.len();
     let mut remap: HashMap<(u32, [u32; 4]), u32> = HashMap::new();
     let mut first: Vec<Option<[u32; 4]>> = vec![None; old_count];
@@ -233,5 +275,27 @@ mod tests {
             assert_eq!(t.w, 1.0);
         }
         assert!(!compute_tangents(&mut g, 1), "no TEXCOORD_1");
+    }
+
+    #[test]
+    fn tangents_survive_degenerate_and_huge_input() {
+        let mut g = quad();
+        g.normals = vec![Vec3::Z; 4];
+        g.positions = vec![Vec3::ZERO; 4];
+        assert!(compute_tangents(&mut g, 0));
+        assert!(g
+            .tangents
+            .iter()
+            .all(|t| t.is_finite() && t.truncate().dot(Vec3::Z) == 0.0));
+        let mut g = quad();
+        g.normals = vec![Vec3::Z; 4];
+        for p in &mut g.positions {
+            *p *= 1e30;
+        }
+        assert!(compute_tangents(&mut g, 0));
+        assert!(g
+            .tangents
+            .iter()
+            .all(|t| t.truncate().abs_diff_eq(Vec3::X, 1e-5)));
     }
 }

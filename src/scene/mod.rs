@@ -1,4 +1,4 @@
-//! glTF 2.0 → a plain [`Scene`](types::Scene), then GPU buffers.
+//! glTF 2.0 → a plain [`Scene`], then GPU buffers.
 //!
 //! [`load`] / [`load_slice`] read `.gltf` / `.glb` files, [`load_default`] the built-in
 //! Cornell-style scene; [`auto_camera`] and [`look_at_camera`] make cameras;

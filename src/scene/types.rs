@@ -339,11 +339,14 @@ pub struct Scene {
     pub geometries: Vec<Geometry>,
     /// Placements of geometries.
     pub instances: Vec<Instance>,
-    /// Materials (always at least one: the glTF default).
+    /// Materials used by the chosen scene, in order of first use (not glTF material
+    /// indices); always at least one (the glTF default material, named `default`, stands in
+    /// for primitives without a material and for scenes without geometry).
     pub materials: Vec<Material>,
-    /// Textures.
+    /// Textures used by the materials, in order of first use. A glTF texture used both as
+    /// colour (sRGB) and as data (linear) appears twice, once per colour space.
     pub textures: Vec<Texture>,
-    /// Decoded images.
+    /// Decoded images, one per (glTF image, colour space) pair in use.
     pub images: Vec<ImageData>,
     /// Punctual lights (a documented default rig when the file has none).
     pub lights: Vec<Light>,

@@ -1,4 +1,6 @@
 use std::ffi::{c_void, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -55,6 +57,9 @@ pub struct ContextOptions {
     pub device: DeviceSelector,
     /// Enable the Khronos validation layer. `None`: on when `RQR_VALIDATION=1`.
     pub validation: Option<bool>,
+    /// Add synchronization validation (hazards between commands) to the validation layer;
+    /// it slows every command down several times. `None`: on when `RQR_SYNC_VALIDATION=1`.
+    pub sync_validation: Option<bool>,
     /// How long a submission may run before it is reported as a timeout.
     pub fence_timeout: Duration,
 }
@@ -64,6 +69,7 @@ impl Default for ContextOptions {
         Self {
             device: DeviceSelector::Auto,
             validation: None,
+            sync_validation: None,
             fence_timeout: DEFAULT_FENCE_TIMEOUT,
         }
     }
@@ -107,22 +113,75 @@ impl Drop for InstanceOwner {
     }
 }
 
+/// How long dropping a [`Context`] waits for submissions that timed out before it gives up
+/// and leaks the device (a hung GPU must not hang the process).
+pub const ABANDONED_WORK_GRACE: Duration = Duration::from_secs(10);
+
+/// A resource destructor deferred by [`Shared::retire`].
+type Destructor = Box<dyn FnOnce(&Shared) + Send>;
+
 /// State shared by the context and every resource created from it; dropped last.
 pub(crate) struct Shared {
     pub(crate) device: ash::Device,
     pub(crate) allocator: Mutex<Option<Allocator>>,
     pub(crate) accel: Option<khr::acceleration_structure::Device>,
-    // Declared last: dropped after `Shared::drop` destroyed the device.
-    pub(crate) owner: InstanceOwner,
+    /// Set while a submission that timed out may still run: any resource can be in use.
+    abandoned: AtomicBool,
+    /// Destructors of resources dropped while `abandoned` was set.
+    graveyard: Mutex<Vec<Destructor>>,
+    /// Abandoned work never finished: destroying anything could free memory it still uses.
+    leak: AtomicBool,
+    // Dropped by hand after the device (or never, when leaking).
+    pub(crate) owner: ManuallyDrop<InstanceOwner>,
+}
+
+impl Shared {
+    /// Destroys a resource now, or, while a timed-out submission may still use it, once
+    /// that submission has finished (see [`Context::wait_idle`] and `Context`'s drop):
+    /// destroying memory the GPU still reads is undefined behaviour, not just a validation
+    /// error.
+    pub(crate) fn retire(&self, destroy: impl FnOnce(&Shared) + Send + 'static) {
+        if self.abandoned.load(Ordering::Acquire) {
+            if let Ok(mut graveyard) = self.graveyard.lock() {
+                graveyard.push(Box::new(destroy));
+                return;
+            }
+        }
+        destroy(self);
+    }
+
+    /// Runs the deferred destructors; the caller knows the device is idle.
+    fn bury(&self) {
+        let deferred = self
+            .graveyard
+            .lock()
+            .map(|mut g| std::mem::take(&mut *g))
+            .unwrap_or_default();
+        self.abandoned.store(false, Ordering::Release);
+        for destroy in deferred {
+            destroy(self);
+        }
+    }
 }
 
 impl Drop for Shared {
     fn drop(&mut self) {
-        // SAFETY: every resource holding an Arc<Shared> is gone, so nothing else uses the device.
+        if *self.leak.get_mut() {
+            // The GPU may still run abandoned work: keep its memory, device and instance
+            // alive until the process exits.
+            log::warn!("GPU work that timed out never finished; leaking the Vulkan device");
+            std::mem::forget(self.allocator.get_mut().map(Option::take));
+            return;
+        }
+        // SAFETY: every resource holding an Arc<Shared> is gone, so nothing else uses the
+        // device; after wait-idle no submission uses the deferred resources; the instance
+        // outlives the device and is dropped exactly once, here.
         unsafe {
             let _ = self.device.device_wait_idle();
+            self.bury();
             drop(self.allocator.lock().map(|mut a| a.take()));
             self.device.destroy_device(None);
+            ManuallyDrop::drop(&mut self.owner);
         }
     }
 }
@@ -193,9 +252,24 @@ pub fn validation_layer_available(entry: &ash::Entry) -> bool {
         .unwrap_or(false)
 }
 
+/// Whether the validation layer provides instance extension `name` (`VK_EXT_validation_features`
+/// comes with the layer, not with the loader).
+fn layer_has_extension(entry: &ash::Entry, name: &CStr) -> bool {
+    // SAFETY: plain enumeration call with a NUL-terminated layer name.
+    unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+        .map(|exts| {
+            exts.iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+        })
+        .unwrap_or(false)
+}
+
+/// Creates the instance; `sync` adds synchronization validation to `validation`. Returns
+/// whether validation is active.
 pub(crate) fn create_instance(
     entry: &ash::Entry,
     validation: bool,
+    sync: bool,
 ) -> VkResult<(ash::Instance, bool)> {
     let app_name = CString::new("rqr").unwrap();
     let app = vk::ApplicationInfo::default()
@@ -226,10 +300,24 @@ pub(crate) fn create_instance(
     } else {
         vec![]
     };
-    let info = vk::InstanceCreateInfo::default()
+    let sync_validation =
+        use_validation && sync && layer_has_extension(entry, ext::validation_features::NAME);
+    if sync && !sync_validation {
+        log::warn!("synchronization validation requested but unavailable (needs the validation layer with VK_EXT_validation_features)");
+    }
+    if sync_validation {
+        extensions.push(ext::validation_features::NAME.as_ptr());
+    }
+    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+    let mut info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_extension_names(&extensions)
         .enabled_layer_names(&layers);
+    if sync_validation {
+        info = info.push_next(&mut features);
+    }
+    log::debug!("synchronization validation: {sync_validation}");
     // SAFETY: all pointers in `info` point to locals alive for this call.
     let instance =
         unsafe { entry.create_instance(&info, None) }.map_err(|result| match result {
@@ -304,7 +392,10 @@ impl Context {
         let validation = opts
             .validation
             .unwrap_or_else(|| std::env::var("RQR_VALIDATION").is_ok_and(|v| v == "1"));
-        let (instance, validation) = create_instance(&entry, validation)?;
+        let sync = opts
+            .sync_validation
+            .unwrap_or_else(|| std::env::var("RQR_SYNC_VALIDATION").is_ok_and(|v| v == "1"));
+        let (instance, validation) = create_instance(&entry, validation, sync)?;
         let log = Box::<ValidationLog>::default();
         let debug = if validation {
             let utils = ext::debug_utils::Instance::new(&entry, &instance);
@@ -378,7 +469,10 @@ impl Context {
             device,
             allocator: Mutex::new(Some(allocator)),
             accel,
-            owner,
+            abandoned: AtomicBool::new(false),
+            graveyard: Mutex::new(Vec::new()),
+            leak: AtomicBool::new(false),
+            owner: ManuallyDrop::new(owner),
         });
         let device = &shared.device;
         // SAFETY: valid device and family index.
@@ -594,6 +688,27 @@ impl Context {
             .unwrap_or_default()
     }
 
+    /// Bytes of device memory the allocator holds now (whole memory blocks, so somewhat more
+    /// than the live resources need).
+    pub fn allocated_bytes(&self) -> u64 {
+        self.shared
+            .allocator
+            .lock()
+            .ok()
+            .and_then(|a| a.as_ref().map(Allocator::capacity))
+            .unwrap_or(0)
+    }
+
+    /// Makes every memory heap look at most `bytes` large to the checks that run before
+    /// allocating (render targets, acceleration structures, BVH): work that would not fit
+    /// a device with that much memory fails with the same clear error. For tests and for
+    /// keeping rqr within a budget; the driver's limits are unchanged.
+    pub fn limit_device_memory(&mut self, bytes: u64) {
+        for heap in &mut self.info.memory_heaps {
+            heap.size_bytes = heap.size_bytes.min(bytes);
+        }
+    }
+
     /// The timeout applied to every submission.
     pub fn fence_timeout(&self) -> Duration {
         self.fence_timeout
@@ -673,6 +788,7 @@ impl Context {
             }
             Err(vk::Result::TIMEOUT) => {
                 sub.abandoned.push((cmd, fence));
+                self.shared.abandoned.store(true, Ordering::Release);
                 Err(VkError::Timeout {
                     pass: pass.to_string(),
                     timeout_ms: self.fence_timeout.as_millis() as u64,
@@ -680,46 +796,71 @@ impl Context {
             }
             Err(result) => {
                 sub.abandoned.push((cmd, fence));
+                self.shared.abandoned.store(true, Ordering::Release);
                 Err(self.map_device_error(pass, "vkWaitForFences", result))
             }
         }
     }
 
     fn map_device_error(&self, pass: &str, call: &'static str, result: vk::Result) -> VkError {
-        match result {
-            vk::Result::ERROR_DEVICE_LOST => VkError::DeviceLost {
+        // Name the pass rather than the call: that is what the user can act on.
+        match VkError::from_call(call, result) {
+            VkError::DeviceLost { .. } => VkError::DeviceLost {
                 pass: pass.to_string(),
             },
-            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                VkError::OutOfMemory {
-                    what: pass.to_string(),
-                    bytes: 0,
-                    reason: result.to_string(),
-                }
-            }
-            _ => VkError::Call { call, result },
+            VkError::OutOfMemory { bytes, reason, .. } => VkError::OutOfMemory {
+                what: pass.to_string(),
+                bytes,
+                reason,
+            },
+            other => other,
         }
     }
 
-    /// Waits until the device is idle (with no timeout: use before teardown only).
+    /// Waits until the device is idle (with no timeout: use before teardown only), then frees
+    /// what submissions that timed out had kept alive.
     pub fn wait_idle(&self) -> VkResult<()> {
-        // SAFETY: the queue is not being submitted to concurrently (`run` holds a lock).
-        unsafe { self.device().device_wait_idle() }.call("vkDeviceWaitIdle")
+        let mut sub = self.submission.lock().expect("command pool lock poisoned");
+        let device = self.device();
+        // SAFETY: the queue is not being submitted to concurrently (`run` holds the lock we
+        // hold); after wait-idle no abandoned command buffer is pending.
+        unsafe {
+            device.device_wait_idle().call("vkDeviceWaitIdle")?;
+            for (cmd, fence) in std::mem::take(&mut sub.abandoned) {
+                device.destroy_fence(fence, None);
+                device.free_command_buffers(sub.pool, &[cmd]);
+            }
+        }
+        self.shared.bury();
+        Ok(())
     }
 }
 
 impl Drop for Context {
     fn drop(&mut self) {
         let device = &self.shared.device;
+        // A panic while recording poisons the lock; the pool must still be destroyed.
+        let sub = self.submission.get_mut().unwrap_or_else(|e| e.into_inner());
+        if !sub.abandoned.is_empty() {
+            let fences: Vec<vk::Fence> = sub.abandoned.iter().map(|&(_, f)| f).collect();
+            let grace = u64::try_from(ABANDONED_WORK_GRACE.as_nanos()).unwrap_or(u64::MAX);
+            // SAFETY: the fences belong to this device.
+            if let Err(vk::Result::TIMEOUT) =
+                unsafe { device.wait_for_fences(&fences, true, grace) }
+            {
+                // Still running: the pool, the fences and every resource must outlive it.
+                self.shared.leak.store(true, Ordering::Release);
+                return;
+            }
+        }
         // SAFETY: after wait-idle no command buffer is pending; the pool is ours.
         unsafe {
             let _ = device.device_wait_idle();
-            // A panic while recording poisons the lock; the pool must still be destroyed.
-            let sub = self.submission.get_mut().unwrap_or_else(|e| e.into_inner());
             for (_, fence) in sub.abandoned.drain(..) {
                 device.destroy_fence(fence, None);
             }
             device.destroy_command_pool(sub.pool, None);
         }
+        self.shared.bury();
     }
 }

@@ -225,12 +225,15 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        // SAFETY: callers wait for GPU work that uses the buffer before dropping it
-        // (every `Context::run` waits for its fence).
-        unsafe { self.shared.device.destroy_buffer(self.raw, None) };
-        if let Some(a) = self.allocation.take() {
-            free(&self.shared, a);
-        }
+        let (raw, allocation) = (self.raw, self.allocation.take());
+        self.shared.retire(move |shared| {
+            // SAFETY: no pending submission uses the buffer: every `Context::run` waits for
+            // its fence, and `retire` defers past submissions that timed out.
+            unsafe { shared.device.destroy_buffer(raw, None) };
+            if let Some(a) = allocation {
+                free(shared, a);
+            }
+        });
     }
 }
 
@@ -388,13 +391,17 @@ impl Image {
 
 impl Drop for Image {
     fn drop(&mut self) {
-        // SAFETY: GPU work using the image has completed (every submission waits).
-        unsafe {
-            self.shared.device.destroy_image_view(self.view, None);
-            self.shared.device.destroy_image(self.raw, None);
-        }
-        if let Some(a) = self.allocation.take() {
-            free(&self.shared, a);
-        }
+        let (raw, view, allocation) = (self.raw, self.view, self.allocation.take());
+        self.shared.retire(move |shared| {
+            // SAFETY: GPU work using the image has completed (every submission waits;
+            // `retire` defers past submissions that timed out).
+            unsafe {
+                shared.device.destroy_image_view(view, None);
+                shared.device.destroy_image(raw, None);
+            }
+            if let Some(a) = allocation {
+                free(shared, a);
+            }
+        });
     }
 }

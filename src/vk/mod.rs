@@ -11,14 +11,18 @@ mod probe;
 mod profiler;
 mod sampler;
 
-pub use context::{Context, ContextOptions, DeviceSelector, Features, DEFAULT_FENCE_TIMEOUT};
+pub(crate) use context::Shared;
+pub use context::{
+    Context, ContextOptions, DeviceSelector, Features, ABANDONED_WORK_GRACE, DEFAULT_FENCE_TIMEOUT,
+};
 pub use memory::{Buffer, Image};
 pub use pipeline::{
     memory_barrier, spirv_words, Binding, ComputePipeline, DescriptorSet, GraphicsPipeline,
     GraphicsTargets,
 };
 pub use probe::{
-    probe_devices, AsProperties, DeviceInfo, MemoryHeapInfo, ProbeReport, TimestampInfo,
+    largest_device_heap, probe_devices, AsProperties, DeviceInfo, MemoryHeapInfo, ProbeReport,
+    TimestampInfo,
 };
 pub use profiler::GpuProfiler;
 pub use sampler::Sampler;
@@ -99,6 +103,56 @@ pub(crate) trait CallExt<T> {
 
 impl<T> CallExt<T> for Result<T, vk::Result> {
     fn call(self, name: &'static str) -> VkResult<T> {
-        self.map_err(|result| VkError::Call { call: name, result })
+        self.map_err(|result| VkError::from_call(name, result))
+    }
+}
+
+impl VkError {
+    /// The error for a failed Vulkan call: a lost device and exhausted memory get their own
+    /// variants (callers and the CLI treat them differently from a plain failure).
+    pub fn from_call(call: &'static str, result: vk::Result) -> Self {
+        match result {
+            vk::Result::ERROR_DEVICE_LOST => Self::DeviceLost {
+                pass: call.to_string(),
+            },
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                Self::OutOfMemory {
+                    what: call.to_string(),
+                    bytes: 0,
+                    reason: result.to_string(),
+                }
+            }
+            _ => Self::Call { call, result },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lost_devices_and_exhausted_memory_get_their_own_errors() {
+        let lost: Result<(), vk::Result> = Err(vk::Result::ERROR_DEVICE_LOST);
+        assert!(matches!(
+            lost.call("vkQueueSubmit"),
+            Err(VkError::DeviceLost { pass }) if pass == "vkQueueSubmit"
+        ));
+        for oom in [
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY,
+            vk::Result::ERROR_OUT_OF_HOST_MEMORY,
+        ] {
+            let e = Err::<(), _>(oom).call("vkCreateBuffer").unwrap_err();
+            assert!(matches!(&e, VkError::OutOfMemory { what, .. } if what == "vkCreateBuffer"));
+            assert!(e.to_string().contains("out of memory"), "{e}");
+        }
+        let other = Err::<(), _>(vk::Result::ERROR_INITIALIZATION_FAILED).call("vkCreateDevice");
+        assert!(matches!(
+            other,
+            Err(VkError::Call {
+                call: "vkCreateDevice",
+                ..
+            })
+        ));
     }
 }

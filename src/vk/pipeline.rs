@@ -150,10 +150,9 @@ impl ComputePipeline {
             };
             // SAFETY: the module is no longer needed.
             unsafe { device.destroy_shader_module(module, None) };
-            result.map(|p| p[0]).map_err(|(_, r)| VkError::Call {
-                call: "vkCreateComputePipelines",
-                result: r,
-            })
+            result
+                .map(|p| p[0])
+                .map_err(|(_, r)| VkError::from_call("vkCreateComputePipelines", r))
         });
         let pipeline = match pipeline {
             Ok(p) => p,
@@ -225,16 +224,18 @@ impl ComputePipeline {
 
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
-        // SAFETY: no submission using the pipeline is pending (submissions wait).
-        unsafe {
-            self.shared.device.destroy_pipeline(self.pipeline, None);
-            self.shared
-                .device
-                .destroy_pipeline_layout(self.layout, None);
-            self.shared
-                .device
-                .destroy_descriptor_set_layout(self.set_layout, None);
-        }
+        let (pipeline, layout, set_layout) = (self.pipeline, self.layout, self.set_layout);
+        self.shared.retire(move |shared| {
+            // SAFETY: no submission using the pipeline is pending (submissions wait;
+            // `retire` defers past submissions that timed out).
+            unsafe {
+                shared.device.destroy_pipeline(pipeline, None);
+                shared.device.destroy_pipeline_layout(layout, None);
+                shared
+                    .device
+                    .destroy_descriptor_set_layout(set_layout, None);
+            }
+        });
     }
 }
 
@@ -373,8 +374,10 @@ impl DescriptorSet {
 
 impl Drop for DescriptorSet {
     fn drop(&mut self) {
-        // SAFETY: no pending submission uses the set.
-        unsafe { self.shared.device.destroy_descriptor_pool(self.pool, None) };
+        let pool = self.pool;
+        // SAFETY: no pending submission uses the set (`retire` defers past timed-out ones).
+        self.shared
+            .retire(move |shared| unsafe { shared.device.destroy_descriptor_pool(pool, None) });
     }
 }
 
@@ -409,7 +412,8 @@ pub struct GraphicsTargets<'a> {
 }
 
 impl GraphicsPipeline {
-    /// Builds the pipeline from vertex and fragment SPIR-V (entry points `main`).
+    /// Builds the pipeline from vertex and fragment SPIR-V (entry points `main`);
+    /// `fragment_constants[i]` specialises the fragment stage's `constant_id = i`.
     pub fn new(
         ctx: &Context,
         vertex: &[u8],
@@ -417,6 +421,7 @@ impl GraphicsPipeline {
         bindings: &[Binding],
         push_size: u32,
         targets: &GraphicsTargets<'_>,
+        fragment_constants: &[u32],
     ) -> VkResult<Self> {
         let device = ctx.device();
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
@@ -469,14 +474,21 @@ impl GraphicsPipeline {
                             .for_each(|&m| device.destroy_shader_module(m, None))
                     };
                     destroy_layouts();
-                    return Err(VkError::Call {
-                        call: "vkCreateShaderModule",
-                        result,
-                    });
+                    return Err(VkError::from_call("vkCreateShaderModule", result));
                 }
             }
         }
         const MAIN: &CStr = c"main";
+        let entries: Vec<_> = (0..fragment_constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry {
+                constant_id: i,
+                offset: i * 4,
+                size: 4,
+            })
+            .collect();
+        let spec = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(fragment_constants));
         let stage_info = [
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::VERTEX)
@@ -485,7 +497,8 @@ impl GraphicsPipeline {
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::FRAGMENT)
                 .module(modules[1])
-                .name(MAIN),
+                .name(MAIN)
+                .specialization_info(&spec),
         ];
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
         let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
@@ -547,10 +560,7 @@ impl GraphicsPipeline {
             Ok(p) => p[0],
             Err((_, result)) => {
                 destroy_layouts();
-                return Err(VkError::Call {
-                    call: "vkCreateGraphicsPipelines",
-                    result,
-                });
+                return Err(VkError::from_call("vkCreateGraphicsPipelines", result));
             }
         };
         Ok(Self {
@@ -604,15 +614,17 @@ impl GraphicsPipeline {
 
 impl Drop for GraphicsPipeline {
     fn drop(&mut self) {
-        // SAFETY: no pending submission uses the pipeline.
-        unsafe {
-            self.shared.device.destroy_pipeline(self.pipeline, None);
-            self.shared
-                .device
-                .destroy_pipeline_layout(self.layout, None);
-            self.shared
-                .device
-                .destroy_descriptor_set_layout(self.set_layout, None);
-        }
+        let (pipeline, layout, set_layout) = (self.pipeline, self.layout, self.set_layout);
+        self.shared.retire(move |shared| {
+            // SAFETY: no submission using the pipeline is pending (submissions wait;
+            // `retire` defers past submissions that timed out).
+            unsafe {
+                shared.device.destroy_pipeline(pipeline, None);
+                shared.device.destroy_pipeline_layout(layout, None);
+                shared
+                    .device
+                    .destroy_descriptor_set_layout(set_layout, None);
+            }
+        });
     }
 }

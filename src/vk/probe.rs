@@ -85,6 +85,25 @@ pub struct DeviceInfo {
     pub backend_reason: String,
 }
 
+/// Size of the largest device-local heap (of the largest heap when none is device-local):
+/// what memory checks compare against before allocating.
+pub fn largest_device_heap(heaps: &[MemoryHeapInfo]) -> u64 {
+    heaps
+        .iter()
+        .filter(|h| h.device_local)
+        .map(|h| h.size_bytes)
+        .max()
+        .or_else(|| heaps.iter().map(|h| h.size_bytes).max())
+        .unwrap_or(0)
+}
+
+impl DeviceInfo {
+    /// [`largest_device_heap`] of this device.
+    pub fn largest_device_heap(&self) -> u64 {
+        largest_device_heap(&self.memory_heaps)
+    }
+}
+
 /// The `rqr probe --json` document.
 #[derive(Clone, Debug, Serialize)]
 pub struct ProbeReport {
@@ -266,7 +285,7 @@ impl DeviceInfo {
 /// `backend` field; `selector` picks `selected`.
 pub fn probe_devices(selector: &DeviceSelector, choice: BackendChoice) -> VkResult<ProbeReport> {
     let entry = load_entry()?;
-    let (instance, _) = create_instance(&entry, false)?;
+    let (instance, _) = create_instance(&entry, false, false)?;
     // SAFETY: plain enumeration call on a live instance.
     let physicals =
         unsafe { instance.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices");

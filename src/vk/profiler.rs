@@ -133,7 +133,9 @@ impl GpuProfiler {
 
 impl Drop for GpuProfiler {
     fn drop(&mut self) {
-        // SAFETY: submissions using the pool completed.
-        unsafe { self.shared.device.destroy_query_pool(self.pool, None) };
+        let pool = self.pool;
+        // SAFETY: submissions using the pool completed (`retire` defers past timed-out ones).
+        self.shared
+            .retire(move |shared| unsafe { shared.device.destroy_query_pool(pool, None) });
     }
 }

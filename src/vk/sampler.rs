@@ -29,7 +29,10 @@ impl Sampler {
 
 impl Drop for Sampler {
     fn drop(&mut self) {
-        // SAFETY: GPU work using the sampler has completed (every submission waits).
-        unsafe { self.shared.device.destroy_sampler(self.raw, None) };
+        let raw = self.raw;
+        // SAFETY: GPU work using the sampler has completed (every submission waits;
+        // `retire` defers past submissions that timed out).
+        self.shared
+            .retire(move |shared| unsafe { shared.device.destroy_sampler(raw, None) });
     }
 }

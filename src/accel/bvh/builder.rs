@@ -1,0 +1,370 @@
+//! Host build of the two-level BVH with `obvhs` (PLOC + reinsertion + SAH leaf collapse) and
+//! flattening into the 64-byte node layout of [`super::layout`].
+
+use std::time::Instant;
+
+use glam::{Vec3, Vec3A};
+use obvhs::aabb::Aabb as ObAabb;
+use obvhs::bvh2::leaf_collapser::collapse;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::bvh2::Bvh2;
+use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
+
+use super::cpu::world_to_object_rows;
+use super::layout::{
+    leaf_link, BvhBox, BvhChild, BvhInstance, BvhNode, BvhTriangle, BVH_INSTANCE_ALPHA_TEST,
+    BVH_STACK_SIZE, LINK_FIRST_MASK, MAX_LEAF_PRIMITIVES,
+};
+use super::{BvhBuildOptions, BvhData, BvhError, BvhStats, PlocSearch};
+use crate::scene::{AlphaMode, Scene};
+
+/// Relative padding of every box: slab distances come from `fma(p, inv_d, -o * inv_d)` whose
+/// rounding can put a vertex lying exactly on a box face a few ulps outside it; growing boxes
+/// by ~8 ulps of their coordinates plus ~1e-6 of the level's extent keeps the box test
+/// conservative for ray origins up to ~10x the scene's size away (see README).
+const PAD_RELATIVE: f32 = 1.0 / (1 << 20) as f32;
+
+fn pad_box(min: Vec3, max: Vec3, scale: f32) -> ([f32; 3], [f32; 3]) {
+    let m = min.abs().max(max.abs());
+    let pad = (m + Vec3::splat(scale)) * PAD_RELATIVE;
+    ((min - pad).to_array(), (max + pad).to_array())
+}
+
+fn search(s: PlocSearch) -> PlocSearchDistance {
+    match s {
+        PlocSearch::Minimum => PlocSearchDistance::Minimum,
+        PlocSearch::Low => PlocSearchDistance::Low,
+        PlocSearch::Medium => PlocSearchDistance::Medium,
+        PlocSearch::High => PlocSearchDistance::High,
+    }
+}
+
+/// PLOC, reinsertion, SAH collapse into leaves of at most `max_leaf`, reinsertion again.
+fn build_bvh2(aabbs: &[ObAabb], opts: &BvhBuildOptions, max_leaf: u32) -> Bvh2 {
+    let mut bvh = PlocBuilder::with_capacity(aabbs.len()).build(
+        search(opts.search),
+        aabbs,
+        (0..aabbs.len() as u32).collect(),
+        SortPrecision::U64,
+        opts.search_depth_threshold,
+    );
+    let mut reinsertion = ReinsertionOptimizer::default();
+    if opts.reinsertion_ratio > 0.0 {
+        reinsertion.run(&mut bvh, opts.reinsertion_ratio, None);
+    }
+    if max_leaf > 1 {
+        collapse(&mut bvh, max_leaf, opts.collapse_traversal_cost);
+        if opts.reinsertion_ratio > 0.0 {
+            reinsertion.run(&mut bvh, opts.reinsertion_ratio * 2.0, None);
+        }
+    }
+    bvh
+}
+
+/// Primitive count below every node of `bvh` (one post-order pass).
+fn subtree_counts(bvh: &Bvh2) -> Vec<u32> {
+    let mut counts = vec![0u32; bvh.nodes.len()];
+    // (node, children done)
+    let mut stack = vec![(0usize, false)];
+    while let Some((i, done)) = stack.pop() {
+        let n = &bvh.nodes[i];
+        if n.is_leaf() {
+            counts[i] = n.prim_count;
+        } else if done {
+            let f = n.first_index as usize;
+            counts[i] = counts[f] + counts[f + 1];
+        } else {
+            stack.push((i, true));
+            stack.push((n.first_index as usize, false));
+            stack.push((n.first_index as usize + 1, false));
+        }
+    }
+    counts
+}
+
+/// Appends the flattened form of `bvh` to `nodes` and returns (root node, depth). `leaf(prims)`
+/// turns a leaf's primitives (values of `bvh.primitive_indices`) into a link. Depth counts the
+/// inner nodes on the longest root-to-leaf path, which bounds the traversal stack. A root that
+/// is itself a leaf gets a node of its own whose second child is empty.
+fn flatten(
+    bvh: &Bvh2,
+    scale: f32,
+    nodes: &mut Vec<BvhNode>,
+    leaf: &mut dyn FnMut(&[u32]) -> Result<u32, BvhError>,
+) -> Result<(u32, u32), BvhError> {
+    let node_index = |len: usize| u32::try_from(len).map_err(|_| BvhError::too_many("nodes"));
+    let root_index = node_index(nodes.len())?;
+    let counts = subtree_counts(bvh);
+    let mut child = |src: usize| -> Result<(BvhChild, bool), BvhError> {
+        let n = &bvh.nodes[src];
+        let (min, max) = pad_box(n.aabb().min.into(), n.aabb().max.into(), scale);
+        let inner = !n.is_leaf();
+        let link = if inner {
+            u32::MAX // patched when the child node is emitted
+        } else {
+            let first = n.first_index as usize;
+            leaf(&bvh.primitive_indices[first..first + n.prim_count as usize])?
+        };
+        let c = BvhChild {
+            bounds: BvhBox { min, max },
+            link,
+            prim_count: counts[src],
+        };
+        Ok((c, inner))
+    };
+    if bvh.nodes[0].is_leaf() {
+        let (c, _) = child(0)?;
+        nodes.push(BvhNode::from_children([c, BvhChild::EMPTY]));
+        return Ok((root_index, 1));
+    }
+    // Depth-first pre-order: a node is followed by its first subtree, so the path a coherent
+    // ray takes stays in neighbouring cache lines. Entries: (source node, parent slot, depth).
+    let mut max_depth = 1u32;
+    type Pending = (usize, Option<(usize, usize)>, u32);
+    let mut stack: Vec<Pending> = vec![(0, None, 1)];
+    while let Some((src, parent, depth)) = stack.pop() {
+        max_depth = max_depth.max(depth);
+        let index = nodes.len();
+        if let Some((p, k)) = parent {
+            nodes[p].links[k] = node_index(index)?;
+        }
+        let first = bvh.nodes[src].first_index as usize;
+        let (c0, inner0) = child(first)?;
+        let (c1, inner1) = child(first + 1)?;
+        nodes.push(BvhNode::from_children([c0, c1]));
+        if inner1 {
+            stack.push((first + 1, Some((index, 1)), depth + 1));
+        }
+        if inner0 {
+            stack.push((first, Some((index, 0)), depth + 1));
+        }
+    }
+    Ok((root_index, max_depth))
+}
+
+/// One geometry's usable triangles: exact vertex copies with their original primitive index.
+struct GeometryTris {
+    tris: Vec<BvhTriangle>,
+    aabbs: Vec<ObAabb>,
+    bounds: ObAabb,
+}
+
+fn gather_geometry(scene: &Scene, g: usize) -> Result<GeometryTris, BvhError> {
+    let geom = &scene.geometries[g];
+    if geom.indices.len() % 3 != 0 {
+        return Err(BvhError::InvalidScene(format!(
+            "geometry {g}: {} indices is not a multiple of 3",
+            geom.indices.len()
+        )));
+    }
+    let n = geom.indices.len() / 3;
+    let mut out = GeometryTris {
+        tris: Vec::with_capacity(n),
+        aabbs: Vec::with_capacity(n),
+        bounds: ObAabb::empty(),
+    };
+    for (prim, idx) in geom.indices.chunks_exact(3).enumerate() {
+        let mut v = [Vec3::ZERO; 3];
+        for k in 0..3 {
+            v[k] = *geom.positions.get(idx[k] as usize).ok_or_else(|| {
+                BvhError::InvalidScene(format!(
+                    "geometry {g}, triangle {prim}: index {} is out of range ({} positions)",
+                    idx[k],
+                    geom.positions.len()
+                ))
+            })?;
+        }
+        // Non-finite vertices cannot be bounded and repeated vertices cannot be hit by the
+        // watertight test (zero determinant): neither can change any ray's result.
+        if !v.iter().all(|p| p.is_finite()) || v[0] == v[1] || v[1] == v[2] || v[0] == v[2] {
+            continue;
+        }
+        let a: [Vec3A; 3] = v.map(Vec3A::from);
+        let bb = ObAabb::from_points(&a);
+        out.bounds = out.bounds.union(&bb);
+        out.aabbs.push(bb);
+        out.tris.push(BvhTriangle {
+            v0: v[0].to_array(),
+            v1: v[1].to_array(),
+            v2: v[2].to_array(),
+            primitive: prim as u32,
+        });
+    }
+    Ok(out)
+}
+
+fn max_abs(b: &ObAabb) -> f32 {
+    b.min.abs().max(b.max.abs()).max_element()
+}
+
+/// Builds the two-level BVH of `scene` on the host.
+pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, BvhError> {
+    let t_start = Instant::now();
+    let max_leaf = opts.max_leaf_size.clamp(1, MAX_LEAF_PRIMITIVES);
+    let mut stats = BvhStats::default();
+
+    // Which geometries are used by an instance with an invertible transform.
+    let mut used = vec![false; scene.geometries.len()];
+    let mut w2o = Vec::with_capacity(scene.instances.len());
+    for (i, inst) in scene.instances.iter().enumerate() {
+        let g = inst.geometry as usize;
+        if g >= scene.geometries.len() {
+            return Err(BvhError::InvalidScene(format!(
+                "instance {i} uses geometry {g}, but the scene has {}",
+                scene.geometries.len()
+            )));
+        }
+        let rows = world_to_object_rows(&inst.transform);
+        if rows.is_some() {
+            used[g] = true;
+        } else {
+            stats.skipped_instances += 1;
+        }
+        w2o.push(rows);
+    }
+    if scene.instances.len() > LINK_FIRST_MASK as usize + 1 {
+        return Err(BvhError::too_many("instances"));
+    }
+
+    // Bottom levels (built first: the top level needs their bounds).
+    let t_blas = Instant::now();
+    let mut blas_nodes: Vec<BvhNode> = Vec::new();
+    let mut triangles: Vec<BvhTriangle> = Vec::new();
+    // Per geometry: (root node index relative to blas_nodes, object bounds).
+    let mut blas: Vec<Option<(u32, ObAabb)>> = vec![None; scene.geometries.len()];
+    let mut alpha = vec![false; scene.geometries.len()];
+    for g in 0..scene.geometries.len() {
+        if !used[g] {
+            continue;
+        }
+        let geom = &scene.geometries[g];
+        let mat = scene.materials.get(geom.material as usize).ok_or_else(|| {
+            BvhError::InvalidScene(format!(
+                "geometry {g} uses material {}, but the scene has {}",
+                geom.material,
+                scene.materials.len()
+            ))
+        })?;
+        alpha[g] = mat.alpha_mode == AlphaMode::Mask;
+        let gt = gather_geometry(scene, g)?;
+        stats.skipped_triangles += geom.triangle_count() - gt.tris.len();
+        if gt.tris.is_empty() {
+            continue;
+        }
+        if triangles.len() + gt.tris.len() > LINK_FIRST_MASK as usize + 1 {
+            return Err(BvhError::too_many("triangles"));
+        }
+        let bvh = build_bvh2(&gt.aabbs, opts, max_leaf);
+        let scale = max_abs(&gt.bounds);
+        let (root, depth) = flatten(&bvh, scale, &mut blas_nodes, &mut |prims| {
+            let first = triangles.len() as u32;
+            for &p in prims {
+                triangles.push(gt.tris[p as usize]);
+            }
+            leaf_link(first, prims.len() as u32).ok_or_else(|| BvhError::too_many("triangles"))
+        })?;
+        stats.blas_count += 1;
+        stats.max_blas_depth = stats.max_blas_depth.max(depth);
+        blas[g] = Some((root, gt.bounds));
+    }
+    stats.blas_ms = t_blas.elapsed().as_secs_f64() * 1e3;
+
+    // Top level over instances: world boxes of the transformed bottom-level root boxes.
+    let t_tlas = Instant::now();
+    let mut inst_aabbs = Vec::new();
+    let mut inst_ids = Vec::new();
+    let mut world = ObAabb::empty();
+    for (i, inst) in scene.instances.iter().enumerate() {
+        let (Some(_), Some((_, b))) = (w2o[i], blas[inst.geometry as usize]) else {
+            continue;
+        };
+        let mut wb = ObAabb::empty();
+        for c in 0..8 {
+            let p = Vec3::new(
+                if c & 1 == 0 { b.min.x } else { b.max.x },
+                if c & 2 == 0 { b.min.y } else { b.max.y },
+                if c & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            wb.extend(inst.transform.transform_point3(p).into());
+        }
+        if !(wb.min.is_finite() && wb.max.is_finite()) {
+            stats.skipped_instances += 1;
+            continue;
+        }
+        world = world.union(&wb);
+        inst_aabbs.push(wb);
+        inst_ids.push(i as u32);
+    }
+    let mut nodes: Vec<BvhNode> = Vec::new();
+    if inst_aabbs.is_empty() {
+        nodes.push(BvhNode::from_children([BvhChild::EMPTY; 2]));
+        stats.tlas_depth = 1;
+    } else {
+        let tlas = build_bvh2(&inst_aabbs, opts, 1);
+        let scale = max_abs(&world);
+        let (_, depth) = flatten(&tlas, scale, &mut nodes, &mut |prims| {
+            // Top-level leaves hold exactly one instance (max leaf size 1), addressed directly.
+            let [p] = prims else {
+                return Err(BvhError::InvalidScene(
+                    "internal: top-level leaf with several instances".into(),
+                ));
+            };
+            leaf_link(inst_ids[*p as usize], 1).ok_or_else(|| BvhError::too_many("instances"))
+        })?;
+        stats.tlas_depth = depth;
+    }
+    stats.tlas_nodes = nodes.len();
+    stats.tlas_ms = t_tlas.elapsed().as_secs_f64() * 1e3;
+
+    // Append the bottom levels behind the top level and shift their inner links.
+    let offset = nodes.len() as u32;
+    if (nodes.len() + blas_nodes.len()) > (1usize << 31) {
+        return Err(BvhError::too_many("nodes"));
+    }
+    for mut n in blas_nodes {
+        for k in 0..2 {
+            if n.prim_counts[k] != 0 && super::layout::decode_link(n.links[k]).is_ok() {
+                n.links[k] += offset;
+            }
+        }
+        nodes.push(n);
+    }
+    let instances = scene
+        .instances
+        .iter()
+        .enumerate()
+        .map(|(i, inst)| {
+            let g = inst.geometry as usize;
+            let rows = w2o[i].unwrap_or([[0.0; 4]; 3]);
+            BvhInstance {
+                world_to_object: rows,
+                // Instances left out of the top level are never entered.
+                blas_root: blas[g].map_or(0, |(r, _)| r + offset),
+                flags: if alpha[g] { BVH_INSTANCE_ALPHA_TEST } else { 0 },
+                geometry: g as u32,
+                pad: 0,
+            }
+        })
+        .collect();
+
+    stats.max_depth = stats.tlas_depth + stats.max_blas_depth;
+    if stats.max_depth > BVH_STACK_SIZE {
+        return Err(BvhError::TooDeep {
+            depth: stats.max_depth,
+            limit: BVH_STACK_SIZE,
+        });
+    }
+    stats.node_count = nodes.len();
+    stats.triangle_count = triangles.len();
+    stats.instance_count = scene.instances.len();
+    stats.max_leaf_size = max_leaf;
+    stats.build_ms = t_start.elapsed().as_secs_f64() * 1e3;
+    let mut data = BvhData {
+        nodes,
+        triangles,
+        instances,
+        stats,
+    };
+    data.stats.bytes = data.byte_size();
+    Ok(data)
+}

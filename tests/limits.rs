@@ -1,0 +1,182 @@
+//! Device limits and GPU faults in the library: memory estimates checked before allocating
+//! (render targets, acceleration structures, BVH), storage-buffer range, and a fence timeout
+//! in the middle of a frame that leaves the device usable and validation clean.
+
+mod common;
+
+use std::time::Duration;
+
+use common::{assert_validation_clean, gpu};
+use glam::Mat4;
+use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
+use rqr::accel::{hw::HwAccel, Backend};
+use rqr::render::{gbuffer, RenderPath, RenderSettings, Renderer};
+use rqr::scene::gpu::GpuScene;
+use rqr::scene::procedural::{assemble, cornell, look_at, sphere};
+use rqr::scene::{Instance, Material, Scene};
+use rqr::vk::VkError;
+
+fn settings(width: u32, height: u32, spp: u32) -> RenderSettings {
+    RenderSettings {
+        width,
+        height,
+        spp,
+        ..Default::default()
+    }
+}
+
+/// One sphere of about 2 × `segments`² triangles.
+fn dense_sphere(segments: u32) -> Scene {
+    assemble(
+        vec![sphere(0, segments, segments)],
+        vec![Instance {
+            geometry: 0,
+            transform: Mat4::IDENTITY,
+            node: 0,
+        }],
+        vec![Material::default()],
+        Vec::new(),
+        vec![look_at(
+            glam::Vec3::new(0.0, 0.0, 4.0),
+            glam::Vec3::ZERO,
+            45.0,
+        )],
+    )
+}
+
+#[test]
+fn render_estimates_grow_with_what_they_allocate() {
+    let s = settings(640, 480, 1);
+    let rt = s.estimate_bytes(RenderPath::RayTraced);
+    // Colour (16 B) + AOVs (48 B) + tonemap (4 B) per pixel, plus the adaptive corners.
+    assert!(rt >= 640 * 480 * (16 + 48 + 4 + 16), "{rt}");
+    assert!(rt <= 640 * 480 * 100, "{rt}");
+    // The ray-traced path reuses its buffers for every sample; hybrid adds a G-buffer each.
+    assert_eq!(
+        settings(640, 480, 64).estimate_bytes(RenderPath::RayTraced),
+        rt
+    );
+    let h1 = s.estimate_bytes(RenderPath::Hybrid);
+    let h4 = settings(640, 480, 4).estimate_bytes(RenderPath::Hybrid);
+    let gbuffer = (h4 - h1) / 3;
+    assert_eq!(
+        gbuffer,
+        640 * 480 * (5 * 16 + 2 * 8 + 4),
+        "7 targets + depth"
+    );
+    assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced) > 3 * rt);
+    // The largest storage buffer is the AOV array.
+    assert_eq!(s.largest_buffer_bytes(), 640 * 480 * 48);
+    // Absurd requests saturate instead of overflowing.
+    let huge = settings(16384, 16384, 4096).estimate_bytes(RenderPath::Hybrid);
+    assert!(huge > 1 << 40);
+}
+
+#[test]
+fn memory_checks_refuse_work_before_allocating() {
+    let mut ctx = gpu();
+    let scene = dense_sphere(300); // ~180k triangles
+    let gpu_scene = GpuScene::upload(&ctx, &scene, 0).unwrap();
+    ctx.limit_device_memory(4 << 20);
+
+    let err = GpuBvh::build(&ctx, &scene, &BvhBuildOptions::default())
+        .err()
+        .expect("a ~20 MB BVH in a 4 MiB heap");
+    assert!(
+        matches!(err, BvhError::TooLarge { heap, what: "estimate", .. } if heap == 4 << 20),
+        "{err}"
+    );
+    assert!(err.to_string().contains("largest device heap"), "{err}");
+
+    if ctx.features().ray_query {
+        let err = HwAccel::build(&ctx, &scene, &gpu_scene)
+            .err()
+            .expect("~18 MB of BLAS in a 4 MiB heap");
+        assert!(
+            matches!(&err, VkError::Limit(m) if m.contains("acceleration structures need about")),
+            "{err}"
+        );
+    }
+    // Renderer::new reports the backend's error, for either backend.
+    for backend in [Backend::Bvh, Backend::Hw] {
+        if backend == Backend::Hw && !ctx.features().ray_query {
+            continue;
+        }
+        let err = Renderer::new(&ctx, &scene, backend).err().expect("too big");
+        assert!(
+            err.to_string().contains("MiB") || err.to_string().contains("bytes"),
+            "{err}"
+        );
+    }
+    assert_validation_clean(&ctx);
+}
+
+#[test]
+fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
+    let mut ctx = gpu();
+    let scene = cornell();
+    let camera = scene.cameras[0];
+    let draws = gbuffer::draws(&scene);
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+
+    // Leave 1 MiB of the heap beyond what is allocated now.
+    ctx.limit_device_memory(ctx.allocated_bytes() + (1 << 20));
+    let err = renderer
+        .render_rt(&ctx, &settings(256, 256, 1), &camera, false)
+        .err()
+        .expect("256² needs ~5 MiB");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("256x256") && msg.contains("of device memory"),
+        "{msg}"
+    );
+    let err = renderer
+        .render_hybrid(&ctx, &draws, &settings(32, 32, 64), &camera, false)
+        .err()
+        .expect("64 G-buffers of 32² need ~6.5 MiB");
+    assert!(err.to_string().contains("--spp"), "{err}");
+    // Small frames still fit.
+    let out = renderer
+        .render_rt(&ctx, &settings(32, 32, 1), &camera, false)
+        .unwrap();
+    assert_eq!(out.color.len(), 32 * 32);
+
+    // A resolution whose AOV buffer exceeds maxStorageBufferRange (lavapipe: 128 MiB).
+    let info = ctx.info();
+    let side = ((u64::from(info.max_storage_buffer_range) / 48) as f64).sqrt() as u32 + 2;
+    if side <= info.max_image_dimension_2d {
+        let err = renderer
+            .render_rt(&ctx, &settings(side, side, 1), &camera, false)
+            .err()
+            .expect("AOV buffer beyond maxStorageBufferRange");
+        assert!(err.to_string().contains("maxStorageBufferRange"), "{err}");
+    }
+    assert_validation_clean(&ctx);
+}
+
+#[test]
+fn fence_timeout_mid_frame_defers_destruction_and_recovers() {
+    let mut ctx = gpu();
+    let scene = cornell();
+    let camera = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    ctx.set_fence_timeout(Duration::from_millis(1));
+    let err = renderer
+        .render_rt(&ctx, &settings(256, 256, 16), &camera, false)
+        .err()
+        .expect("a 256² 16-spp frame takes more than 1 ms");
+    assert!(
+        matches!(&err, rqr::Error::Vk(VkError::Timeout { pass, timeout_ms: 1 }) if pass == "ray-traced frame"),
+        "{err}"
+    );
+    // The frame's buffers and pipelines were dropped while the GPU still used them: their
+    // destruction waits for the work, so the validation layer saw nothing in use destroyed.
+    ctx.wait_idle().unwrap();
+    assert_validation_clean(&ctx);
+    ctx.set_fence_timeout(Duration::from_secs(120));
+    let out = renderer
+        .render_rt(&ctx, &settings(32, 32, 1), &camera, false)
+        .unwrap();
+    assert!(out.color.iter().any(|c| c[0] > 0.0));
+    assert_validation_clean(&ctx);
+}
