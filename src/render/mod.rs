@@ -9,7 +9,9 @@ pub mod optics;
 pub mod output;
 pub mod raybench;
 pub mod raytraced;
+pub mod reproject;
 pub mod sampling;
+pub mod sequence;
 pub mod tonemap;
 
 use ash::vk;
