@@ -589,7 +589,13 @@ impl<'r> Reprojector<'r> {
                 p.reset(cmd);
             }
             match &self.visibility {
-                Visibility::Raster(g) => g.record(ctx, cmd, draws, profiler.as_mut()),
+                Visibility::Raster(g) => g.record(
+                    ctx,
+                    cmd,
+                    draws,
+                    setup.camera_to_world.w_axis.truncate(),
+                    profiler.as_mut(),
+                ),
                 Visibility::Traced(images) => {
                     for image in images {
                         image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
