@@ -3,4 +3,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/env.sh
-cargo test --all-targets "$@"
+# Plain `cargo test`: lib, binaries, integration tests and doc tests (examples are built);
+# benches are not run here (`cargo bench`).
+cargo test "$@"

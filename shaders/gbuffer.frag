@@ -7,6 +7,9 @@
 #include "surface.glsl"
 
 layout(push_constant) uniform Push { uint instance; } pc;
+// Only alpha-MASK draws use the pipeline with the test: a shader that can discard disables
+// early depth testing (on lavapipe it then shades every overdrawn fragment).
+layout(constant_id = 0) const bool ALPHA_TEST = true;
 
 layout(location = 0) in vec3 in_bary;
 layout(location = 1) flat in uint in_prim;
@@ -21,14 +24,33 @@ layout(location = 6) out vec4 g_bary;       // barycentrics (b1, b2), motion vec
 
 void main() {
     vec2 bary = in_bary.yz;
-    if (!alpha_accepts(pc.instance, in_prim, bary)) {
+    if (ALPHA_TEST && !alpha_accepts(pc.instance, in_prim, bary)) {
         discard;
     }
-    // Reconstruct the primary ray through this fragment's sample position (pixel centre + jitter).
+    // The primary ray through this fragment's sample position (pixel centre + jitter).
     vec2 film = gl_FragCoord.xy + frame.jitter;
     GpuInstance inst = scene_instance(pc.instance);
     GpuGeometry g = scene_geometry(inst.geometry);
     uvec3 tri = scene_triangle(g, in_prim);
+    // Barycentrics from intersecting that ray with the rasterized triangle in object space,
+    // like the ray backends, instead of the rasterizer's interpolation: refraction and
+    // reflection magnify interpolation error, and this keeps hybrid hits within float noise of
+    // ray-traced ones. Clamped to the triangle for samples just outside its edges.
+    {
+        Ray cam = camera_ray(film);
+        vec3 o = (inst.world_to_object * vec4(cam.origin, 1.0)).xyz;
+        vec3 d = mat3(inst.world_to_object) * cam.dir;
+        vec3 a = scene_position(tri.x), e1 = scene_position(tri.y) - a, e2 = scene_position(tri.z) - a;
+        vec3 pv = cross(d, e2);
+        float det = dot(e1, pv);
+        if (abs(det) > 1e-30) {
+            vec3 tv = o - a;
+            vec2 uv = vec2(dot(tv, pv), dot(d, cross(tv, e1))) / det;
+            uv = max(uv, vec2(0.0));
+            float sum = uv.x + uv.y;
+            bary = sum > 1.0 ? uv / sum : uv;
+        }
+    }
     vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
     vec3 p = (inst.object_to_world * vec4(w.x * scene_position(tri.x) + w.y * scene_position(tri.y) + w.z * scene_position(tri.z), 1.0)).xyz;
     vec3 dir;

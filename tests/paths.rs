@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::render::{compare, gbuffer, RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::procedural::{assemble, cornell, look_at, quad};
-use rqr::scene::{Instance, Material, Projection};
+use rqr::scene::{Instance, Material, Projection, Scene};
 
 fn settings(size: u32) -> RenderSettings {
     RenderSettings {
@@ -31,29 +31,32 @@ fn diff(a: &RenderOutput, b: &RenderOutput) -> compare::ImageDiff {
     compare::compare(a.width, a.height, &a.rgba8, &b.rgba8)
 }
 
-#[test]
-fn hybrid_matches_ray_traced_on_the_cornell_room() {
+/// The invariant of the two paths on one scene: same camera, spp and sampler → PSNR ≥ 40 dB,
+/// FLIP mean ≤ 0.02, primary ids on ≥ 99.9 % of pixels, the same secondary rays (± silhouettes).
+fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
     let ctx = common::gpu();
-    let scene = cornell();
-    let draws = gbuffer::draws(&scene);
+    let draws = gbuffer::draws(scene);
+    let camera = scene
+        .cameras
+        .first()
+        .copied()
+        .unwrap_or_else(|| rqr::scene::auto_camera(&scene.bounds, 1.0));
     for backend in backends(&ctx) {
-        let renderer = Renderer::new(&ctx, &scene, backend).unwrap();
+        let renderer = Renderer::new(&ctx, scene, backend).unwrap();
         for (spp, sampler) in [(1, SamplerKind::Center), (4, SamplerKind::Grid)] {
             let s = RenderSettings {
                 spp,
                 sampler,
-                ..settings(160)
+                ..settings(size)
             };
-            let rt = renderer
-                .render_rt(&ctx, &s, &scene.cameras[0], true)
-                .unwrap();
+            let rt = renderer.render_rt(&ctx, &s, &camera, true).unwrap();
             let hy = renderer
-                .render_hybrid(&ctx, &draws, &s, &scene.cameras[0], true)
+                .render_hybrid(&ctx, &draws, &s, &camera, true)
                 .unwrap();
             let d = diff(&rt, &hy);
             assert!(
                 d.psnr_db >= 40.0 && d.flip_mean <= 0.02,
-                "{backend:?} spp {spp}: PSNR {:.1} dB, FLIP mean {:.4}",
+                "{name} {backend:?} spp {spp}: PSNR {:.1} dB, FLIP mean {:.4}",
                 d.psnr_db,
                 d.flip_mean
             );
@@ -65,22 +68,107 @@ fn hybrid_matches_ray_traced_on_the_cornell_room() {
                 .count();
             assert!(
                 same_ids as f64 >= 0.999 * rt.aov.len() as f64,
-                "{same_ids} of {} ids agree",
+                "{name} {backend:?}: {same_ids} of {} ids agree",
                 rt.aov.len()
             );
-            // Hybrid traces no primary rays but the same secondary rays (± silhouette pixels).
-            assert_eq!(hy.rays.primary, 0);
-            assert!(rt.rays.primary >= u64::from(160 * 160 * spp));
+            assert_eq!(hy.rays.primary, 0, "hybrid traces no primary rays");
+            assert!(rt.rays.primary >= u64::from(size * size * spp));
             let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / (a.max(1) as f64);
             assert!(
                 rel(rt.rays.shadow, hy.rays.shadow) < 0.01,
-                "{:?} vs {:?}",
+                "{name}: {:?} vs {:?}",
                 rt.rays,
                 hy.rays
             );
         }
     }
     common::assert_validation_clean(&ctx);
+}
+
+fn asset(rel: &str) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/gltf")
+        .join(rel);
+    rqr::scene::load(&path, &rqr::scene::LoadOptions::default()).unwrap()
+}
+
+#[test]
+fn hybrid_matches_ray_traced_on_the_cornell_room() {
+    assert_hybrid_matches_rt("procedural Cornell", &cornell(), 160);
+}
+
+/// The built-in room with its glass made opaque: the strict invariant.
+#[test]
+fn hybrid_matches_ray_traced_on_the_builtin_scene() {
+    let mut scene = rqr::scene::load_default().unwrap();
+    for m in &mut scene.materials {
+        m.transmission = 0.0;
+    }
+    assert_hybrid_matches_rt("built-in (opaque)", &scene, 160);
+}
+
+/// With its glass, the built-in room agrees perceptually but not to 40 dB: inside the glass
+/// block, paths near the critical angle switch between refraction and total internal reflection
+/// on float noise (raster vs ray hit positions differ in the last bits), so a few dozen pixels
+/// show a different — equally correct — path. Measured: FLIP 0.004, PSNR ≈ 34 dB at 160².
+#[test]
+fn hybrid_agrees_perceptually_on_the_builtin_scene_with_glass() {
+    let ctx = common::gpu();
+    let scene = rqr::scene::load_default().unwrap();
+    let renderer = Renderer::new(
+        &ctx,
+        &scene,
+        BackendChoice::Auto.resolve(ctx.info()).unwrap().0,
+    )
+    .unwrap();
+    let s = settings(160);
+    let rt = renderer
+        .render_rt(&ctx, &s, &scene.cameras[0], true)
+        .unwrap();
+    let hy = renderer
+        .render_hybrid(&ctx, &gbuffer::draws(&scene), &s, &scene.cameras[0], true)
+        .unwrap();
+    let d = diff(&rt, &hy);
+    assert!(
+        d.flip_mean <= 0.01 && d.psnr_db >= 30.0,
+        "FLIP {:.4}, PSNR {:.1} dB",
+        d.flip_mean,
+        d.psnr_db
+    );
+    // Visible differences sit on the glass; elsewhere only isolated shadow-boundary pixels
+    // (a shadow ray grazing an edge from a hit point that differs in the last bits).
+    let glass: Vec<bool> = scene
+        .instances
+        .iter()
+        .map(|i| {
+            scene.materials[scene.geometries[i.geometry as usize].material as usize].transmission
+                > 0.0
+        })
+        .collect();
+    let (mut on_glass, mut elsewhere) = (0, 0);
+    for (i, (a, b)) in rt.rgba8.chunks(4).zip(hy.rgba8.chunks(4)).enumerate() {
+        if a.iter().zip(b).take(3).any(|(x, y)| x.abs_diff(*y) > 24) {
+            match rt.aov[i].instance() {
+                inst if inst >= 0 && glass[inst as usize] => on_glass += 1,
+                _ => elsewhere += 1,
+            }
+        }
+    }
+    assert!(
+        elsewhere * 2000 <= rt.aov.len(),
+        "{elsewhere} differing pixels off the glass ({on_glass} on it)"
+    );
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn hybrid_matches_ray_traced_on_textured_and_normal_mapped_models() {
+    assert_hybrid_matches_rt("BoxTextured", &asset("BoxTextured/BoxTextured.glb"), 128);
+    assert_hybrid_matches_rt(
+        "NormalTangentMirrorTest",
+        &asset("NormalTangentMirrorTest/NormalTangentMirrorTest.glb"),
+        128,
+    );
 }
 
 #[test]
@@ -279,4 +367,15 @@ fn adaptive_sampling_refines_edges_only() {
         d.flip_mean
     );
     common::assert_validation_clean(&ctx);
+}
+
+/// Alpha MASK (tested at mip 0 by the same alpha_accepts() in traversal and raster) and BLEND
+/// (a hit plus a straight continuation ray in both paths).
+#[test]
+fn hybrid_matches_ray_traced_with_alpha_mask_and_blend() {
+    assert_hybrid_matches_rt(
+        "AlphaBlendModeTest",
+        &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
+        128,
+    );
 }

@@ -9,30 +9,30 @@
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
-// A child of an inner node: its box and a link. Link bit 31 clear: inner node index.
-// Bit 31 set: leaf of ((link >> 27) & 15) + 1 primitives starting at (link & 0x07FFFFFF)
-// (triangles in a bottom level, one scene instance in the top level).
-struct BvhChild {
-    vec3 bmin;
-    uint link;
-    vec3 bmax;
-    uint prim_count;
-};
-
+// Inner node (64 bytes) of the 4-wide BVH: child boxes quantized to 8 bits per plane in the
+// node's frame (box = origin + q * scale, scale = 2^(exponent - 127) per axis), and links.
+// Link bit 31 clear: inner node index. Bit 31 set: leaf of ((link >> 27) & 15) + 1 primitives
+// starting at (link & 0x07FFFFFF) (triangles in a bottom level, one scene instance in the top
+// level). Unused slots: link 0xFFFFFFFF, inverted box (q_min 255, q_max 0).
 struct BvhNode {
-    BvhChild c0;
-    BvhChild c1;
+    vec3 origin;
+    uint exponents; // byte k: biased exponent of axis k's scale
+    uint planes[6]; // min_x max_x min_y max_y min_z max_z; byte c = child c
+    uint links[4];
+    uint reserved0;
+    uint reserved1;
 };
 
-// Three exact vertex copies (object space), in leaf order.
+// Three exact vertex copies (object space) and the triangle's original index (40 bytes).
 struct BvhTriangle {
     vec3 v0;
     vec3 v1;
     vec3 v2;
+    uint primitive;
 };
 
 struct BvhInstance {
-    vec4 world_to_object[3]; // rows: object = dot(row.xyz, world) + row.w
+    vec4 world_to_object[3]; // rows: object = dot(row, vec4(world, 1))
     uint blas_root;
     uint flags;
     uint geometry;
@@ -43,22 +43,76 @@ struct BvhInstance {
 #define BVH_LINK_COUNT_SHIFT 27
 #define BVH_LINK_FIRST_MASK 0x07FFFFFFu
 #define BVH_INSTANCE_ALPHA_TEST 1u
-#define BVH_STACK_SIZE 64
-
-layout(buffer_reference, scalar, buffer_reference_align = 16) readonly buffer BvhNodeBuf { BvhNode v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer BvhTriangleBuf { BvhTriangle v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer BvhPrimitiveBuf { uint v[]; };
-layout(buffer_reference, scalar, buffer_reference_align = 16) readonly buffer BvhInstanceBuf { BvhInstance v[]; };
+#define BVH_STACK_SIZE 96
+#define BVH_LINK_EMPTY 0xFFFFFFFFu
 
 layout(set = 0, binding = 2, scalar) uniform BvhRefs {
-    uint64_t nodes;
-    uint64_t triangles;
-    uint64_t primitives;
-    uint64_t instances;
+    uint64_t nodes;     // BvhNode[]: top level (root = node 0), then every bottom level
+    uint64_t triangles; // BvhTriangle[] in leaf order
+    uint64_t instances; // BvhInstance[], one per scene instance
     uint node_count;
     uint triangle_count;
     uint instance_count;
     uint tlas_root;
 } bvh;
+
+// Records are read as 64-bit words: a CPU Vulkan (lavapipe) turns every component of a
+// per-lane load into one scalar load per SIMD lane, so two floats per load halve that work.
+// The arrays are 8-byte aligned (GpuBvh checks).
+layout(buffer_reference, scalar, buffer_reference_align = 8) readonly buffer BvhWords { uint64_t w[]; };
+
+vec2 bvh_floats(uint64_t x) { return uintBitsToFloat(unpackUint2x32(x)); }
+uvec2 bvh_uints(uint64_t x) { return unpackUint2x32(x); }
+
+// Node `i` without its reserved words (read as 0).
+BvhNode bvh_load_node(uint i) {
+    BvhWords p = BvhWords(bvh.nodes + uint64_t(i) * 64ul);
+    BvhNode n;
+    vec2 o = bvh_floats(p.w[0]);
+    uvec2 oe = bvh_uints(p.w[1]);
+    n.origin = vec3(o, uintBitsToFloat(oe.x));
+    n.exponents = oe.y;
+    for (int k = 0; k < 3; ++k) {
+        uvec2 q = bvh_uints(p.w[2 + k]);
+        n.planes[2 * k] = q.x;
+        n.planes[2 * k + 1] = q.y;
+    }
+    uvec2 l01 = bvh_uints(p.w[5]);
+    uvec2 l23 = bvh_uints(p.w[6]);
+    n.links[0] = l01.x;
+    n.links[1] = l01.y;
+    n.links[2] = l23.x;
+    n.links[3] = l23.y;
+    n.reserved0 = 0u;
+    n.reserved1 = 0u;
+    return n;
+}
+
+BvhTriangle bvh_load_triangle(uint i) {
+    BvhWords p = BvhWords(bvh.triangles + uint64_t(i) * 40ul);
+    vec2 a = bvh_floats(p.w[0]), b = bvh_floats(p.w[1]), c = bvh_floats(p.w[2]);
+    vec2 d = bvh_floats(p.w[3]), e = bvh_floats(p.w[4]);
+    BvhTriangle t;
+    t.v0 = vec3(a, b.x);
+    t.v1 = vec3(b.y, c);
+    t.v2 = vec3(d, e.x);
+    t.primitive = floatBitsToUint(e.y);
+    return t;
+}
+
+// Transform rows, BLAS root and flags of instance `i` (geometry and pad read as 0).
+BvhInstance bvh_load_instance(uint i) {
+    BvhWords p = BvhWords(bvh.instances + uint64_t(i) * 64ul);
+    BvhInstance inst;
+    for (int r = 0; r < 3; ++r) {
+        inst.world_to_object[r] = vec4(bvh_floats(p.w[2 * r]), bvh_floats(p.w[2 * r + 1]));
+    }
+    uvec2 rf = bvh_uints(p.w[6]);
+    inst.blas_root = rf.x;
+    inst.flags = rf.y;
+    inst.geometry = 0u;
+    inst.pad = 0u;
+    return inst;
+}
 
 #endif

@@ -6,7 +6,7 @@
 //! BLAS root box), so instancing duplicates no triangle. Both levels are binary BVHs built with
 //! `obvhs` (PLOC, parallel reinsertion, SAH leaf collapse) and flattened into one array of
 //! 64-byte nodes that hold both children's boxes (see [`layout`]). Triangles are stored in leaf
-//! order as three exact vertex copies, with a map back to the original primitive index.
+//! order as three exact vertex copies plus their original primitive index.
 //!
 //! [`BvhData`] is the host form (with a CPU mirror of the traversal in [`cpu`]); [`GpuBvh`]
 //! uploads it and owns the `BvhRefs` uniform bound at set 0, binding 2.
@@ -36,13 +36,11 @@ pub enum BvhError {
     /// More primitives/nodes than the node links can address.
     #[error("the BVH cannot address this many {0} (links hold 27-bit primitive and 31-bit node indices)")]
     TooMany(&'static str),
-    /// The tree is deeper than the shader's traversal stack.
-    #[error(
-        "BVH depth {depth} (top + bottom level) exceeds the traversal stack of {limit} entries"
-    )]
+    /// A traversal could need more stack entries than the shader has.
+    #[error("the BVH can need {entries} traversal stack entries (top + bottom level) but the shader has {limit}")]
     TooDeep {
-        /// Inner nodes on the longest path.
-        depth: u32,
+        /// Most entries a traversal can push.
+        entries: u32,
         /// `BVH_STACK_SIZE`.
         limit: u32,
     },
@@ -130,12 +128,14 @@ pub struct BvhStats {
     pub triangle_count: usize,
     /// Scene instances.
     pub instance_count: usize,
-    /// Inner nodes on the longest top-level path.
+    /// Nodes on the longest top-level path.
     pub tlas_depth: u32,
-    /// Inner nodes on the longest path of any bottom level.
+    /// Nodes on the longest path of any bottom level.
     pub max_blas_depth: u32,
-    /// `tlas_depth + max_blas_depth`: the stack bound.
+    /// `tlas_depth + max_blas_depth`.
     pub max_depth: u32,
+    /// Most traversal stack entries a ray can need (checked against `BVH_STACK_SIZE`).
+    pub max_stack: u32,
     /// Leaf size limit used.
     pub max_leaf_size: u32,
     /// Triangles left out (non-finite or repeated vertices: no ray can hit them).
@@ -149,10 +149,8 @@ pub struct BvhStats {
 pub struct BvhData {
     /// Top level (root = node 0), then every bottom level.
     pub nodes: Vec<BvhNode>,
-    /// Triangles in leaf order.
+    /// Triangles in leaf order (each with its original primitive index).
     pub triangles: Vec<BvhTriangle>,
-    /// Original primitive index of each triangle within its geometry.
-    pub primitives: Vec<u32>,
     /// One per scene instance, in scene order.
     pub instances: Vec<BvhInstance>,
     /// Build statistics.
@@ -169,19 +167,18 @@ impl BvhData {
     pub fn byte_size(&self) -> u64 {
         (std::mem::size_of_val(self.nodes.as_slice())
             + std::mem::size_of_val(self.triangles.as_slice())
-            + std::mem::size_of_val(self.primitives.as_slice())
             + std::mem::size_of_val(self.instances.as_slice())) as u64
     }
 
     /// Upper bound of [`Self::byte_size`] before building: at most one node per triangle
-    /// (a binary tree over n leaves has n - 1 inner nodes, plus one per single-leaf root) and
+    /// (a tree over n leaves has fewer than n inner nodes, plus one per single-leaf root) and
     /// one top-level node per instance.
     pub fn estimate_bytes(scene: &Scene) -> u64 {
         let tris = scene.unique_triangle_count() as u64;
         let inst = scene.instances.len() as u64;
         let geoms = scene.geometries.len() as u64;
         (tris + geoms + inst + 1) * std::mem::size_of::<BvhNode>() as u64
-            + tris * (std::mem::size_of::<BvhTriangle>() as u64 + 4)
+            + tris * std::mem::size_of::<BvhTriangle>() as u64
             + inst * std::mem::size_of::<BvhInstance>() as u64
     }
 }
@@ -205,7 +202,6 @@ pub fn check_fits(
 pub struct GpuBvh {
     nodes: Buffer,
     triangles: Buffer,
-    primitives: Buffer,
     instances: Buffer,
     refs: Buffer,
     refs_data: GpuBvhRefs,
@@ -231,12 +227,19 @@ impl GpuBvh {
         let usage = vk::BufferUsageFlags::empty();
         let nodes = Buffer::from_slice(ctx, "bvh nodes", &data.nodes, usage)?;
         let triangles = Buffer::from_slice(ctx, "bvh triangles", &data.triangles, usage)?;
-        let primitives = Buffer::from_slice(ctx, "bvh primitives", &data.primitives, usage)?;
         let instances = Buffer::from_slice(ctx, "bvh instances", &data.instances, usage)?;
+        // The shader reads every record as 64-bit words.
+        for b in [&nodes, &triangles, &instances] {
+            if b.address() % 8 != 0 {
+                return Err(BvhError::Vk(VkError::Limit(format!(
+                    "BVH buffer at {:#x} is not 8-byte aligned",
+                    b.address()
+                ))));
+            }
+        }
         let refs_data = GpuBvhRefs {
             nodes: nodes.address(),
             triangles: triangles.address(),
-            primitives: primitives.address(),
             instances: instances.address(),
             node_count: data.nodes.len() as u32,
             triangle_count: data.triangles.len() as u32,
@@ -254,7 +257,6 @@ impl GpuBvh {
         Ok(Self {
             nodes,
             triangles,
-            primitives,
             instances,
             refs,
             refs_data,
@@ -265,6 +267,16 @@ impl GpuBvh {
     /// The `BvhRefs` uniform buffer (bind at set 0, binding 2 as a uniform buffer).
     pub fn refs_buffer(&self) -> &Buffer {
         &self.refs
+    }
+
+    /// The node array (`BvhNode[]`).
+    pub fn nodes_buffer(&self) -> &Buffer {
+        &self.nodes
+    }
+
+    /// The leaf-ordered triangle array (`BvhTriangle[]`).
+    pub fn triangles_buffer(&self) -> &Buffer {
+        &self.triangles
     }
 
     /// What the `BvhRefs` uniform holds.
@@ -284,10 +296,6 @@ impl GpuBvh {
 
     /// Bytes on the device (all arrays plus the uniform).
     pub fn device_bytes(&self) -> u64 {
-        self.nodes.size()
-            + self.triangles.size()
-            + self.primitives.size()
-            + self.instances.size()
-            + self.refs.size()
+        self.nodes.size() + self.triangles.size() + self.instances.size() + self.refs.size()
     }
 }

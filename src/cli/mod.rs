@@ -1,4 +1,4 @@
-//! The `rqr` command line: `probe`, `info`, `render`, `compare` (and, as it lands, `bench`).
+//! The `rqr` command line: `probe`, `info`, `render`, `compare`, `bench`.
 
 use std::process::ExitCode;
 
@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use rqr::accel::BackendChoice;
 use rqr::vk::{probe_devices, DeviceSelector, ProbeReport, VkError};
 
+mod bench;
 mod common;
 mod compare;
 mod info;
@@ -37,6 +38,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Render both paths (and optionally both backends), write images, FLIP map and a report.
     Compare(compare::CompareArgs),
+    /// Measure acceleration-structure builds and ray throughput (primary and incoherent rays).
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the CLI; returns the process exit code.
@@ -48,6 +51,7 @@ pub fn main() -> ExitCode {
         Command::Info(args) => info::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Compare(args) => compare::run(&args),
+        Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

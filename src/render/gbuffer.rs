@@ -32,6 +32,10 @@ pub struct Draw {
     pub cull_back: bool,
     /// Mirrored transform: clockwise triangles are front-facing.
     pub mirrored: bool,
+    /// Alpha-MASK material: drawn with the alpha-testing pipeline.
+    pub alpha_test: bool,
+    /// World-space centre of the instance's bounds (front-to-back ordering).
+    pub center: glam::Vec3,
 }
 
 /// Per-instance draws of a scene, in instance order.
@@ -42,15 +46,19 @@ pub fn draws(scene: &Scene) -> Vec<Draw> {
         .enumerate()
         .filter_map(|(i, inst)| {
             let g = scene.geometries.get(inst.geometry as usize)?;
-            let double_sided = scene
-                .materials
-                .get(g.material as usize)
-                .is_some_and(|m| m.double_sided);
+            let material = scene.materials.get(g.material as usize);
+            let double_sided = material.is_some_and(|m| m.double_sided);
+            let mut bounds = crate::scene::Aabb::EMPTY;
+            for p in &g.positions {
+                bounds.grow(inst.transform.transform_point3(*p));
+            }
             (g.triangle_count() > 0).then(|| Draw {
                 instance: i as u32,
                 vertex_count: (g.triangle_count() * 3) as u32,
                 cull_back: !double_sided,
                 mirrored: inst.flips_winding(),
+                alpha_test: material.is_some_and(|m| m.alpha_mode == crate::scene::AlphaMode::Mask),
+                center: bounds.center(),
             })
         })
         .collect()
@@ -59,7 +67,9 @@ pub fn draws(scene: &Scene) -> Vec<Draw> {
 /// The raster pass and its attachments.
 pub struct GbufferPass {
     pipeline: GraphicsPipeline,
+    masked_pipeline: GraphicsPipeline,
     set: DescriptorSet,
+    masked_set: DescriptorSet,
     /// Colour attachments (also read as storage images by the shading pass).
     pub images: Vec<Image>,
     depth: Image,
@@ -80,21 +90,30 @@ impl GbufferPass {
             Binding::Unused,
             Binding::UniformBuffer,
         ];
-        let pipeline = GraphicsPipeline::new(
-            ctx,
-            crate::shaders::GBUFFER_VERT,
-            crate::shaders::GBUFFER_FRAG,
-            &bindings,
-            4,
-            &GraphicsTargets {
-                color_formats: &GBUFFER_FORMATS,
-                depth_format: vk::Format::D32_SFLOAT,
-            },
-        )?;
-        let set = pipeline.allocate_set()?;
-        pass.scene.bind(&set);
-        set.sampled_images(1, pass.textures);
-        set.buffer(3, frame, Binding::UniformBuffer);
+        let targets = GraphicsTargets {
+            color_formats: &GBUFFER_FORMATS,
+            depth_format: vk::Format::D32_SFLOAT,
+        };
+        let make = |alpha_test: u32| {
+            GraphicsPipeline::new(
+                ctx,
+                crate::shaders::GBUFFER_VERT,
+                crate::shaders::GBUFFER_FRAG,
+                &bindings,
+                4,
+                &targets,
+                &[alpha_test],
+            )
+        };
+        let (pipeline, masked_pipeline) = (make(0)?, make(1)?);
+        let bind = |p: &GraphicsPipeline| -> VkResult<DescriptorSet> {
+            let set = p.allocate_set()?;
+            pass.scene.bind(&set);
+            set.sampled_images(1, pass.textures);
+            set.buffer(3, frame, Binding::UniformBuffer);
+            Ok(set)
+        };
+        let (set, masked_set) = (bind(&pipeline)?, bind(&masked_pipeline)?);
         let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
             | vk::ImageUsageFlags::STORAGE
             | vk::ImageUsageFlags::TRANSFER_SRC;
@@ -113,7 +132,9 @@ impl GbufferPass {
         )?;
         Ok(Self {
             pipeline,
+            masked_pipeline,
             set,
+            masked_set,
             images,
             depth,
             extent,
@@ -126,6 +147,7 @@ impl GbufferPass {
         ctx: &Context,
         cmd: vk::CommandBuffer,
         draws: &[Draw],
+        camera_pos: glam::Vec3,
         profiler: Option<&mut GpuProfiler>,
     ) {
         let device = ctx.device();
@@ -198,9 +220,31 @@ impl GbufferPass {
             );
             device.cmd_set_scissor(cmd, 0, &[area]);
         }
-        self.pipeline.bind(cmd, &self.set);
-        for d in draws {
-            self.pipeline.push(cmd, &d.instance.to_le_bytes());
+        // Opaque draws first, front to back, so early depth testing skips hidden fragments;
+        // alpha-tested draws last with their own pipeline.
+        let mut order: Vec<&Draw> = draws.iter().collect();
+        order.sort_by(|a, b| {
+            let da = (a.center - camera_pos).length_squared();
+            let db = (b.center - camera_pos).length_squared();
+            a.alpha_test.cmp(&b.alpha_test).then(da.total_cmp(&db))
+        });
+        let mut bound = None;
+        for d in order {
+            if bound != Some(d.alpha_test) {
+                let (p, set) = if d.alpha_test {
+                    (&self.masked_pipeline, &self.masked_set)
+                } else {
+                    (&self.pipeline, &self.set)
+                };
+                p.bind(cmd, set);
+                bound = Some(d.alpha_test);
+            }
+            let p = if d.alpha_test {
+                &self.masked_pipeline
+            } else {
+                &self.pipeline
+            };
+            p.push(cmd, &d.instance.to_le_bytes());
             // SAFETY: inside the rendering scope; dynamic states declared by the pipeline.
             unsafe {
                 device.cmd_set_cull_mode(

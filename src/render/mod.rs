@@ -7,8 +7,11 @@ pub mod hybrid;
 pub mod label;
 pub mod optics;
 pub mod output;
+pub mod raybench;
 pub mod raytraced;
+pub mod reproject;
 pub mod sampling;
+pub mod sequence;
 pub mod tonemap;
 
 use ash::vk;
@@ -18,9 +21,8 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
-pub use frame::{
-    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SamplerKind, Tonemap,
-};
+pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use reproject::RenderPath;
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]
@@ -175,7 +177,7 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .check_device(ctx.info(), RenderPath::RayTraced, ctx.allocated_bytes())
+            .check_device(ctx.info(), RenderPath::Rt, ctx.allocated_bytes())
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
         let frame = GpuFrame::new(settings, &setup, self.scene_scale);
@@ -320,7 +322,13 @@ impl Renderer {
             };
             memory_barrier(ctx.device(), cmd);
             for (i, ((_, g, h), w)) in passes.iter().zip(&weights).enumerate() {
-                g.record(ctx, cmd, scene_draws, profiler.as_mut());
+                g.record(
+                    ctx,
+                    cmd,
+                    scene_draws,
+                    setup.camera_to_world.w_axis.truncate(),
+                    profiler.as_mut(),
+                );
                 let mut flags = 0;
                 if i == 0 {
                     flags |= hybrid::HYBRID_FIRST_SAMPLE;

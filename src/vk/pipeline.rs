@@ -412,7 +412,8 @@ pub struct GraphicsTargets<'a> {
 }
 
 impl GraphicsPipeline {
-    /// Builds the pipeline from vertex and fragment SPIR-V (entry points `main`).
+    /// Builds the pipeline from vertex and fragment SPIR-V (entry points `main`);
+    /// `fragment_constants[i]` specialises the fragment stage's `constant_id = i`.
     pub fn new(
         ctx: &Context,
         vertex: &[u8],
@@ -420,6 +421,7 @@ impl GraphicsPipeline {
         bindings: &[Binding],
         push_size: u32,
         targets: &GraphicsTargets<'_>,
+        fragment_constants: &[u32],
     ) -> VkResult<Self> {
         let device = ctx.device();
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
@@ -477,6 +479,16 @@ impl GraphicsPipeline {
             }
         }
         const MAIN: &CStr = c"main";
+        let entries: Vec<_> = (0..fragment_constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry {
+                constant_id: i,
+                offset: i * 4,
+                size: 4,
+            })
+            .collect();
+        let spec = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(fragment_constants));
         let stage_info = [
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::VERTEX)
@@ -485,7 +497,8 @@ impl GraphicsPipeline {
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::FRAGMENT)
                 .module(modules[1])
-                .name(MAIN),
+                .name(MAIN)
+                .specialization_info(&spec),
         ];
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
         let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()

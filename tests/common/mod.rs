@@ -11,6 +11,9 @@ pub const INSTALL_HINT: &str =
 pub fn gpu() -> Context {
     let opts = ContextOptions {
         validation: Some(true),
+        // lavapipe JIT-compiles a pipeline inside its first dispatch; with a cold shader cache
+        // and every test thread compiling at once that can take minutes on 2 cores.
+        fence_timeout: std::time::Duration::from_secs(600),
         ..Default::default()
     };
     let ctx = match Context::new(&opts) {

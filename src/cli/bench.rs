@@ -1,0 +1,164 @@
+//! `rqr bench`: acceleration-structure build cost and ray throughput per backend.
+
+use std::time::Instant;
+
+use anyhow::{Context as _, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use rqr::accel::Backend;
+use rqr::render::raybench::{RayBatch, RayBench};
+use rqr::render::{CameraSetup, GpuFrame, RenderSettings, Renderer};
+use serde_json::json;
+
+use super::common::{CameraArgs, DeviceArgs, SceneArgs, MAX_SIDE};
+
+/// `rqr bench` arguments.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    device: DeviceArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// Image width (rays per batch = width × height).
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    height: u32,
+    /// Timed batches per ray kind (the median is reported); one untimed warm-up batch first.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    repeat: u32,
+    /// Run every backend the device supports, not just the one `--backend` resolves to.
+    #[arg(long)]
+    all_backends: bool,
+    /// Print the results as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn median(mut batches: Vec<RayBatch>) -> RayBatch {
+    batches.sort_by(|a, b| a.ms.total_cmp(&b.ms));
+    batches[batches.len() / 2]
+}
+
+/// Runs `rqr bench`.
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let scene = args.scene.load()?;
+    let camera = args
+        .camera
+        .resolve(&scene, args.width as f32 / args.height as f32)?;
+    let ctx = args.device.open()?;
+    let (first, _) = args.device.backend(&ctx)?;
+    let mut backends = vec![first];
+    if args.all_backends {
+        for b in [Backend::Hw, Backend::Bvh] {
+            if !backends.contains(&b) && (b == Backend::Bvh || ctx.features().ray_query) {
+                backends.push(b);
+            }
+        }
+    }
+    let settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        ..Default::default()
+    };
+    settings.validate(ctx.info().max_image_dimension_2d)?;
+    let bar = ProgressBar::new(backends.len() as u64 * 2 * (u64::from(args.repeat) + 1));
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} batches {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut results = Vec::new();
+    for backend in &backends {
+        bar.set_message(format!("{} backend", backend.as_str()));
+        let start = Instant::now();
+        let renderer = Renderer::new(&ctx, &scene, *backend)?;
+        let setup_ms = start.elapsed().as_secs_f64() * 1e3;
+        let setup = CameraSetup::new(&camera, args.width, args.height, renderer.scene_scale());
+        let frame = GpuFrame::new(&settings, &setup, renderer.scene_scale());
+        let bench = RayBench::new(&ctx, &renderer.pass_context(), &frame)?;
+        let mut primary = Vec::new();
+        let mut incoherent = Vec::new();
+        for i in 0..=args.repeat {
+            let p = bench.run(&ctx, false)?;
+            bar.inc(1);
+            let s = bench.run(&ctx, true)?;
+            bar.inc(1);
+            // Batch 0 JIT-compiles the pipeline on lavapipe: not timed.
+            if i > 0 {
+                primary.push(p);
+                incoherent.push(s);
+            }
+        }
+        let (p, s) = (median(primary), median(incoherent));
+        results.push(json!({
+            "backend": backend.as_str(),
+            "build": renderer.backend.stats_json(),
+            "upload_and_build_wall_ms": setup_ms,
+            "primary": {"rays": p.rays, "hits": p.hits, "gpu_ms": p.ms, "mrays_per_s": p.mrays_per_s()},
+            "incoherent": {"rays": s.rays, "hits": s.hits, "gpu_ms": s.ms, "mrays_per_s": s.mrays_per_s()},
+        }));
+    }
+    bar.finish_and_clear();
+    let doc = json!({
+        "device": ctx.info().name,
+        "device_type": ctx.info().device_type,
+        "scene": args.scene.name(),
+        "triangles": scene.triangle_count(),
+        "unique_triangles": scene.unique_triangle_count(),
+        "width": args.width,
+        "height": args.height,
+        "repeat": args.repeat,
+        "timing": "GPU timestamps; median of the timed batches after one untimed warm-up batch",
+        "backends": results,
+    });
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else {
+        println!(
+            "{} ({} triangles, {} unique) on {} ({}), {}x{}, median of {}",
+            args.scene.name(),
+            scene.triangle_count(),
+            scene.unique_triangle_count(),
+            ctx.info().name,
+            ctx.info().device_type,
+            args.width,
+            args.height,
+            args.repeat
+        );
+        println!("| backend | build ms | build MiB | primary Mrays/s | incoherent Mrays/s |");
+        println!("|---------|----------|-----------|-----------------|--------------------|");
+        for r in doc["backends"].as_array().context("results")? {
+            let build = &r["build"];
+            let build_ms = build["build_ms"].as_f64().unwrap_or_else(|| {
+                ["blas_build_ms", "compact_ms", "tlas_build_ms"]
+                    .iter()
+                    .filter_map(|k| build[*k].as_f64())
+                    .sum()
+            });
+            let bytes = build["bytes"].as_u64().unwrap_or_else(|| {
+                build["blas_bytes"].as_u64().unwrap_or(0)
+                    + build["tlas_bytes"].as_u64().unwrap_or(0)
+            });
+            println!(
+                "| {:<7} | {:>8.2} | {:>9.2} | {:>15.3} | {:>18.3} |",
+                r["backend"].as_str().unwrap_or("?"),
+                build_ms,
+                bytes as f64 / 1048576.0,
+                r["primary"]["mrays_per_s"].as_f64().unwrap_or(0.0),
+                r["incoherent"]["mrays_per_s"].as_f64().unwrap_or(0.0)
+            );
+        }
+    }
+    let errors = ctx.validation_errors();
+    if !errors.is_empty() {
+        anyhow::bail!(
+            "{} Vulkan validation error(s); first: {}",
+            errors.len(),
+            errors[0]
+        );
+    }
+    Ok(())
+}

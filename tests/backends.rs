@@ -1,0 +1,118 @@
+//! Hardware ray queries vs rqr's compute BVH on real scenes: the primary hits (instance,
+//! primitive, depth) must agree pixel for pixel from several camera views.
+
+mod common;
+
+use std::path::Path;
+
+use glam::{Mat4, Vec3};
+use rqr::accel::Backend;
+use rqr::render::{RenderSettings, Renderer};
+use rqr::scene::{Camera, LoadOptions, Scene};
+
+fn asset(rel: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/gltf")
+        .join(rel);
+    rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The automatic camera, and the same camera orbited about the scene centre by ±35° and raised.
+fn views(scene: &Scene) -> Vec<Camera> {
+    let base = rqr::scene::auto_camera(&scene.bounds, 1.0);
+    let centre = scene.bounds.center();
+    let orbit = |deg: f32, lift: f32| {
+        let mut c = base;
+        let pivot = Mat4::from_translation(centre)
+            * Mat4::from_rotation_y(deg.to_radians())
+            * Mat4::from_translation(-centre);
+        c.camera_to_world = Mat4::from_translation(Vec3::Y * lift * scene.bounds.diagonal())
+            * pivot
+            * c.camera_to_world;
+        c
+    };
+    let mut v = vec![base, orbit(35.0, 0.1), orbit(-35.0, 0.2)];
+    v.extend(scene.cameras.first().copied());
+    v
+}
+
+fn cross_check(name: &str, scene: &Scene) {
+    let ctx = common::gpu();
+    assert!(
+        ctx.features().ray_query,
+        "the cross-check needs a device with ray queries (lavapipe has them)"
+    );
+    let hw = Renderer::new(&ctx, scene, Backend::Hw).unwrap();
+    let bvh = Renderer::new(&ctx, scene, Backend::Bvh).unwrap();
+    let settings = RenderSettings {
+        width: 128,
+        height: 128,
+        max_depth: 1,
+        ..Default::default()
+    };
+    for (v, camera) in views(scene).iter().enumerate() {
+        let a = hw.render_rt(&ctx, &settings, camera, true).unwrap();
+        let b = bvh.render_rt(&ctx, &settings, camera, true).unwrap();
+        let pixels = a.aov.len();
+        let mut id_mismatch = 0;
+        let mut hits = 0;
+        for (x, y) in a.aov.iter().zip(&b.aov) {
+            if x.instance() != y.instance() || x.primitive() != y.primitive() {
+                id_mismatch += 1;
+                continue;
+            }
+            if x.instance() >= 0 {
+                hits += 1;
+                let rel = (x.depth() - y.depth()).abs() / x.depth().max(1e-6);
+                assert!(
+                    rel <= 1e-5,
+                    "{name} view {v}: depth {} vs {} (rel {rel:e})",
+                    x.depth(),
+                    y.depth()
+                );
+            }
+        }
+        assert!(
+            hits > pixels / 20,
+            "{name} view {v}: only {hits} pixels hit anything"
+        );
+        let agree = 1.0 - id_mismatch as f64 / pixels as f64;
+        assert!(
+            agree >= 0.9999,
+            "{name} view {v}: instance+primitive agree on {:.4} % ({id_mismatch} pixels differ)",
+            agree * 100.0
+        );
+        // Same hits → same shadow rays (trace_any) and the same secondary ray counts.
+        assert_eq!(a.rays.shadow, b.rays.shadow, "{name} view {v}: shadow rays");
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn builtin_scene_backends_agree() {
+    cross_check("built-in", &rqr::scene::load_default().unwrap());
+}
+
+#[test]
+fn instanced_scene_backends_agree() {
+    cross_check(
+        "SimpleInstancing",
+        &asset("SimpleInstancing/SimpleInstancing.glb"),
+    );
+}
+
+#[test]
+fn alpha_mask_scene_backends_agree() {
+    cross_check(
+        "AlphaBlendModeTest",
+        &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
+    );
+}
+
+#[test]
+fn many_triangle_scene_backends_agree() {
+    cross_check(
+        "TransmissionRoughnessTest (78k triangles)",
+        &asset("TransmissionRoughnessTest/TransmissionRoughnessTest.glb"),
+    );
+}

@@ -1,0 +1,235 @@
+//! The rendering commands end to end through the real binary.
+
+use std::path::Path;
+use std::process::Command;
+
+fn rqr() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rqr"));
+    c.env("RQR_VALIDATION", "1");
+    c
+}
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("rqr-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn render_writes_png_exr_aovs_and_json() {
+    let dir = tmpdir("render");
+    let png = dir.join("room.png");
+    let out = rqr()
+        .args([
+            "render",
+            "--width",
+            "40",
+            "--height",
+            "32",
+            "--aov",
+            "depth,normal,instance",
+            "--json",
+            "-o",
+        ])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["width"], 40);
+    assert_eq!(j["height"], 32);
+    assert_eq!(j["mode"], "rt");
+    let rays = &j["rays"];
+    let sum: u64 = ["primary", "shadow", "reflection", "refraction"]
+        .iter()
+        .map(|k| rays[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(sum, j["rays_total"].as_u64().unwrap());
+    assert_eq!(rays["primary"], 40 * 32);
+    assert!(j["mrays_per_s"].as_f64().unwrap() > 0.0);
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (40, 32));
+    for aov in ["depth", "normal", "instance"] {
+        let p = dir.join(format!("room.{aov}.exr"));
+        let exr = image::open(&p)
+            .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+            .to_rgb32f();
+        assert_eq!(exr.dimensions(), (40, 32));
+        if aov == "instance" {
+            // Exact integer ids (−1 for a miss).
+            assert!(exr.pixels().all(|p| p[0] == p[0].round() && p[0] >= -1.0));
+        }
+    }
+    // HDR output keeps values above 1 somewhere (the lamp-lit ceiling) — it is linear.
+    let exr = dir.join("room.exr");
+    let out = rqr()
+        .args(["render", "--width", "40", "--height", "32", "-o"])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let hdr = image::open(&exr).unwrap().to_rgba32f();
+    assert!(
+        hdr.pixels().any(|p| p[0] > 1.0),
+        "linear EXR should hold HDR values"
+    );
+}
+
+#[test]
+fn hybrid_render_traces_no_primary_rays() {
+    let dir = tmpdir("hybrid");
+    let out = rqr()
+        .args([
+            "render",
+            "--mode",
+            "hybrid",
+            "--backend",
+            "bvh",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--json",
+            "-o",
+        ])
+        .arg(dir.join("h.png"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["backend"], "bvh");
+    assert_eq!(j["rays"]["primary"], 0);
+    assert!(j["gpu_ms"]["gbuffer"].as_f64().unwrap() >= 0.0);
+    assert!(j["rays"]["shadow"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn compare_writes_every_file_with_a_consistent_report() {
+    let dir = tmpdir("compare");
+    let out = rqr()
+        .args([
+            "compare",
+            "--width",
+            "48",
+            "--height",
+            "48",
+            "--repeat",
+            "1",
+            "--backends",
+            "all",
+            "-o",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "rt.png",
+        "hybrid.png",
+        "flip.png",
+        "side_by_side.png",
+        "report.json",
+        "report.md",
+    ] {
+        assert!(dir.join(f).is_file(), "missing {f}");
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("| backend |") && stdout.contains("PSNR"),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let backends = report["backends"].as_array().unwrap();
+    assert!(!backends.is_empty());
+    for b in backends {
+        for path in ["rt", "hybrid"] {
+            let p = &b[path];
+            let rays = &p["rays"];
+            let sum: u64 = ["primary", "shadow", "reflection", "refraction"]
+                .iter()
+                .map(|k| rays[k].as_u64().unwrap())
+                .sum();
+            assert_eq!(
+                sum,
+                p["rays_total"].as_u64().unwrap(),
+                "rays by kind add up"
+            );
+            for (pass, ms) in p["gpu_ms"].as_object().unwrap() {
+                let ms = ms.as_f64().unwrap();
+                assert!(ms.is_finite() && ms >= 0.0, "{pass}: {ms}");
+            }
+            assert!(p["total_ms"].as_f64().unwrap().is_finite());
+        }
+        assert_eq!(b["hybrid"]["rays"]["primary"], 0);
+        let flip = &b["flip"];
+        let mean = flip["flip_mean"].as_f64().unwrap();
+        assert!((0.0..=0.05).contains(&mean), "FLIP mean {mean}");
+        assert!(flip["flip_p95"].as_f64().unwrap() <= flip["flip_max"].as_f64().unwrap() + 1e-6);
+        for f in b["files"].as_object().unwrap().values() {
+            assert!(Path::new(f.as_str().unwrap()).is_file());
+        }
+    }
+    if backends.len() > 1 {
+        let cross = &report["rt_across_backends"];
+        assert!(cross["primary_ids_agree"].as_f64().unwrap() >= 0.999);
+    }
+    // FLIP of an image against itself is exactly 0.
+    let rt = image::open(dir.join("rt.png")).unwrap().to_rgba8();
+    let d = rqr::render::compare::compare(rt.width(), rt.height(), rt.as_raw(), rt.as_raw());
+    assert_eq!(d.flip_mean, 0.0);
+}
+
+#[test]
+fn bench_reports_build_and_ray_throughput_per_backend() {
+    let out = rqr()
+        .args([
+            "bench",
+            "--all-backends",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--repeat",
+            "1",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let backends = j["backends"].as_array().unwrap();
+    assert!(!backends.is_empty());
+    for b in backends {
+        let primary = &b["primary"];
+        assert_eq!(primary["rays"], 32 * 24, "one primary ray per pixel");
+        // One bounce per primary hit.
+        assert_eq!(b["incoherent"]["rays"], primary["hits"]);
+        for kind in ["primary", "incoherent"] {
+            let m = b[kind]["mrays_per_s"].as_f64().unwrap();
+            assert!(m.is_finite() && m > 0.0, "{kind}: {m}");
+        }
+        assert!(b["build"].is_object());
+    }
+}
