@@ -166,7 +166,7 @@ fn main() {
         ctx.info().driver_info,
         std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "unset".into())
     );
-    let gpu_scene = GpuScene::upload(&ctx, &scene).expect("scene upload");
+    let gpu_scene = GpuScene::upload(&ctx, &scene, 0).expect("scene upload");
     let n = (args.size * args.size) as usize;
     let hit_bytes = (n * std::mem::size_of::<BenchHit>()) as u64;
     let none = vk::BufferUsageFlags::empty();
