@@ -352,7 +352,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     log::info!("backend {} ({reason})", backend.as_str());
     let renderer = Renderer::new(&ctx, &scene, backend)?;
     let render_path = match args.mode {
-        Mode::Rt => RenderPath::Rt,
+        Mode::Rt => RenderPath::RayTraced,
         Mode::Hybrid => RenderPath::Hybrid,
     };
     let mut sequence = Sequence::new(

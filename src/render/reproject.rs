@@ -33,6 +33,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
+pub use super::frame::RenderPath;
 use super::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind};
 use super::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
 use super::tonemap::TonemapPass;
@@ -76,17 +77,6 @@ pub enum RtVisibility {
     /// samples). A hidden surface can only appear next to such an edge.
     #[default]
     Edges,
-}
-
-/// Which rendering path a sequence uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum RenderPath {
-    /// Pure ray tracing.
-    #[default]
-    Rt,
-    /// Raster G-buffer for primary visibility, ray-traced secondary rays.
-    Hybrid,
 }
 
 /// What a sequence may reuse between frames.
@@ -280,14 +270,14 @@ const GROUP: u32 = 64;
 fn primary_spirv(backend: Backend) -> &'static [u8] {
     match backend {
         Backend::Hw => crate::shaders::REPROJECT_PRIMARY_COMP_HW,
-        Backend::Bvh => crate::shaders::REPROJECT_PRIMARY_COMP_HW,
+        Backend::Bvh => crate::shaders::REPROJECT_PRIMARY_COMP_BVH,
     }
 }
 
 fn trace_spirv(backend: Backend) -> &'static [u8] {
     match backend {
         Backend::Hw => crate::shaders::REPROJECT_TRACE_COMP_HW,
-        Backend::Bvh => crate::shaders::REPROJECT_TRACE_COMP_HW,
+        Backend::Bvh => crate::shaders::REPROJECT_TRACE_COMP_BVH,
     }
 }
 
@@ -344,8 +334,15 @@ impl<'r> Reprojector<'r> {
         settings: &RenderSettings,
         options: ReuseOptions,
     ) -> crate::Result<Self> {
+        // The cache and the per-pixel buffers come on top of what a full render of the same
+        // path needs (a sequence with --reference makes one per frame).
         settings
-            .validate(ctx.info().max_image_dimension_2d)
+            .check_device(
+                ctx.info(),
+                path,
+                ctx.allocated_bytes()
+                    .saturating_add(Self::estimate_bytes(settings)),
+            )
             .map_err(|e| VkError::Limit(e.to_string()))?;
         options.validate().map_err(VkError::Limit)?;
         if settings.spp != 1 || settings.sampler != SamplerKind::Center {
@@ -388,7 +385,7 @@ impl<'r> Reprojector<'r> {
             RenderPath::Hybrid => {
                 Visibility::Raster(Box::new(GbufferPass::new(ctx, &pass, &frame, extent)?))
             }
-            RenderPath::Rt => Visibility::Traced(
+            RenderPath::RayTraced => Visibility::Traced(
                 GBUFFER_FORMATS
                     .iter()
                     .enumerate()
@@ -500,6 +497,21 @@ impl<'r> Reprojector<'r> {
         })
     }
 
+    /// Device memory of the reprojection buffers and images for `settings` (two caches,
+    /// per-pixel keys, winners, states, colour, jobs, tonemapped output, and the rt path's
+    /// G-buffer images).
+    pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
+        let pixels = u64::from(settings.width) * u64::from(settings.height);
+        let gbuffer: u64 = GBUFFER_FORMATS
+            .iter()
+            .map(|&f| match f {
+                vk::Format::R16G16B16A16_SFLOAT => 8,
+                _ => 16,
+            })
+            .sum();
+        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + 4 * 4 + 16 + 4 + gbuffer)
+    }
+
     /// Empties the cache: the next frame traces every pixel (the start of a frame range).
     pub fn reset(&mut self) {
         self.has_history = false;
@@ -589,13 +601,9 @@ impl<'r> Reprojector<'r> {
                 p.reset(cmd);
             }
             match &self.visibility {
-                Visibility::Raster(g) => g.record(
-                    ctx,
-                    cmd,
-                    draws,
-                    setup.camera_to_world.w_axis.truncate(),
-                    profiler.as_mut(),
-                ),
+                Visibility::Raster(g) => {
+                    g.record(ctx, cmd, draws, camera.position(), profiler.as_mut())
+                }
                 Visibility::Traced(images) => {
                     for image in images {
                         image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
@@ -626,7 +634,7 @@ impl<'r> Reprojector<'r> {
             if let Some(p) = profiler.as_mut() {
                 p.end(cmd);
             }
-            if (reuse || o.adaptive_subsample) && self.path == RenderPath::Rt {
+            if (reuse || o.adaptive_subsample) && self.path == RenderPath::RayTraced {
                 reset_jobs(cmd);
                 stage(cmd, STAGE_GATHER, GATHER_VERIFY, groups);
                 if let Some(p) = profiler.as_mut() {
