@@ -3,6 +3,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 
+use super::reproject::RenderPath;
 use crate::scene::{Camera, Projection};
 
 /// Sub-pixel sample placement (`--sampler`).
@@ -199,15 +200,6 @@ impl RenderSettings {
     }
 }
 
-/// Which rendering path a memory estimate is for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RenderPath {
-    /// [`super::Renderer::render_rt`].
-    RayTraced,
-    /// [`super::Renderer::render_hybrid`] (one G-buffer per sample).
-    Hybrid,
-}
-
 /// Bytes per texel of the formats the passes allocate.
 fn format_bytes(format: ash::vk::Format) -> u64 {
     use ash::vk::Format;
@@ -236,7 +228,7 @@ impl RenderSettings {
         let aov = std::mem::size_of::<super::Aov>() as u64;
         let tonemapped = 4;
         match path {
-            RenderPath::RayTraced => {
+            RenderPath::Rt => {
                 let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1);
                 pixels * (RGBA32F + aov + tonemapped) + corners * RGBA32F
             }
@@ -293,7 +285,7 @@ impl RenderSettings {
                 self.height,
                 self.spp,
                 match path {
-                    RenderPath::RayTraced => "ray traced",
+                    RenderPath::Rt => "ray traced",
                     RenderPath::Hybrid => "hybrid",
                 },
                 mib(needed),
@@ -301,7 +293,7 @@ impl RenderSettings {
                 mib(heap),
                 info.name,
                 match path {
-                    RenderPath::RayTraced => "",
+                    RenderPath::Rt => "",
                     RenderPath::Hybrid => " or --spp (the hybrid path keeps one G-buffer per sample)",
                 }
             )));

@@ -21,9 +21,8 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
-pub use frame::{
-    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SamplerKind, Tonemap,
-};
+pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use reproject::RenderPath;
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]
@@ -178,7 +177,7 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .check_device(ctx.info(), RenderPath::RayTraced, ctx.allocated_bytes())
+            .check_device(ctx.info(), RenderPath::Rt, ctx.allocated_bytes())
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
         let frame = GpuFrame::new(settings, &setup, self.scene_scale);
