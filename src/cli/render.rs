@@ -1,9 +1,17 @@
-//! `rqr render`: one image of a scene with the pure ray-traced or the hybrid path.
+//! `rqr render`: one image of a scene with the pure ray-traced or the hybrid path, or a
+//! sequence of frames along a camera path with reuse between frames (`--frames`,
+//! `--reproject`, `--frameless`, `--adaptive-subsample`).
 
-use std::path::PathBuf;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context as _, Result};
 use clap::{Args, ValueEnum};
+use rqr::render::reproject::{RenderPath, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD};
+use rqr::render::sequence::{
+    self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
+    SequenceSummary,
+};
 use rqr::render::{gbuffer, output, RenderOutput, Renderer};
 use serde_json::json;
 
@@ -41,9 +49,130 @@ pub struct RenderArgs {
     /// primitive, barycentrics, position (comma-separated).
     #[arg(long, value_delimiter = ',')]
     aov: Vec<String>,
-    /// Print a JSON summary (device, backend, per-pass GPU ms, rays by kind, Mrays/s).
+    /// Print a JSON summary (device, backend, per-pass GPU ms, rays by kind, Mrays/s); for a
+    /// sequence, one JSON object per line per frame, then a summary line.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    sequence: SequenceArgs,
+}
+
+/// Sequence flags of `rqr render` (issue #7).
+#[derive(Args, Debug)]
+pub struct SequenceArgs {
+    /// Render N frames (0..N) along --camera-path; `-o out.png` writes out_0000.png, ….
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Render only frames A..B (B excluded) of the sequence. Numbering stays global; the
+    /// sample cache starts empty at A, so a range never depends on frames before it.
+    #[arg(long, value_parser = parse_range)]
+    frame_range: Option<Range<u32>>,
+    /// Camera path: orbit:DEG_PER_FRAME (about world +Y through --look-at, else the scene
+    /// bounds' centre), dolly:DIST_PER_FRAME (along the view direction), gltf (the file's
+    /// animation of the chosen camera's node), static.
+    #[arg(long, default_value = "static")]
+    camera_path: CameraPathSpec,
+    /// Frames per second of --camera-path gltf: frame k samples the animation at k/fps s.
+    #[arg(long, default_value_t = 24.0)]
+    fps: f32,
+    /// Reproject the previous frame's samples; trace only disoccluded, rejected,
+    /// view-dependent (mirror, metal, glass) and expired pixels.
+    #[arg(long)]
+    reproject: bool,
+    /// Frameless rendering: re-trace at least P % of the pixels per frame, oldest samples
+    /// first (implies --reproject).
+    #[arg(long, value_name = "P")]
+    frameless: Option<f32>,
+    /// Adaptive sub-sampling of the pixels that need new colour: trace 4x4 blocks' corners
+    /// and centre, interpolate similar blocks, recurse into 2x2 blocks, trace the rest.
+    #[arg(long)]
+    adaptive_subsample: bool,
+    /// Adaptive sub-sampling: interpolate a block when its samples differ by at most this
+    /// (largest channel difference, colours clamped to 1).
+    #[arg(long, default_value_t = DEFAULT_SUBSAMPLE_THRESHOLD)]
+    subsample_threshold: f32,
+    /// Re-trace samples older than K frames (default: no limit).
+    #[arg(long, value_name = "K")]
+    max_age: Option<u32>,
+    /// rt path: which reprojected samples get a primary ray to check visibility. `edges`:
+    /// only those next to a depth edge or a hole; `full`: all of them.
+    #[arg(long, value_enum, default_value_t = RtVisibility::Edges)]
+    rt_visibility: RtVisibility,
+    /// Also render every frame in full; report rays relative to it, FLIP and PSNR.
+    #[arg(long)]
+    reference: bool,
+    /// Write the sequence report: .json (summary and frames) or .md (table).
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Write a PNG chart of rays per frame and FLIP over the sequence.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+impl SequenceArgs {
+    fn active(&self) -> bool {
+        self.frames.is_some()
+            || self.frame_range.is_some()
+            || self.reproject
+            || self.frameless.is_some()
+            || self.adaptive_subsample
+            || self.reference
+            || self.report.is_some()
+            || self.plot.is_some()
+            || self.camera_path != CameraPathSpec::Static
+    }
+
+    fn range(&self) -> Result<Range<u32>> {
+        match (self.frames, &self.frame_range) {
+            (Some(0), _) => bail!("--frames must be at least 1"),
+            (Some(n), Some(r)) if r.end > n => {
+                bail!(
+                    "--frame-range {}..{} goes past --frames {n}",
+                    r.start,
+                    r.end
+                )
+            }
+            (_, Some(r)) => Ok(r.clone()),
+            (Some(n), None) => Ok(0..n),
+            (None, None) => bail!("a sequence needs --frames N or --frame-range A..B"),
+        }
+    }
+
+    fn reuse(&self) -> ReuseOptions {
+        ReuseOptions {
+            reproject: self.reproject || self.frameless.is_some(),
+            frameless_percent: self.frameless,
+            adaptive_subsample: self.adaptive_subsample,
+            subsample_threshold: self.subsample_threshold,
+            max_age: self.max_age,
+            rt_visibility: self.rt_visibility,
+        }
+    }
+}
+
+fn parse_range(s: &str) -> Result<Range<u32>, String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("expected A..B, got '{s}'"))?;
+    let a: u32 = a.trim().parse().map_err(|e| format!("'{a}': {e}"))?;
+    let b: u32 = b.trim().parse().map_err(|e| format!("'{b}': {e}"))?;
+    if b <= a {
+        return Err(format!("empty frame range {a}..{b} (the end is excluded)"));
+    }
+    Ok(a..b)
+}
+
+/// `out.png` → `out_0007.png`.
+pub fn frame_path(output: &Path, frame: u32) -> PathBuf {
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let ext = output
+        .extension()
+        .map(|e| e.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "png".into());
+    output.with_file_name(format!("{stem}_{frame:04}.{ext}"))
 }
 
 /// Mrays/s over the ray-tracing passes of a frame.
@@ -83,6 +212,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "output '{}' must end in .png or .exr",
             args.output.display()
         );
+    }
+    if args.sequence.active() {
+        return run_sequence(args, &ext);
     }
     check_output_file(&args.output)?;
     let scene = args.scene.load()?;
@@ -159,4 +291,240 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
+    let seq = &args.sequence;
+    let settings = args.image.settings()?;
+    let range = seq.range()?;
+    let reuse = seq.reuse();
+    reuse.validate().map_err(anyhow::Error::msg)?;
+    if !args.aov.is_empty() {
+        bail!("--aov is for single images; sequences write colour only");
+    }
+    if reuse.any() && (settings.spp != 1 || settings.sampler != rqr::render::SamplerKind::Center) {
+        bail!("--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1 --sampler center");
+    }
+    for p in [&seq.report, &seq.plot].into_iter().flatten() {
+        check_output_file(p)?;
+    }
+    if let Some(p) = &seq.report {
+        let e = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if e != "json" && e != "md" {
+            bail!("--report '{}' must end in .json or .md", p.display());
+        }
+    }
+    check_output_file(&frame_path(&args.output, range.start))?;
+    let scene = args.scene.load()?;
+    let aspect = settings.width as f32 / settings.height as f32;
+    let base = args.camera.resolve(&scene, aspect)?;
+    let path = match seq.camera_path {
+        CameraPathSpec::Static => CameraPath::Static,
+        CameraPathSpec::Orbit(d) => CameraPath::Orbit {
+            degrees_per_frame: d,
+            pivot: args.camera.look_at.unwrap_or(scene.bounds.center()),
+        },
+        CameraPathSpec::Dolly(d) => CameraPath::Dolly {
+            distance_per_frame: d,
+        },
+        CameraPathSpec::Gltf => {
+            let Some(file) = &args.scene.scene else {
+                bail!("--camera-path gltf: the built-in scene has no camera animation");
+            };
+            if args.camera.look_from.is_some() || args.camera.look_at.is_some() {
+                bail!(
+                    "--camera-path gltf takes the camera from the file: drop --look-from/--look-at"
+                );
+            }
+            if scene.cameras.is_empty() {
+                bail!("--camera-path gltf: scene has no camera animation (it has no camera)");
+            }
+            CameraPath::Animation(Box::new(CameraAnimation::load(
+                file,
+                args.scene.scene_index,
+                args.camera.camera.unwrap_or(0),
+                seq.fps,
+            )?))
+        }
+    };
+    let ctx = args.device.open()?;
+    let (backend, reason) = args.device.backend(&ctx)?;
+    log::info!("backend {} ({reason})", backend.as_str());
+    let renderer = Renderer::new(&ctx, &scene, backend)?;
+    let render_path = match args.mode {
+        Mode::Rt => RenderPath::RayTraced,
+        Mode::Hybrid => RenderPath::Hybrid,
+    };
+    let mut sequence = Sequence::new(
+        &ctx,
+        &renderer,
+        &scene,
+        &settings,
+        base,
+        path,
+        SequenceOptions {
+            path: render_path,
+            reuse,
+            reference: seq.reference,
+        },
+    )?;
+    let bar = indicatif::ProgressBar::new(u64::from(range.end - range.start));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let mut summaries: Vec<FrameSummary> = Vec::new();
+    for k in range.clone() {
+        let frame = sequence.render_frame(&ctx, k)?;
+        let file = frame_path(&args.output, k);
+        if ext == "exr" {
+            output::write_exr(&file, &frame.output)?;
+        } else {
+            output::write_png(&file, &frame.output)?;
+        }
+        let summary = frame.summary();
+        if args.json {
+            let mut line = serde_json::to_value(&summary)?;
+            if let Some(o) = line.as_object_mut() {
+                o.insert("type".into(), json!("frame"));
+                o.insert("output".into(), json!(file));
+                o.insert(
+                    "gpu_ms".into(),
+                    json!(summary
+                        .gpu_ms
+                        .iter()
+                        .map(|(k, v)| (k.clone(), json!(v)))
+                        .collect::<serde_json::Map<_, _>>()),
+                );
+            }
+            bar.suspend(|| println!("{line}"));
+        }
+        bar.set_message(match &summary.reference {
+            Some(r) => format!(
+                "rays {:.1} % of full, FLIP {:.4}",
+                r.ray_fraction * 100.0,
+                r.flip_mean
+            ),
+            None => format!(
+                "reused {:.1} %, traced {:.1} %",
+                summary.reused_fraction * 100.0,
+                summary.traced_fraction * 100.0
+            ),
+        });
+        bar.inc(1);
+        summaries.push(summary);
+    }
+    bar.finish_and_clear();
+    let total = SequenceSummary::new(&summaries);
+    let header = json!({
+        "device": ctx.info().name,
+        "backend": backend.as_str(),
+        "mode": args.mode,
+        "scene": args.scene.name(),
+        "width": settings.width,
+        "height": settings.height,
+        "frames": [range.start, range.end],
+        "camera_path": seq.camera_path.to_string(),
+        "reuse": reuse,
+    });
+    if args.json {
+        println!(
+            "{}",
+            json!({"type": "summary", "run": header, "summary": total})
+        );
+    } else {
+        print!("{}", markdown_report(&header, &summaries, &total));
+    }
+    if let Some(p) = &seq.report {
+        if p.extension().and_then(|e| e.to_str()) == Some("json") {
+            let report = json!({"run": header, "summary": total, "frames": summaries});
+            std::fs::write(p, serde_json::to_string_pretty(&report)?)
+                .with_context(|| format!("cannot write '{}'", p.display()))?;
+        } else {
+            std::fs::write(p, markdown_report(&header, &summaries, &total))
+                .with_context(|| format!("cannot write '{}'", p.display()))?;
+        }
+    }
+    if let Some(p) = &seq.plot {
+        let title = format!(
+            "{} {}x{} {} {}",
+            args.scene.name(),
+            settings.width,
+            settings.height,
+            match args.mode {
+                Mode::Rt => "rt",
+                Mode::Hybrid => "hybrid",
+            },
+            seq.camera_path
+        );
+        let chart = sequence::plot(&summaries, &title);
+        image::save_buffer(
+            p,
+            &chart.rgb,
+            chart.width,
+            chart.height,
+            image::ColorType::Rgb8,
+        )
+        .with_context(|| format!("cannot write '{}'", p.display()))?;
+    }
+    let errors = ctx.validation_errors();
+    if !errors.is_empty() {
+        bail!(
+            "{} Vulkan validation error(s); first: {}",
+            errors.len(),
+            errors[0]
+        );
+    }
+    Ok(())
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.map(|x| format!("{x:.digits$}"))
+        .unwrap_or_else(|| "-".into())
+}
+
+/// The compare-style report of a sequence: one row per frame, then the means.
+fn markdown_report(
+    header: &serde_json::Value,
+    frames: &[FrameSummary],
+    total: &SequenceSummary,
+) -> String {
+    let mut md = format!("# rqr sequence\n\n`{header}`\n\n");
+    md.push_str("| frame | rays | rays / full | reused | traced | interpolated | holes | rejected | view-dep. | verify rays | FLIP | PSNR dB | GPU ms |\n");
+    md.push_str("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for f in frames {
+        let r = f.reference.as_ref();
+        md.push_str(&format!(
+            "| {} | {} | {} | {:.1} % | {:.1} % | {:.1} % | {} | {} | {} | {} | {} | {} | {:.1} |\n",
+            f.frame,
+            f.rays_total,
+            opt(r.map(|r| r.ray_fraction), 3),
+            f.reused_fraction * 100.0,
+            f.traced_fraction * 100.0,
+            f.interpolated_fraction * 100.0,
+            f.reuse.holes,
+            f.reuse.rejected,
+            f.reuse.view_dependent,
+            f.reuse.verify_rays,
+            opt(r.map(|r| f64::from(r.flip_mean)), 4),
+            opt(r.map(|r| r.psnr_db).filter(|p| p.is_finite()), 1),
+            f.total_gpu_ms,
+        ));
+    }
+    md.push_str(&format!(
+        "\n**{} frames**: mean rays {:.0} ({} of a full frame, max {}), reused {:.1} %, traced {:.1} %, interpolated {:.1} %, mean FLIP {} (max {}), mean PSNR {} dB, GPU {:.1} ms/frame (full {}).\n",
+        total.frames,
+        total.mean_rays,
+        opt(total.mean_ray_fraction, 3),
+        opt(total.max_ray_fraction, 3),
+        total.mean_reused_fraction * 100.0,
+        total.mean_traced_fraction * 100.0,
+        total.mean_interpolated_fraction * 100.0,
+        opt(total.mean_flip, 4),
+        opt(total.max_flip, 4),
+        opt(total.mean_psnr_db, 1),
+        total.mean_gpu_ms,
+        opt(total.mean_reference_gpu_ms, 1),
+    ));
+    md
 }

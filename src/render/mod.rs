@@ -9,7 +9,9 @@ pub mod optics;
 pub mod output;
 pub mod raybench;
 pub mod raytraced;
+pub mod reproject;
 pub mod sampling;
+pub mod sequence;
 pub mod tonemap;
 
 use ash::vk;
@@ -19,9 +21,8 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
-pub use frame::{
-    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SamplerKind, Tonemap,
-};
+pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use reproject::RenderPath;
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]

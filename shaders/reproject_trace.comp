@@ -1,0 +1,113 @@
+// variants: hw bvh
+#version 460
+// Temporal reprojection: traces the pixels on the job list (every pixel that needs new colour,
+// or one level of adaptive sub-sampling's samples) with the shared Whitted loop, writes their
+// colour and caches the new sample for the next frame. The primary hit comes from the
+// G-buffer where there is one (hybrid path; rt pixels the visibility pass already looked at),
+// otherwise whitted() traces the primary ray.
+//
+// ONE whitted() call site: lavapipe's JIT time grows with every inlined copy of the loop.
+#extension GL_GOOGLE_include_directive : require
+#include "scene.glsl"
+#include "trace.glsl"
+#include "frame.glsl"
+#include "sampling.glsl"
+#include "brdf.glsl"
+#include "shade.glsl"
+#include "reproject.glsl"
+
+layout(local_size_x = 64) in;
+
+Surface unused_surface;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= counters[C_JOBS]) {
+        return;
+    }
+    uint q = jobs[i];
+    ivec2 pix = ivec2(pixel_of(q));
+    uint st = state[q];
+    Ray camera = camera_ray(vec2(pix) + 0.5);
+    bool known = (params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u;
+
+    PrimaryInfo info;
+    info.hit = false;
+    info.t = 0.0;
+    info.instance = -1;
+    info.primitive = -1;
+    info.bary = vec2(0.0);
+    info.normal = vec3(0.0);
+    info.position = vec3(0.0);
+    Surface s = unused_surface;
+    float t = 0.0;
+    if (known) {
+        uvec4 ids = imageLoad(g_ids, pix);
+        info.hit = ids.x != 0xFFFFFFFFu;
+        if (info.hit) {
+            vec4 p = imageLoad(g_position, pix);
+            vec4 n = imageLoad(g_normal, pix);
+            vec4 ng = imageLoad(g_geometric, pix);
+            vec4 base = imageLoad(g_base, pix);
+            vec4 em = imageLoad(g_emissive, pix);
+            s.position = p.xyz;
+            s.n = n.xyz;
+            s.roughness = n.w;
+            s.ng_front = ng.xyz;
+            s.metallic = ng.w;
+            s.base_color = base.rgb;
+            s.alpha = base.a;
+            s.emissive = em.rgb;
+            s.occlusion = em.a;
+            s.material = ids.z & 0x7FFFFFFFu;
+            s.front_face = (ids.z >> 31) != 0u;
+            s.ng = s.front_face ? s.ng_front : -s.ng_front;
+            s.transmission = uintBitsToFloat(ids.w);
+            GpuMaterial m = scene_material(s.material);
+            s.ior = m.ior;
+            s.atten_color = m.attenuation_color;
+            s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
+            s.alpha_mode = m.alpha_mode;
+            t = p.w;
+            info.t = t;
+            info.instance = int(ids.x);
+            info.primitive = int(ids.y);
+            info.normal = s.ng_front;
+            info.position = s.position;
+        }
+    }
+
+    vec3 c;
+    if (known && !info.hit) {
+        c = background_radiance(camera.dir);
+    } else {
+        c = whitted(camera, known, s, t, info);
+    }
+    color[q] = vec4(c, 1.0);
+    state[q] = (st & ~PX_KIND_MASK) | PX_TRACED;
+
+    CacheEntry e;
+    e.color = vec4(c, 1.0);
+    if (info.hit) {
+        uint material = known ? s.material : scene_geometry(scene_instance(uint(info.instance)).geometry).material;
+        // A path that spawned reflection or refraction rays (Fresnel at grazing angles, glass,
+        // alpha blending) looks different from elsewhere, whatever its material says.
+        bool spawned = rays_by_kind[RAY_REFLECTION] + rays_by_kind[RAY_REFRACTION] > 0u;
+        bool view_dependent = spawned || (known
+            ? surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha)
+            : material_view_dependent(material));
+        e.position = vec4(info.position, 1.0);
+        e.normal = vec4(info.normal, 0.0);
+        e.meta = uvec4(CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u), material, uint(info.instance), 0u);
+    } else {
+        e.position = vec4(camera.dir, 0.0);
+        e.normal = vec4(0.0);
+        e.meta = uvec4(CACHE_VALID | CACHE_MISS, 0u, NO_SAMPLE, 0u);
+    }
+    cache_next[q] = e;
+
+    for (uint k = 0u; k < 4u; ++k) {
+        if (rays_by_kind[k] != 0u) atomicAdd(counters[k], rays_by_kind[k]);
+    }
+    atomicAdd(counters[C_SAMPLES], 1u);
+}

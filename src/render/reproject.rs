@@ -1,0 +1,728 @@
+//! Temporal reprojection, frameless rendering and adaptive sub-sampling over a sequence of
+//! camera positions (issue #7; `shaders/reproject*.comp`).
+//!
+//! A [`Reprojector`] keeps a per-pixel cache of the last frame's samples: linear colour,
+//! world position of the primary hit (or the ray direction of a miss), geometric normal,
+//! material, instance, age and a view-dependence flag. Each frame:
+//!
+//! 1. **Scatter**: every cached sample is projected into the new camera. The nearest sample
+//!    per pixel wins (a 32-bit `atomicMin` of the depth bits, then an `atomicMin` of the source
+//!    index among the samples at that depth, so ties resolve deterministically). A pixel no
+//!    sample landed on takes the neighbouring sample that projects nearest to its centre
+//!    within [`FILL_RADIUS`] (otherwise empty pixels multiply along the seams between regions
+//!    whose samples have different sub-pixel offsets); it is still checked like any other.
+//! 2. **Decide** per pixel: no sample (disocclusion, screen edge, first frame) → trace;
+//!    a view-dependent sample (mirror/metal, transmissive, blended, or a path that spawned
+//!    reflection/refraction rays) → trace; a sample older than `max_age` → trace; otherwise
+//!    the sample is checked against this frame's primary visibility (see [`RtVisibility`]):
+//!    rejected when the plane distance over the view depth exceeds
+//!    [`PLANE_DISTANCE_THRESHOLD`], the normals' dot is below [`NORMAL_DOT_THRESHOLD`], the
+//!    material differs, or the new surface is itself view-dependent.
+//! 3. **Frameless** (optional): re-trace at least a given share of all pixels per frame,
+//!    oldest samples first, and among equally old ones in a fixed stratified order
+//!    (interleaved gradient noise), so the refresh sweeps evenly over the image.
+//! 4. **Trace** the rest with the shared Whitted loop, or with **adaptive sub-sampling**
+//!    (optional): trace every 4×4 block's corners and centre, interpolate the blocks whose
+//!    samples are similar, recurse into 2×2 blocks, then trace what is left.
+//!
+//! Reused samples keep the world position where their colour was computed (as in the Render
+//! Cache, Walter et al. 1999), so the error of a reused pixel stays within its footprint and
+//! does not drift. Interpolated colours are never cached.
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use serde::Serialize;
+
+pub use super::frame::RenderPath;
+use super::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind};
+use super::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
+use super::tonemap::TonemapPass;
+use super::{merge_scopes, RayCounts, RenderOutput, Renderer};
+use crate::accel::Backend;
+use crate::scene::Camera;
+use crate::vk::{
+    memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, Image,
+    MemoryLocation, VkError, VkResult,
+};
+
+/// Rejection: |dot(cached − new position, new normal)| / view depth above this (ReBLUR, Bevy
+/// Solari's `pixel_dissimilar`).
+pub const PLANE_DISTANCE_THRESHOLD: f32 = 0.003;
+/// Rejection: dot of the cached and new geometric normals below this (cos 25°).
+pub const NORMAL_DOT_THRESHOLD: f32 = 0.906;
+/// rt path with [`RtVisibility::Edges`]: a neighbour's sample this far off a sample's plane
+/// (relative to the view depth) marks a depth edge.
+pub const EDGE_PLANE_THRESHOLD: f32 = 0.01;
+/// Metallic at or above this is view-dependent (mirror/metal).
+pub const SPECULAR_METALLIC: f32 = 0.5;
+/// Roughness below this is view-dependent: the Whitted reflection weight is
+/// Fresnel × (1 − roughness)², at least a quarter of Fresnel below 0.5.
+pub const SPECULAR_ROUGHNESS: f32 = 0.5;
+/// An empty pixel (no sample projected into it) takes a neighbour's sample whose projection
+/// lies within this many pixels of its centre, then goes through the visibility tests like
+/// any other sample.
+pub const FILL_RADIUS: f32 = 1.0;
+/// Default `--subsample-threshold`.
+pub const DEFAULT_SUBSAMPLE_THRESHOLD: f32 = 0.05;
+
+/// Which primary rays the pure ray-traced path spends on checking reprojected samples (the
+/// hybrid path always checks every pixel against its raster G-buffer, which costs no rays).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RtVisibility {
+    /// One primary ray per reprojected sample: exact, but a primary ray per pixel per frame.
+    Full,
+    /// Primary rays only where the reprojected samples form a depth edge or border a hole;
+    /// elsewhere the reprojected sample is its own visibility (nearest of the scattered
+    /// samples). A hidden surface can only appear next to such an edge.
+    #[default]
+    Edges,
+}
+
+/// What a sequence may reuse between frames.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ReuseOptions {
+    /// Reproject the previous frame's samples (`--reproject`).
+    pub reproject: bool,
+    /// Re-trace at least this share of the pixels per frame, in percent (`--frameless`);
+    /// implies `reproject`.
+    pub frameless_percent: Option<f32>,
+    /// Adaptive sub-sampling of the pixels that need new colour (`--adaptive-subsample`).
+    pub adaptive_subsample: bool,
+    /// Interpolate a block when its samples differ by at most this (per channel, colours
+    /// clamped to 1).
+    pub subsample_threshold: f32,
+    /// Re-trace samples older than this many frames (`None`: no limit).
+    pub max_age: Option<u32>,
+    /// Primary rays of the rt path's visibility check.
+    pub rt_visibility: RtVisibility,
+}
+
+impl Default for ReuseOptions {
+    fn default() -> Self {
+        Self {
+            reproject: false,
+            frameless_percent: None,
+            adaptive_subsample: false,
+            subsample_threshold: DEFAULT_SUBSAMPLE_THRESHOLD,
+            max_age: None,
+            rt_visibility: RtVisibility::Edges,
+        }
+    }
+}
+
+impl ReuseOptions {
+    /// Whether samples are carried between frames.
+    pub fn reuses(&self) -> bool {
+        self.reproject || self.frameless_percent.is_some()
+    }
+
+    /// Whether any of the options changes how a frame is rendered.
+    pub fn any(&self) -> bool {
+        self.reuses() || self.adaptive_subsample
+    }
+
+    /// Checks ranges.
+    pub fn validate(&self) -> Result<(), String> {
+        if let Some(p) = self.frameless_percent {
+            if !(p > 0.0 && p <= 100.0) {
+                return Err(format!("--frameless {p} must be a percentage in (0, 100]"));
+            }
+        }
+        if !(self.subsample_threshold.is_finite() && self.subsample_threshold >= 0.0) {
+            return Err(format!(
+                "--subsample-threshold {} must be a finite non-negative number",
+                self.subsample_threshold
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Where a pixel's colour came from this frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PixelSource {
+    /// A reprojected sample of an earlier frame.
+    Reused,
+    /// Traced this frame.
+    Traced,
+    /// Interpolated by adaptive sub-sampling.
+    Interpolated,
+}
+
+/// Per-frame reuse statistics (pixel counts).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct ReuseStats {
+    /// Pixels in the image.
+    pub pixels: u64,
+    /// Pixels showing a reprojected sample.
+    pub reused: u64,
+    /// Pixels traced this frame.
+    pub traced: u64,
+    /// Pixels interpolated this frame.
+    pub interpolated: u64,
+    /// Reused pixels that no sample landed on, showing a neighbour's sample that projects
+    /// within [`FILL_RADIUS`] pixels of their centre (see `shaders/reproject.comp`'s `fill`).
+    pub filled: u64,
+    /// Pixels no sample landed on (first frame, disocclusions, screen edges).
+    pub holes: u64,
+    /// Samples rejected by the primary-visibility test.
+    pub rejected: u64,
+    /// Pixels re-traced because the sample or the surface is view-dependent.
+    pub view_dependent: u64,
+    /// Samples re-traced for being older than `max_age`.
+    pub expired: u64,
+    /// Samples re-traced by the frameless refresh.
+    pub frameless: u64,
+    /// Primary rays of the rt path's visibility pass (included in the primary ray count):
+    /// checks of reprojected samples and, with adaptive sub-sampling, the primary hits of
+    /// the pixels that need new colour (so interpolated pixels can be cached).
+    pub verify_rays: u64,
+}
+
+impl ReuseStats {
+    /// Share of reused pixels.
+    pub fn reused_fraction(&self) -> f64 {
+        self.reused as f64 / self.pixels.max(1) as f64
+    }
+    /// Share of traced pixels.
+    pub fn traced_fraction(&self) -> f64 {
+        self.traced as f64 / self.pixels.max(1) as f64
+    }
+    /// Share of interpolated pixels.
+    pub fn interpolated_fraction(&self) -> f64 {
+        self.interpolated as f64 / self.pixels.max(1) as f64
+    }
+}
+
+/// One frame rendered with reuse.
+pub struct ReprojectedFrame {
+    /// The image, rays and pass times (no AOVs).
+    pub output: RenderOutput,
+    /// Where each pixel's colour came from (row 0 = top).
+    pub sources: Vec<PixelSource>,
+    /// Pixel counts.
+    pub stats: ReuseStats,
+}
+
+/// `reproject.glsl`'s `Params` uniform.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct GpuParams {
+    flags: u32,
+    max_age: u32,
+    frameless_fraction: f32,
+    subsample_threshold: f32,
+    frame_index: u32,
+    plane_threshold: f32,
+    normal_threshold: f32,
+    edge_threshold: f32,
+    specular_metallic: f32,
+    specular_roughness: f32,
+    fill_radius: f32,
+    pad: u32,
+}
+
+/// `reproject.glsl`'s `CacheEntry`.
+const CACHE_ENTRY_BYTES: u64 = 64;
+
+const RP_REUSE: u32 = 1;
+const RP_GBUFFER: u32 = 2;
+const RP_VERIFY_ALL: u32 = 4;
+const RP_FRAMELESS: u32 = 8;
+const RP_ADAPTIVE: u32 = 16;
+
+const STAGE_SCATTER: u32 = 0;
+const STAGE_RESOLVE: u32 = 1;
+const STAGE_CLASSIFY: u32 = 2;
+const STAGE_THRESHOLD: u32 = 3;
+const STAGE_SELECT: u32 = 4;
+const STAGE_GATHER: u32 = 5;
+const STAGE_COMMIT: u32 = 6;
+const STAGE_INTERPOLATE: u32 = 7;
+const STAGE_STATS: u32 = 8;
+const STAGE_FILL: u32 = 9;
+const STAGE_FILL_COMMIT: u32 = 10;
+const GATHER_VERIFY: u32 = 0;
+
+const PX_KIND_MASK: u32 = 15;
+const PX_REUSE: u32 = 1;
+const PX_TRACED: u32 = 4;
+const PX_INTERP: u32 = 5;
+
+const C_SAMPLES: usize = 4;
+const C_JOBS: u64 = 5;
+const C_REUSED: usize = 6;
+const C_TRACED: usize = 7;
+const C_INTERP: usize = 8;
+const C_HOLES: usize = 9;
+const C_REJECTED: usize = 10;
+const C_VIEW_DEPENDENT: usize = 11;
+const C_EXPIRED: usize = 12;
+const C_FRAMELESS: usize = 13;
+const C_VERIFY_RAYS: usize = 14;
+const C_FILLED: usize = 19;
+const COUNTER_SLOTS: u64 = 32 + 64 * 64;
+
+const GROUP: u32 = 64;
+
+fn primary_spirv(backend: Backend) -> &'static [u8] {
+    match backend {
+        Backend::Hw => crate::shaders::REPROJECT_PRIMARY_COMP_HW,
+        Backend::Bvh => crate::shaders::REPROJECT_PRIMARY_COMP_BVH,
+    }
+}
+
+fn trace_spirv(backend: Backend) -> &'static [u8] {
+    match backend {
+        Backend::Hw => crate::shaders::REPROJECT_TRACE_COMP_HW,
+        Backend::Bvh => crate::shaders::REPROJECT_TRACE_COMP_BVH,
+    }
+}
+
+/// G-buffer images: the raster pass's (hybrid) or written by the visibility pass (rt).
+enum Visibility {
+    Raster(Box<GbufferPass>),
+    Traced(Vec<Image>),
+}
+
+impl Visibility {
+    fn images(&self) -> &[Image] {
+        match self {
+            Self::Raster(g) => &g.images,
+            Self::Traced(images) => images,
+        }
+    }
+}
+
+/// The reprojection passes and the sample cache of one resolution, for one [`Renderer`].
+pub struct Reprojector<'r> {
+    renderer: &'r Renderer,
+    path: RenderPath,
+    options: ReuseOptions,
+    settings: RenderSettings,
+    stages: ComputePipeline,
+    primary: ComputePipeline,
+    trace: ComputePipeline,
+    /// Per cache parity: descriptor sets of `stages`, `primary`, `trace`.
+    sets: Vec<[DescriptorSet; 3]>,
+    frame: Buffer,
+    params: Buffer,
+    _caches: [Buffer; 2],
+    depth_key: Buffer,
+    winner: Buffer,
+    state: Buffer,
+    color: Buffer,
+    _jobs: Buffer,
+    counters: Buffer,
+    visibility: Visibility,
+    tonemap: TonemapPass,
+    parity: usize,
+    has_history: bool,
+    prev_view_proj: Option<[f32; 16]>,
+}
+
+impl<'r> Reprojector<'r> {
+    /// Creates the passes and an empty cache for images of `settings` on `path`.
+    /// Reprojection caches one sample per pixel at its centre: `settings` must use one
+    /// sample per pixel with the `center` sampler.
+    pub fn new(
+        ctx: &Context,
+        renderer: &'r Renderer,
+        path: RenderPath,
+        settings: &RenderSettings,
+        options: ReuseOptions,
+    ) -> crate::Result<Self> {
+        // The cache and the per-pixel buffers come on top of what a full render of the same
+        // path needs (a sequence with --reference makes one per frame).
+        settings
+            .check_device(
+                ctx.info(),
+                path,
+                ctx.allocated_bytes()
+                    .saturating_add(Self::estimate_bytes(settings)),
+            )
+            .map_err(|e| VkError::Limit(e.to_string()))?;
+        options.validate().map_err(VkError::Limit)?;
+        if settings.spp != 1 || settings.sampler != SamplerKind::Center {
+            return Err(VkError::Limit(
+                "reprojection, frameless rendering and adaptive sub-sampling cache one sample per pixel: use --spp 1 --sampler center".into(),
+            )
+            .into());
+        }
+        let pass = renderer.pass_context();
+        let extent = vk::Extent2D {
+            width: settings.width,
+            height: settings.height,
+        };
+        let pixels = u64::from(settings.width) * u64::from(settings.height);
+        let none = vk::BufferUsageFlags::empty();
+        let uniform = |name: &str, size: usize| {
+            Buffer::new(
+                ctx,
+                name,
+                size as u64,
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )
+        };
+        let storage =
+            |name: &str, size: u64| Buffer::new(ctx, name, size, none, MemoryLocation::GpuOnly);
+        let frame = uniform("reproject frame", std::mem::size_of::<GpuFrame>())?;
+        let params = uniform("reproject params", std::mem::size_of::<GpuParams>())?;
+        let caches = [
+            storage("reproject cache 0", pixels * CACHE_ENTRY_BYTES)?,
+            storage("reproject cache 1", pixels * CACHE_ENTRY_BYTES)?,
+        ];
+        let depth_key = storage("reproject depth keys", pixels * 4)?;
+        let winner = storage("reproject winners", pixels * 4)?;
+        let state = storage("reproject states", pixels * 4)?;
+        let color = storage("reproject colour", pixels * 16)?;
+        let jobs = storage("reproject jobs", pixels * 4)?;
+        let counters = storage("reproject counters", COUNTER_SLOTS * 4)?;
+        let visibility = match path {
+            RenderPath::Hybrid => {
+                Visibility::Raster(Box::new(GbufferPass::new(ctx, &pass, &frame, extent)?))
+            }
+            RenderPath::RayTraced => Visibility::Traced(
+                GBUFFER_FORMATS
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &f)| {
+                        Image::new(
+                            ctx,
+                            &format!("reproject visibility {i}"),
+                            extent,
+                            f,
+                            vk::ImageUsageFlags::STORAGE,
+                            1,
+                        )
+                    })
+                    .collect::<VkResult<Vec<_>>>()?,
+            ),
+        };
+        let layout = |ray_binding: Binding| {
+            let mut b = vec![
+                Binding::UniformBuffer,
+                Binding::SampledImages(pass.texture_capacity()),
+                ray_binding,
+                Binding::UniformBuffer,
+                Binding::UniformBuffer,
+            ];
+            b.extend(std::iter::repeat_n(Binding::StorageBuffer, 8));
+            b.extend(std::iter::repeat_n(
+                Binding::StorageImage,
+                GBUFFER_FORMATS.len(),
+            ));
+            b
+        };
+        let backend = pass.backend.kind();
+        let stages = ComputePipeline::new(
+            ctx,
+            "reproject",
+            crate::shaders::REPROJECT_COMP,
+            &layout(Binding::Unused),
+            8,
+        )?;
+        let primary = ComputePipeline::new(
+            ctx,
+            "reproject visibility",
+            primary_spirv(backend),
+            &layout(pass.backend.binding()),
+            0,
+        )?;
+        let trace = ComputePipeline::new(
+            ctx,
+            "reproject trace",
+            trace_spirv(backend),
+            &layout(pass.backend.binding()),
+            0,
+        )?;
+        let mut sets = Vec::with_capacity(2);
+        for parity in 0..2 {
+            let make = |pipeline: &ComputePipeline, rays: bool| -> VkResult<DescriptorSet> {
+                let set = pipeline.allocate_set()?;
+                if rays {
+                    pass.bind_scene(&set);
+                } else {
+                    pass.scene.bind(&set);
+                    set.sampled_images(1, pass.textures);
+                }
+                set.buffer(3, &frame, Binding::UniformBuffer)
+                    .buffer(4, &params, Binding::UniformBuffer)
+                    .buffer(5, &caches[parity], Binding::StorageBuffer)
+                    .buffer(6, &caches[1 - parity], Binding::StorageBuffer)
+                    .buffer(7, &depth_key, Binding::StorageBuffer)
+                    .buffer(8, &winner, Binding::StorageBuffer)
+                    .buffer(9, &state, Binding::StorageBuffer)
+                    .buffer(10, &color, Binding::StorageBuffer)
+                    .buffer(11, &jobs, Binding::StorageBuffer)
+                    .buffer(12, &counters, Binding::StorageBuffer);
+                for (i, image) in visibility.images().iter().enumerate() {
+                    set.storage_image(13 + i as u32, image.view());
+                }
+                Ok(set)
+            };
+            sets.push([
+                make(&stages, false)?,
+                make(&primary, true)?,
+                make(&trace, true)?,
+            ]);
+        }
+        let tonemap = TonemapPass::new(ctx, &color, pixels as u32)?;
+        Ok(Self {
+            renderer,
+            path,
+            options,
+            settings: settings.clone(),
+            stages,
+            primary,
+            trace,
+            sets,
+            frame,
+            params,
+            _caches: caches,
+            depth_key,
+            winner,
+            state,
+            color,
+            _jobs: jobs,
+            counters,
+            visibility,
+            tonemap,
+            parity: 0,
+            has_history: false,
+            prev_view_proj: None,
+        })
+    }
+
+    /// Device memory of the reprojection buffers and images for `settings` (two caches,
+    /// per-pixel keys, winners, states, colour, jobs, tonemapped output, and the rt path's
+    /// G-buffer images).
+    pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
+        let pixels = u64::from(settings.width) * u64::from(settings.height);
+        let gbuffer: u64 = GBUFFER_FORMATS
+            .iter()
+            .map(|&f| match f {
+                vk::Format::R16G16B16A16_SFLOAT => 8,
+                _ => 16,
+            })
+            .sum();
+        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + 4 * 4 + 16 + 4 + gbuffer)
+    }
+
+    /// Empties the cache: the next frame traces every pixel (the start of a frame range).
+    pub fn reset(&mut self) {
+        self.has_history = false;
+        self.prev_view_proj = None;
+    }
+
+    /// The reuse options.
+    pub fn options(&self) -> &ReuseOptions {
+        &self.options
+    }
+
+    /// Renders one frame through `camera`, reusing what the cache allows, and caches its
+    /// samples for the next call. `frame_index` is the global frame number; `draws` are
+    /// the scene's raster draws (hybrid path; ignored by the rt path).
+    pub fn render(
+        &mut self,
+        ctx: &Context,
+        draws: &[gbuffer::Draw],
+        camera: &Camera,
+        frame_index: u32,
+    ) -> crate::Result<ReprojectedFrame> {
+        let s = &self.settings;
+        let scale = self.renderer.scene_scale();
+        let setup = CameraSetup::new(camera, s.width, s.height, scale);
+        let mut frame = GpuFrame::new(s, &setup, scale);
+        if let Some(prev) = self.prev_view_proj {
+            frame.prev_view_proj = prev;
+        }
+        self.frame.write(bytemuck::bytes_of(&frame))?;
+        let o = &self.options;
+        let reuse = o.reuses() && self.has_history;
+        let mut flags = 0;
+        if reuse {
+            flags |= RP_REUSE;
+        }
+        if self.path == RenderPath::Hybrid {
+            flags |= RP_GBUFFER;
+        } else if o.rt_visibility == RtVisibility::Full {
+            flags |= RP_VERIFY_ALL;
+        }
+        if o.frameless_percent.is_some() {
+            flags |= RP_FRAMELESS;
+        }
+        if o.adaptive_subsample {
+            flags |= RP_ADAPTIVE;
+        }
+        let params = GpuParams {
+            flags,
+            max_age: o.max_age.unwrap_or(u32::MAX),
+            frameless_fraction: o.frameless_percent.unwrap_or(0.0) / 100.0,
+            subsample_threshold: o.subsample_threshold,
+            frame_index,
+            plane_threshold: PLANE_DISTANCE_THRESHOLD,
+            normal_threshold: NORMAL_DOT_THRESHOLD,
+            edge_threshold: EDGE_PLANE_THRESHOLD,
+            specular_metallic: SPECULAR_METALLIC,
+            specular_roughness: SPECULAR_ROUGHNESS,
+            fill_radius: FILL_RADIUS,
+            pad: 0,
+        };
+        self.params.write(bytemuck::bytes_of(&params))?;
+
+        let pixels = s.width * s.height;
+        let groups = [pixels.div_ceil(GROUP), 1, 1];
+        let [stages_set, primary_set, trace_set] = &self.sets[self.parity];
+        let device = ctx.device();
+        let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, groups: [u32; 3]| {
+            let mut push = [0u8; 8];
+            push[..4].copy_from_slice(&stage.to_le_bytes());
+            push[4..].copy_from_slice(&level.to_le_bytes());
+            self.stages.dispatch(cmd, Some(stages_set), &push, groups);
+            memory_barrier(device, cmd);
+        };
+        let reset_jobs = |cmd: vk::CommandBuffer| {
+            // SAFETY: recording command buffer; the counters buffer is ours.
+            unsafe { device.cmd_fill_buffer(cmd, self.counters.raw(), C_JOBS * 4, 4, 0) };
+            memory_barrier(device, cmd);
+        };
+        let levels: &[u32] = if o.adaptive_subsample {
+            &[4, 2, 1]
+        } else {
+            &[1]
+        };
+        let mut profiler = GpuProfiler::new(ctx, 24).ok();
+        ctx.run("reprojected frame", |cmd| {
+            if let Some(p) = profiler.as_mut() {
+                p.reset(cmd);
+            }
+            match &self.visibility {
+                Visibility::Raster(g) => {
+                    g.record(ctx, cmd, draws, camera.position(), profiler.as_mut())
+                }
+                Visibility::Traced(images) => {
+                    for image in images {
+                        image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
+                    }
+                }
+            }
+            // SAFETY: recording command buffer; the buffers are ours.
+            unsafe {
+                device.cmd_fill_buffer(cmd, self.depth_key.raw(), 0, vk::WHOLE_SIZE, !0);
+                device.cmd_fill_buffer(cmd, self.winner.raw(), 0, vk::WHOLE_SIZE, !0);
+                device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0);
+            }
+            memory_barrier(device, cmd);
+            if let Some(p) = profiler.as_mut() {
+                p.begin(cmd, "reproject");
+            }
+            if reuse {
+                stage(cmd, STAGE_SCATTER, 0, groups);
+                stage(cmd, STAGE_RESOLVE, 0, groups);
+                stage(cmd, STAGE_FILL, 0, groups);
+                stage(cmd, STAGE_FILL_COMMIT, 0, groups);
+            }
+            stage(cmd, STAGE_CLASSIFY, 0, groups);
+            if flags & RP_FRAMELESS != 0 {
+                stage(cmd, STAGE_THRESHOLD, 0, [1, 1, 1]);
+                stage(cmd, STAGE_SELECT, 0, groups);
+            }
+            if let Some(p) = profiler.as_mut() {
+                p.end(cmd);
+            }
+            if (reuse || o.adaptive_subsample) && self.path == RenderPath::RayTraced {
+                reset_jobs(cmd);
+                stage(cmd, STAGE_GATHER, GATHER_VERIFY, groups);
+                if let Some(p) = profiler.as_mut() {
+                    p.begin(cmd, "visibility");
+                }
+                self.primary.dispatch(cmd, Some(primary_set), &[], groups);
+                memory_barrier(device, cmd);
+                if let Some(p) = profiler.as_mut() {
+                    p.end(cmd);
+                }
+            }
+            stage(cmd, STAGE_COMMIT, 0, groups);
+            for &level in levels {
+                reset_jobs(cmd);
+                stage(cmd, STAGE_GATHER, level, groups);
+                if let Some(p) = profiler.as_mut() {
+                    p.begin(cmd, "trace");
+                }
+                self.trace.dispatch(cmd, Some(trace_set), &[], groups);
+                memory_barrier(device, cmd);
+                if let Some(p) = profiler.as_mut() {
+                    p.end(cmd);
+                }
+                if level > 1 {
+                    stage(cmd, STAGE_INTERPOLATE, level, groups);
+                }
+            }
+            stage(cmd, STAGE_STATS, 0, groups);
+            self.tonemap
+                .record(cmd, profiler.as_mut(), s.tonemap, s.exposure);
+            Ok(())
+        })?;
+        let gpu_ms = match &profiler {
+            Some(p) => merge_scopes(p.results()?),
+            None => Vec::new(),
+        };
+        let c: Vec<u32> = self.counters.read(ctx)?;
+        let color: Vec<[f32; 4]> = self.color.read(ctx)?;
+        let rgba8: Vec<u8> = self.tonemap.output.read(ctx)?;
+        let states: Vec<u32> = self.state.read(ctx)?;
+        let n = pixels as usize;
+        let sources = states[..n]
+            .iter()
+            .map(|st| match st & PX_KIND_MASK {
+                PX_REUSE => PixelSource::Reused,
+                PX_INTERP => PixelSource::Interpolated,
+                PX_TRACED => PixelSource::Traced,
+                other => {
+                    log::error!("reprojection left a pixel in state {other}");
+                    PixelSource::Traced
+                }
+            })
+            .collect();
+        let count = |i: usize| u64::from(c[i]);
+        let stats = ReuseStats {
+            pixels: u64::from(pixels),
+            reused: count(C_REUSED),
+            traced: count(C_TRACED),
+            interpolated: count(C_INTERP),
+            filled: count(C_FILLED),
+            holes: count(C_HOLES),
+            rejected: count(C_REJECTED),
+            view_dependent: count(C_VIEW_DEPENDENT),
+            expired: count(C_EXPIRED),
+            frameless: count(C_FRAMELESS),
+            verify_rays: count(C_VERIFY_RAYS),
+        };
+        self.parity = 1 - self.parity;
+        self.has_history = true;
+        self.prev_view_proj = Some(frame.view_proj);
+        Ok(ReprojectedFrame {
+            output: RenderOutput {
+                width: s.width,
+                height: s.height,
+                color: color[..n].to_vec(),
+                rgba8: rgba8[..n * 4].to_vec(),
+                aov: Vec::new(),
+                rays: RayCounts {
+                    primary: count(0),
+                    shadow: count(1),
+                    reflection: count(2),
+                    refraction: count(3),
+                },
+                samples: count(C_SAMPLES),
+                gpu_ms,
+            },
+            sources,
+            stats,
+        })
+    }
+}
