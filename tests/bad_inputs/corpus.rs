@@ -4,7 +4,7 @@
 
 use serde_json::{json, Value};
 
-use crate::scene_util::{base64, bytes, glb, png, quad_doc, Builder};
+use crate::scene_util::{base64, bytes, glb, png, png_header, quad_doc, unbase64, Builder};
 
 /// What loading a case must do.
 #[derive(Clone, Debug)]
@@ -64,49 +64,7 @@ fn quad_gltf() -> Value {
 
 /// A GLB of the quad with a 2×2 PNG texture and UVs: small enough to cut at every byte.
 pub fn small_glb() -> Vec<u8> {
-    let mut b = Builder::default();
-    let view = b.view(&png(2, 2, &[255, 0, 0, 255].repeat(4)));
-    let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
-    let mut doc = quad_doc(&mut b, json!({"material": 0}));
-    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
-    doc["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
-    doc["textures"] = json!([{"source": 0}]);
-    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
-    b.glb(doc)
-}
-
-/// A PNG whose header claims `width` x `height`, with an empty pixel stream.
-pub fn png_header(width: u32, height: u32) -> Vec<u8> {
-    fn crc32(data: &[u8]) -> u32 {
-        let mut c = 0xFFFF_FFFFu32;
-        for &b in data {
-            c ^= u32::from(b);
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    }
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    let mut chunk = |kind: &[u8], data: &[u8]| {
-        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-        let mut body = kind.to_vec();
-        body.extend_from_slice(data);
-        out.extend_from_slice(&body);
-        out.extend_from_slice(&crc32(&body).to_be_bytes());
-    };
-    let mut ihdr = Vec::new();
-    ihdr.extend_from_slice(&width.to_be_bytes());
-    ihdr.extend_from_slice(&height.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
-    chunk(b"IHDR", &ihdr);
-    chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]);
-    chunk(b"IEND", &[]);
-    out
+    embedded_glb(&png(2, 2, &[255, 0, 0, 255].repeat(4)))
 }
 
 /// A grey `side`² PNG with real pixel data (8-bit greyscale: small to encode, 4 bytes per
@@ -129,13 +87,27 @@ use image::ImageEncoder as _;
 /// A textured quad whose only image is `image` (a JSON image object).
 fn textured(image: Value) -> (Builder, Value) {
     let mut b = Builder::default();
+    let doc = textured_in(&mut b, image);
+    (b, doc)
+}
+
+/// The quad with UVs and a base-colour texture whose image is `image`, built in `b`.
+fn textured_in(b: &mut Builder, image: Value) -> Value {
     let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
-    let mut doc = quad_doc(&mut b, json!({"material": 0}));
+    let mut doc = quad_doc(b, json!({"material": 0}));
     doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
     doc["images"] = json!([image]);
     doc["textures"] = json!([{"source": 0}]);
     doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
-    (b, doc)
+    doc
+}
+
+/// A GLB of the textured quad with `image` (PNG bytes, or what claims to be) in its BIN chunk.
+fn embedded_glb(image: &[u8]) -> Vec<u8> {
+    let mut b = Builder::default();
+    let view = b.view(image);
+    let doc = textured_in(&mut b, json!({"bufferView": view, "mimeType": "image/png"}));
+    b.glb(doc)
 }
 
 /// Positions (one triangle per 9 floats) as a document without indices.
@@ -399,7 +371,7 @@ fn accessor_cases(out: &mut Vec<Case>) {
                 d["accessors"][1]["count"] = json!(6);
                 let uri = d["buffers"][0]["uri"].as_str().unwrap().to_string();
                 let payload = uri.split(',').nth(1).unwrap().to_string();
-                let mut bin = decode_b64(&payload);
+                let mut bin = unbase64(&payload);
                 let at = d["bufferViews"][1]["byteOffset"].as_u64().unwrap() as usize + 10;
                 bin[at] = 7;
                 d["buffers"][0]["uri"] = json!(format!(
@@ -465,23 +437,6 @@ fn accessor_cases(out: &mut Vec<Case>) {
         files: vec![("scene.gltf".into(), bytes(&doc)), ("big.bin".into(), file)],
         expect: fails(&["buffers: 5242880000 bytes in total exceed rqr's limit"]),
     });
-}
-
-/// Minimal standard base64 decoder for the test's own data URIs.
-fn decode_b64(s: &str) -> Vec<u8> {
-    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = Vec::new();
-    let (mut acc, mut bits) = (0u32, 0);
-    for c in s.bytes().take_while(|&c| c != b'=') {
-        acc = (acc << 6) | T.iter().position(|&t| t == c).unwrap() as u32;
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((acc >> bits) as u8);
-            acc &= (1 << bits) - 1;
-        }
-    }
-    out
 }
 
 /// Geometry that is malformed, degenerate or empty.
@@ -621,18 +576,7 @@ fn node_cases(out: &mut Vec<Case>) {
 pub fn heavy_case(name: &str) -> Case {
     match name {
         "nodes_million_flat" | "nodes_million_deep" => million_nodes(name),
-        "image_16k_by_16k" => {
-            let mut b = Builder::default();
-            let view = b.view(&big_png(16384));
-            let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
-            let mut doc = quad_doc(&mut b, json!({"material": 0}));
-            doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
-            doc["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
-            doc["textures"] = json!([{"source": 0}]);
-            doc["materials"] =
-                json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
-            case(name, "scene.glb", b.glb(doc), RENDERS)
-        }
+        "image_16k_by_16k" => case(name, "scene.glb", embedded_glb(&big_png(16384)), RENDERS),
         _ => panic!("no heavy case {name}"),
     }
 }
@@ -680,15 +624,7 @@ fn image_cases(out: &mut Vec<Case>) {
         }
     };
     let embedded = |name: &str, data: Vec<u8>, expect: Expect| {
-        let mut b = Builder::default();
-        let view = b.view(&data);
-        let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
-        let mut doc = quad_doc(&mut b, json!({"material": 0}));
-        doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
-        doc["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
-        doc["textures"] = json!([{"source": 0}]);
-        doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
-        case(name, "scene.glb", b.glb(doc), expect)
+        case(name, "scene.glb", embedded_glb(&data), expect)
     };
     out.push(with_image(
         "image_missing_file",
@@ -732,9 +668,10 @@ fn image_cases(out: &mut Vec<Case>) {
     // Five 16k² headers: more texels than a scene may hold, refused before any decoding.
     let mut b = Builder::default();
     let header = b.view(&png_header(16384, 16384));
-    let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
-    let mut doc = quad_doc(&mut b, json!({"material": 0}));
-    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
+    let mut doc = textured_in(
+        &mut b,
+        json!({"bufferView": header, "mimeType": "image/png"}),
+    );
     doc["images"] = json!((0..5)
         .map(|_| json!({"bufferView": header, "mimeType": "image/png"}))
         .collect::<Vec<_>>());
