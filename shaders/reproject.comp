@@ -119,7 +119,7 @@ void fill(uint q) {
             CacheEntry e = cache_prev[w];
             // Copies are made of samples that sit where their colour was computed (not of
             // fills or interpolations), so a colour moves at most one fill radius.
-            if ((e.meta.x & CACHE_DERIVED) != 0u || !project_sample(e, target, key, film)) {
+            if (cache_hops(e) >= params.max_hops || !project_sample(e, target, key, film)) {
                 continue;
             }
             float d = distance(film, centre);
@@ -298,13 +298,20 @@ void commit(uint q) {
                 }
             }
         }
-        e.meta.x |= CACHE_DERIVED;
+        e.meta.x = with_hops(e.meta.x, cache_hops(e) + 1u);
     }
     cache_next[q] = e;
 }
 
+// Compared as displayed, roughly (Reinhard, gamma 2.2): a linear difference that is
+// invisible in a bright region is a visible step in a dark one.
+vec3 display(vec3 c) {
+    vec3 v = max(c, vec3(0.0));
+    return pow(v / (1.0 + v), vec3(1.0 / 2.2));
+}
+
 float differ(vec3 x, vec3 y) {
-    vec3 d = abs(min(x, vec3(1.0)) - min(y, vec3(1.0)));
+    vec3 d = abs(display(x) - display(y));
     return max(d.x, max(d.y, d.z));
 }
 
@@ -363,7 +370,7 @@ void interpolate(uint q) {
             bool vd = surface_view_dependent(ng.w, n.w, uintBitsToFloat(ids.w), scene_material(material).alpha_mode, base.a);
             e.position = vec4(imageLoad(g_position, ip).xyz, 1.0);
             e.normal = vec4(ng.xyz, 0.0);
-            e.meta = uvec4(CACHE_VALID | CACHE_DERIVED | (vd ? CACHE_VIEW_DEPENDENT : 0u), material, ids.x, 0u);
+            e.meta = uvec4(with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u), material, ids.x, 0u);
         }
         cache_next[q] = e;
     }

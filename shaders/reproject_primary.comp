@@ -1,4 +1,4 @@
-// variants: hw
+// variants: hw bvh
 #version 460
 // Temporal reprojection, rt path: primary visibility for the pixels that hold a candidate
 // sample but cannot trust it without a look (all candidates, or those next to a depth edge,

@@ -1,4 +1,4 @@
-// variants: hw
+// variants: hw bvh
 #version 460
 // Temporal reprojection: traces the pixels on the job list (every pixel that needs new colour,
 // or one level of adaptive sub-sampling's samples) with the shared Whitted loop, writes their

@@ -49,12 +49,15 @@ fn dense_sphere(segments: u32) -> Scene {
 #[test]
 fn render_estimates_grow_with_what_they_allocate() {
     let s = settings(640, 480, 1);
-    let rt = s.estimate_bytes(RenderPath::Rt);
+    let rt = s.estimate_bytes(RenderPath::RayTraced);
     // Colour (16 B) + AOVs (48 B) + tonemap (4 B) per pixel, plus the adaptive corners.
     assert!(rt >= 640 * 480 * (16 + 48 + 4 + 16), "{rt}");
     assert!(rt <= 640 * 480 * 100, "{rt}");
     // The ray-traced path reuses its buffers for every sample; hybrid adds a G-buffer each.
-    assert_eq!(settings(640, 480, 64).estimate_bytes(RenderPath::Rt), rt);
+    assert_eq!(
+        settings(640, 480, 64).estimate_bytes(RenderPath::RayTraced),
+        rt
+    );
     let h1 = s.estimate_bytes(RenderPath::Hybrid);
     let h4 = settings(640, 480, 4).estimate_bytes(RenderPath::Hybrid);
     let gbuffer = (h4 - h1) / 3;
@@ -63,7 +66,7 @@ fn render_estimates_grow_with_what_they_allocate() {
         640 * 480 * (5 * 16 + 2 * 8 + 4),
         "7 targets + depth"
     );
-    assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::Rt) > 3 * rt);
+    assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced) > 3 * rt);
     // The largest storage buffer is the AOV array.
     assert_eq!(s.largest_buffer_bytes(), 640 * 480 * 48);
     // Absurd requests saturate instead of overflowing.

@@ -6,7 +6,7 @@ mod common;
 use std::process::Command;
 
 use glam::{Mat4, Vec3, Vec4};
-use rqr::accel::BackendChoice;
+use rqr::accel::{Backend, BackendChoice};
 use rqr::render::reproject::{PixelSource, RenderPath, ReuseOptions, RtVisibility};
 use rqr::render::sequence::{
     CameraAnimation, CameraPath, CameraPathSpec, Sequence, SequenceFrame, SequenceOptions,
@@ -18,8 +18,8 @@ use rqr::vk::Context;
 
 /// The three ways of checking reprojected samples.
 const MODES: [(RenderPath, RtVisibility); 3] = [
-    (RenderPath::Rt, RtVisibility::Edges),
-    (RenderPath::Rt, RtVisibility::Full),
+    (RenderPath::RayTraced, RtVisibility::Edges),
+    (RenderPath::RayTraced, RtVisibility::Full),
     (RenderPath::Hybrid, RtVisibility::Edges),
 ];
 
@@ -38,6 +38,15 @@ fn renderer(ctx: &Context, scene: &Scene) -> Renderer {
         BackendChoice::Auto.resolve(ctx.info()).unwrap().0,
     )
     .unwrap()
+}
+
+/// Both ray backends where the device has hardware ray queries, else the compute BVH.
+fn backends(ctx: &Context) -> Vec<Backend> {
+    let mut b = vec![Backend::Bvh];
+    if ctx.features().ray_query {
+        b.insert(0, Backend::Hw);
+    }
+    b
 }
 
 fn reproject() -> ReuseOptions {
@@ -81,7 +90,14 @@ fn assert_stats_add_up(frame: &SequenceFrame) {
 fn static_camera_reprojection_equals_full_renders() {
     let ctx = common::gpu();
     let scene = cornell();
-    let r = renderer(&ctx, &scene);
+    for backend in backends(&ctx) {
+        static_camera_on(&ctx, &scene, backend);
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+fn static_camera_on(ctx: &Context, scene: &Scene, backend: Backend) {
+    let r = Renderer::new(ctx, scene, backend).unwrap();
     let s = settings(64);
     for (path, visibility) in MODES {
         let options = SequenceOptions {
@@ -93,9 +109,9 @@ fn static_camera_reprojection_equals_full_renders() {
             reference: true,
         };
         let mut seq = Sequence::new(
-            &ctx,
+            ctx,
             &r,
-            &scene,
+            scene,
             &s,
             scene.cameras[0],
             CameraPath::Static,
@@ -103,13 +119,13 @@ fn static_camera_reprojection_equals_full_renders() {
         )
         .unwrap();
         for k in 0..3 {
-            let f = seq.render_frame(&ctx, k).unwrap();
+            let f = seq.render_frame(ctx, k).unwrap();
             assert_stats_add_up(&f);
             let full = f.reference_output.as_ref().unwrap();
             let d = max_diff(full, &f.output);
             assert!(
                 d < 2e-3,
-                "{path:?} {visibility:?} frame {k}: max difference {d}"
+                "{backend:?} {path:?} {visibility:?} frame {k}: max difference {d}"
             );
             if k == 0 {
                 assert_eq!(f.stats.traced, f.stats.pixels, "the first frame is full");
@@ -128,7 +144,6 @@ fn static_camera_reprojection_equals_full_renders() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
 }
 
 /// With RQR_DEBUG_DIR set: writes sources | frame | reference, 4x, for looking at failures.
@@ -333,7 +348,14 @@ fn project(camera: &Camera, size: u32, p: Vec3) -> Option<usize> {
 fn disocclusions_are_traced_not_smeared() {
     let ctx = common::gpu();
     let scene = block_before_wall();
-    let r = renderer(&ctx, &scene);
+    for backend in backends(&ctx) {
+        let r = Renderer::new(&ctx, &scene, backend).unwrap();
+        disocclusions_on(&ctx, &scene, &r);
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+fn disocclusions_on(ctx: &Context, scene: &Scene, r: &Renderer) {
     let size = 64;
     // 6 degrees about the wall's centre: the block shifts by several pixels over the wall.
     let path = CameraPath::Orbit {
@@ -341,17 +363,13 @@ fn disocclusions_are_traced_not_smeared() {
         pivot: Vec3::ZERO,
     };
     for mode in MODES {
-        let mut seq = sequence(&ctx, &r, &scene, size, path.clone(), mode, reproject());
-        let f0 = seq.render_frame(&ctx, 0).unwrap();
-        let f1 = seq.render_frame(&ctx, 1).unwrap();
+        let mut seq = sequence(ctx, r, scene, size, path.clone(), mode, reproject());
+        let f0 = seq.render_frame(ctx, 0).unwrap();
+        let f1 = seq.render_frame(ctx, 1).unwrap();
         debug_dump(&f1, &format!("disocclusion_{mode:?}"));
         assert_stats_add_up(&f1);
-        let a0 = r
-            .render_rt(&ctx, &settings(size), &f0.camera, true)
-            .unwrap();
-        let a1 = r
-            .render_rt(&ctx, &settings(size), &f1.camera, true)
-            .unwrap();
+        let a0 = r.render_rt(ctx, &settings(size), &f0.camera, true).unwrap();
+        let a1 = r.render_rt(ctx, &settings(size), &f1.camera, true).unwrap();
         // Wall pixels of frame 1 whose wall point frame 0 saw behind the block.
         let revealed: Vec<usize> = (0..a1.aov.len())
             .filter(|&i| {
@@ -394,7 +412,6 @@ fn disocclusions_are_traced_not_smeared() {
             rc.diff.flip_mean
         );
     }
-    common::assert_validation_clean(&ctx);
 }
 
 #[test]

@@ -12,13 +12,17 @@
 #define CACHE_VALID 1u
 #define CACHE_MISS 2u            // position holds the unit ray direction (a point at infinity)
 #define CACHE_VIEW_DEPENDENT 4u  // specular/transmissive: never reused
-#define CACHE_DERIVED 8u         // a fill's or an interpolation's colour: never copied by a fill
+// Bits 8-15 of the flags: how many fills away from where it was computed the colour is (an
+// interpolated colour counts as one); a fill copies only samples below params.max_hops.
+#define CACHE_HOPS_SHIFT 8u
 struct CacheEntry {
     vec4 color;     // rgb: linear radiance; a: 1
     vec4 position;  // xyz: world position of the primary hit (a miss: unit direction)
     vec4 normal;    // xyz: geometric normal of the glTF front face
     uvec4 meta;     // x: CACHE_* flags, y: material, z: instance, w: age in frames
 };
+uint cache_hops(CacheEntry e) { return (e.meta.x >> CACHE_HOPS_SHIFT) & 255u; }
+uint with_hops(uint flags, uint hops) { return (flags & ~(255u << CACHE_HOPS_SHIFT)) | (min(hops, 255u) << CACHE_HOPS_SHIFT); }
 
 // Pixel state: a kind in the low bits plus the reasons that led to it (for statistics).
 #define PX_KIND_MASK 15u
@@ -81,7 +85,7 @@ layout(set = 0, binding = 4, scalar) uniform Params {
     float specular_metallic;   // metallic at or above: view-dependent
     float specular_roughness;  // roughness below: view-dependent (Whitted mirror term)
     float fill_radius;         // an empty pixel takes a neighbour's sample this close (pixels)
-    uint pad0;
+    uint max_hops;             // fills copy samples fewer hops than this from their origin
 } params;
 
 layout(set = 0, binding = 5, scalar) readonly buffer CachePrev { CacheEntry cache_prev[]; };

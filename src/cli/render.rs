@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use clap::{Args, ValueEnum};
-use rqr::render::reproject::{RenderPath, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD};
+use rqr::render::reproject::{
+    PixelSource, RenderPath, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
+};
 use rqr::render::sequence::{
     self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
     SequenceSummary,
@@ -88,7 +90,7 @@ pub struct SequenceArgs {
     #[arg(long)]
     adaptive_subsample: bool,
     /// Adaptive sub-sampling: interpolate a block when its samples differ by at most this
-    /// (largest channel difference, colours clamped to 1).
+    /// (largest channel difference of the colours as displayed: x/(1+x), gamma 1/2.2).
     #[arg(long, default_value_t = DEFAULT_SUBSAMPLE_THRESHOLD)]
     subsample_threshold: f32,
     /// Re-trace samples older than K frames (default: no limit).
@@ -107,6 +109,10 @@ pub struct SequenceArgs {
     /// Write a PNG chart of rays per frame and FLIP over the sequence.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Also write out_NNNN.sources.png per frame: reused pixels grey, traced red,
+    /// interpolated green.
+    #[arg(long)]
+    sources: bool,
 }
 
 impl SequenceArgs {
@@ -352,7 +358,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     log::info!("backend {} ({reason})", backend.as_str());
     let renderer = Renderer::new(&ctx, &scene, backend)?;
     let render_path = match args.mode {
-        Mode::Rt => RenderPath::Rt,
+        Mode::Rt => RenderPath::RayTraced,
         Mode::Hybrid => RenderPath::Hybrid,
     };
     let mut sequence = Sequence::new(
@@ -381,6 +387,26 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
             output::write_exr(&file, &frame.output)?;
         } else {
             output::write_png(&file, &frame.output)?;
+        }
+        if seq.sources {
+            let rgb: Vec<u8> = frame
+                .sources
+                .iter()
+                .flat_map(|s| match s {
+                    PixelSource::Reused => [96, 96, 96],
+                    PixelSource::Traced => [230, 40, 30],
+                    PixelSource::Interpolated => [40, 200, 60],
+                })
+                .collect();
+            let path = file.with_extension("sources.png");
+            image::save_buffer(
+                &path,
+                &rgb,
+                settings.width,
+                settings.height,
+                image::ColorType::Rgb8,
+            )
+            .with_context(|| format!("cannot write '{}'", path.display()))?;
         }
         let summary = frame.summary();
         if args.json {

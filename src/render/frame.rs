@@ -3,7 +3,6 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 
-use super::reproject::RenderPath;
 use crate::scene::{Camera, Projection};
 
 /// Sub-pixel sample placement (`--sampler`).
@@ -200,6 +199,15 @@ impl RenderSettings {
     }
 }
 
+/// Which rendering path a memory estimate is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderPath {
+    /// [`super::Renderer::render_rt`].
+    RayTraced,
+    /// [`super::Renderer::render_hybrid`] (one G-buffer per sample).
+    Hybrid,
+}
+
 /// Bytes per texel of the formats the passes allocate.
 fn format_bytes(format: ash::vk::Format) -> u64 {
     use ash::vk::Format;
@@ -228,7 +236,7 @@ impl RenderSettings {
         let aov = std::mem::size_of::<super::Aov>() as u64;
         let tonemapped = 4;
         match path {
-            RenderPath::Rt => {
+            RenderPath::RayTraced => {
                 let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1);
                 pixels * (RGBA32F + aov + tonemapped) + corners * RGBA32F
             }
@@ -285,7 +293,7 @@ impl RenderSettings {
                 self.height,
                 self.spp,
                 match path {
-                    RenderPath::Rt => "ray traced",
+                    RenderPath::RayTraced => "ray traced",
                     RenderPath::Hybrid => "hybrid",
                 },
                 mib(needed),
@@ -293,7 +301,7 @@ impl RenderSettings {
                 mib(heap),
                 info.name,
                 match path {
-                    RenderPath::Rt => "",
+                    RenderPath::RayTraced => "",
                     RenderPath::Hybrid => " or --spp (the hybrid path keeps one G-buffer per sample)",
                 }
             )));

@@ -33,6 +33,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
+pub use super::frame::RenderPath;
 use super::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind};
 use super::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
 use super::tonemap::TonemapPass;
@@ -61,6 +62,11 @@ pub const SPECULAR_ROUGHNESS: f32 = 0.5;
 /// lies within this many pixels of its centre, then goes through the visibility tests like
 /// any other sample.
 pub const FILL_RADIUS: f32 = 1.0;
+/// Fills copy only samples whose colour was traced where they are (0 hops); a fill's copy
+/// and an interpolated colour count one hop, so a colour is never more than one fill radius
+/// from where it was computed (copying copies lets sub-pixel errors add up: FLIP 0.035 →
+/// 0.047 over a 30-frame orbit with 3 hops).
+pub const MAX_FILL_HOPS: u32 = 1;
 /// Default `--subsample-threshold`.
 pub const DEFAULT_SUBSAMPLE_THRESHOLD: f32 = 0.05;
 
@@ -78,17 +84,6 @@ pub enum RtVisibility {
     Edges,
 }
 
-/// Which rendering path a sequence uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum RenderPath {
-    /// Pure ray tracing.
-    #[default]
-    Rt,
-    /// Raster G-buffer for primary visibility, ray-traced secondary rays.
-    Hybrid,
-}
-
 /// What a sequence may reuse between frames.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ReuseOptions {
@@ -99,8 +94,8 @@ pub struct ReuseOptions {
     pub frameless_percent: Option<f32>,
     /// Adaptive sub-sampling of the pixels that need new colour (`--adaptive-subsample`).
     pub adaptive_subsample: bool,
-    /// Interpolate a block when its samples differ by at most this (per channel, colours
-    /// clamped to 1).
+    /// Interpolate a block when its samples differ by at most this: the largest channel
+    /// difference of the colours as displayed (x / (1 + x), then gamma 1/2.2).
     pub subsample_threshold: f32,
     /// Re-trace samples older than this many frames (`None`: no limit).
     pub max_age: Option<u32>,
@@ -231,7 +226,7 @@ struct GpuParams {
     specular_metallic: f32,
     specular_roughness: f32,
     fill_radius: f32,
-    pad: u32,
+    max_hops: u32,
 }
 
 /// `reproject.glsl`'s `CacheEntry`.
@@ -280,14 +275,14 @@ const GROUP: u32 = 64;
 fn primary_spirv(backend: Backend) -> &'static [u8] {
     match backend {
         Backend::Hw => crate::shaders::REPROJECT_PRIMARY_COMP_HW,
-        Backend::Bvh => crate::shaders::REPROJECT_PRIMARY_COMP_HW,
+        Backend::Bvh => crate::shaders::REPROJECT_PRIMARY_COMP_BVH,
     }
 }
 
 fn trace_spirv(backend: Backend) -> &'static [u8] {
     match backend {
         Backend::Hw => crate::shaders::REPROJECT_TRACE_COMP_HW,
-        Backend::Bvh => crate::shaders::REPROJECT_TRACE_COMP_HW,
+        Backend::Bvh => crate::shaders::REPROJECT_TRACE_COMP_BVH,
     }
 }
 
@@ -344,8 +339,15 @@ impl<'r> Reprojector<'r> {
         settings: &RenderSettings,
         options: ReuseOptions,
     ) -> crate::Result<Self> {
+        // The cache and the per-pixel buffers come on top of what a full render of the same
+        // path needs (a sequence with --reference makes one per frame).
         settings
-            .validate(ctx.info().max_image_dimension_2d)
+            .check_device(
+                ctx.info(),
+                path,
+                ctx.allocated_bytes()
+                    .saturating_add(Self::estimate_bytes(settings)),
+            )
             .map_err(|e| VkError::Limit(e.to_string()))?;
         options.validate().map_err(VkError::Limit)?;
         if settings.spp != 1 || settings.sampler != SamplerKind::Center {
@@ -388,7 +390,7 @@ impl<'r> Reprojector<'r> {
             RenderPath::Hybrid => {
                 Visibility::Raster(Box::new(GbufferPass::new(ctx, &pass, &frame, extent)?))
             }
-            RenderPath::Rt => Visibility::Traced(
+            RenderPath::RayTraced => Visibility::Traced(
                 GBUFFER_FORMATS
                     .iter()
                     .enumerate()
@@ -500,6 +502,21 @@ impl<'r> Reprojector<'r> {
         })
     }
 
+    /// Device memory of the reprojection buffers and images for `settings` (two caches,
+    /// per-pixel keys, winners, states, colour, jobs, tonemapped output, and the rt path's
+    /// G-buffer images).
+    pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
+        let pixels = u64::from(settings.width) * u64::from(settings.height);
+        let gbuffer: u64 = GBUFFER_FORMATS
+            .iter()
+            .map(|&f| match f {
+                vk::Format::R16G16B16A16_SFLOAT => 8,
+                _ => 16,
+            })
+            .sum();
+        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + 4 * 4 + 16 + 4 + gbuffer)
+    }
+
     /// Empties the cache: the next frame traces every pixel (the start of a frame range).
     pub fn reset(&mut self) {
         self.has_history = false;
@@ -558,7 +575,7 @@ impl<'r> Reprojector<'r> {
             specular_metallic: SPECULAR_METALLIC,
             specular_roughness: SPECULAR_ROUGHNESS,
             fill_radius: FILL_RADIUS,
-            pad: 0,
+            max_hops: MAX_FILL_HOPS,
         };
         self.params.write(bytemuck::bytes_of(&params))?;
 
@@ -589,13 +606,9 @@ impl<'r> Reprojector<'r> {
                 p.reset(cmd);
             }
             match &self.visibility {
-                Visibility::Raster(g) => g.record(
-                    ctx,
-                    cmd,
-                    draws,
-                    setup.camera_to_world.w_axis.truncate(),
-                    profiler.as_mut(),
-                ),
+                Visibility::Raster(g) => {
+                    g.record(ctx, cmd, draws, camera.position(), profiler.as_mut())
+                }
                 Visibility::Traced(images) => {
                     for image in images {
                         image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
@@ -626,7 +639,7 @@ impl<'r> Reprojector<'r> {
             if let Some(p) = profiler.as_mut() {
                 p.end(cmd);
             }
-            if (reuse || o.adaptive_subsample) && self.path == RenderPath::Rt {
+            if (reuse || o.adaptive_subsample) && self.path == RenderPath::RayTraced {
                 reset_jobs(cmd);
                 stage(cmd, STAGE_GATHER, GATHER_VERIFY, groups);
                 if let Some(p) = profiler.as_mut() {

@@ -363,7 +363,7 @@ fn track<T: Copy>(
 }
 
 /// How a sequence renders its frames.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SequenceOptions {
     /// Rendering path.
     pub path: RenderPath,
@@ -615,7 +615,7 @@ impl<'r> Sequence<'r> {
 
     fn full_render(&self, ctx: &Context, camera: &Camera) -> crate::Result<RenderOutput> {
         match self.options.path {
-            RenderPath::Rt => self.renderer.render_rt(ctx, &self.settings, camera, false),
+            RenderPath::RayTraced => self.renderer.render_rt(ctx, &self.settings, camera, false),
             RenderPath::Hybrid => {
                 self.renderer
                     .render_hybrid(ctx, &self.draws, &self.settings, camera, false)
