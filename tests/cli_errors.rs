@@ -3,32 +3,12 @@
 //! without Vulkan validation errors.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Output;
+use std::time::Duration;
 
-/// Runs `rqr args` with `env`, killing it after `limit` (a hang fails the test).
-fn rqr(args: &[&str], env: &[(&str, &str)], limit: Duration) -> (Output, Duration) {
-    let start = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_rqr"))
-        .args(args)
-        .envs(env.iter().copied())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("running rqr");
-    while child.try_wait().expect("waiting for rqr").is_none() {
-        if start.elapsed() > limit {
-            child.kill().ok();
-            let out = child.wait_with_output().unwrap();
-            panic!(
-                "rqr {args:?} still running after {limit:?} (killed); stderr: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    (child.wait_with_output().unwrap(), start.elapsed())
-}
+mod common;
+
+use common::run_rqr as rqr;
 
 /// Environment in which any Vulkan use fails with "no Vulkan device" (exit code 2).
 const NO_VULKAN: &[(&str, &str)] = &[

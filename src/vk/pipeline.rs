@@ -222,20 +222,29 @@ impl ComputePipeline {
     }
 }
 
+/// Destroys a pipeline with its layouts once no submission can use them.
+fn retire_pipeline(
+    shared: &Shared,
+    pipeline: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+) {
+    shared.retire(move |shared| {
+        // SAFETY: no submission using the pipeline is pending (submissions wait; `retire`
+        // defers past submissions that timed out).
+        unsafe {
+            shared.device.destroy_pipeline(pipeline, None);
+            shared.device.destroy_pipeline_layout(layout, None);
+            shared
+                .device
+                .destroy_descriptor_set_layout(set_layout, None);
+        }
+    });
+}
+
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
-        let (pipeline, layout, set_layout) = (self.pipeline, self.layout, self.set_layout);
-        self.shared.retire(move |shared| {
-            // SAFETY: no submission using the pipeline is pending (submissions wait;
-            // `retire` defers past submissions that timed out).
-            unsafe {
-                shared.device.destroy_pipeline(pipeline, None);
-                shared.device.destroy_pipeline_layout(layout, None);
-                shared
-                    .device
-                    .destroy_descriptor_set_layout(set_layout, None);
-            }
-        });
+        retire_pipeline(&self.shared, self.pipeline, self.layout, self.set_layout);
     }
 }
 
@@ -614,17 +623,6 @@ impl GraphicsPipeline {
 
 impl Drop for GraphicsPipeline {
     fn drop(&mut self) {
-        let (pipeline, layout, set_layout) = (self.pipeline, self.layout, self.set_layout);
-        self.shared.retire(move |shared| {
-            // SAFETY: no submission using the pipeline is pending (submissions wait;
-            // `retire` defers past submissions that timed out).
-            unsafe {
-                shared.device.destroy_pipeline(pipeline, None);
-                shared.device.destroy_pipeline_layout(layout, None);
-                shared
-                    .device
-                    .destroy_descriptor_set_layout(set_layout, None);
-            }
-        });
+        retire_pipeline(&self.shared, self.pipeline, self.layout, self.set_layout);
     }
 }

@@ -3,13 +3,15 @@
 //! file and the element (exit code 1), or loads with the documented warning and then renders
 //! with every backend; never a panic, a hang or a validation error.
 
+#[path = "../common/mod.rs"]
+mod common;
 #[path = "../scene_util/mod.rs"]
 mod scene_util;
 
 mod corpus;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -39,47 +41,9 @@ fn write_case(dir: &Path, case: &Case) -> PathBuf {
     d.join(&case.files[0].0)
 }
 
-/// Runs `rqr args`, killing it after `limit`.
+/// Runs `rqr args` with validation on, killing it after `limit`.
 fn rqr(args: &[&str], limit: Duration) -> (Output, Duration) {
-    let start = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_rqr"))
-        .args(args)
-        .env("RQR_VALIDATION", "1")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("running rqr");
-    // Drain the pipes while waiting: a chatty child must not block on a full pipe.
-    let stdout = child.stdout.take().unwrap();
-    let stderr = child.stderr.take().unwrap();
-    let read = |mut r: Box<dyn std::io::Read + Send>| {
-        std::thread::spawn(move || {
-            let mut v = Vec::new();
-            r.read_to_end(&mut v).ok();
-            v
-        })
-    };
-    let (out_t, err_t) = (read(Box::new(stdout)), read(Box::new(stderr)));
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > limit {
-            child.kill().ok();
-            child.wait().ok();
-            panic!(
-                "rqr {args:?} still running after {limit:?} (killed); stderr: {}",
-                String::from_utf8_lossy(&err_t.join().unwrap())
-            );
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
-    let out = Output {
-        status,
-        stdout: out_t.join().unwrap(),
-        stderr: err_t.join().unwrap(),
-    };
-    (out, start.elapsed())
+    common::run_rqr(args, &[("RQR_VALIDATION", "1")], limit)
 }
 
 /// Loads in a thread with a deadline: `Ok(scene stats)` or `Err(message)`.
