@@ -636,7 +636,7 @@ impl<'r> Sequence<'r> {
                     output,
                     sources,
                     stats,
-                } = r.render(ctx, &self.draws, &camera, index)?;
+                } = r.render(ctx, &self.draws, &camera)?;
                 (output, sources, stats)
             }
             None => {
