@@ -27,7 +27,9 @@
 //!
 //! Reused samples keep the world position where their colour was computed (as in the Render
 //! Cache, Walter et al. 1999), so the error of a reused pixel stays within its footprint and
-//! does not drift. Interpolated colours are never cached.
+//! does not drift. Fills and interpolated pixels are cached at their own primary hit, flagged
+//! so that fills never copy them ([`MAX_FILL_HOPS`]): no colour moves more than one fill
+//! radius from where it was computed.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
