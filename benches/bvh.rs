@@ -4,7 +4,8 @@
 //! ```sh
 //! . scripts/env.sh
 //! cargo bench --bench bvh -- [--mesh PATH] [--size 512] [--iters 5] [--backend bvh|hw|both]
-//!                            [--leaf N] [--build-only] [--build-mesh PATH]...
+//!     [--leaf N] [--collapse-cost X] [--reinsertion X] [--build-only] [--build-mesh PATH]...
+//!     [--spv VARIANT.spv [--wg XxY] [--stats]] [--timeout-s N]
 //! ```
 //! Defaults: `/work/shared/meshes/bumpy_sphere_100k.glb`, 512x512, camera at (0, 0, 2.5)
 //! looking at the origin, vertical fov 45 degrees (the Embree reference set-up).
@@ -13,7 +14,6 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
 use rqr::accel::bvh::testing::{load_mesh, scene_of};
 use rqr::accel::bvh::{BvhBuildOptions, BvhData, GpuBvh};
 use rqr::accel::hw::HwAccel;
@@ -199,9 +199,6 @@ fn main() {
                 binding,
                 Binding::StorageBuffer,
                 Binding::StorageBuffer,
-                // Experiments: nodes and triangles as storage buffers.
-                Binding::StorageBuffer,
-                Binding::StorageBuffer,
             ],
             std::mem::size_of::<Push>() as u32,
         )
@@ -215,11 +212,6 @@ fn main() {
         if backend == "hw" {
             let hw = HwAccel::build(&ctx, &scene, &gpu_scene).expect("hw build");
             set.acceleration_structure(2, hw.tlas());
-            set.buffer(5, &primary, Binding::StorageBuffer).buffer(
-                6,
-                &primary,
-                Binding::StorageBuffer,
-            );
             _keep_hw = Some(hw);
         } else {
             let t = Instant::now();
@@ -230,8 +222,6 @@ fn main() {
                 b.device_bytes() as f64 / (1024.0 * 1024.0)
             );
             b.bind(&set);
-            set.buffer(5, b.nodes_buffer(), Binding::StorageBuffer)
-                .buffer(6, b.triangles_buffer(), Binding::StorageBuffer);
             _keep_bvh = Some(b);
         }
         let [wx, wy] = if backend == "hw" || args.spv.is_none() {
@@ -330,7 +320,6 @@ fn main() {
             prim_hits as f64 / bmin / 1e3,
             prim_ms.iter().map(|x| (x * 10.0).round() / 10.0).collect::<Vec<_>>(),
         );
-        let _ = Vec3::ZERO;
     }
 }
 

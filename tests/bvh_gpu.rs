@@ -56,7 +56,7 @@ fn bvh_records_match_glsl_layout() {
     assert_eq!(refs.instances % 8, 0);
     // The loaders skip what traversal never reads: node counts, instance geometry and pad.
     let mut node_loaded = node;
-    node_loaded.prim_counts = [0; 2];
+    node_loaded.reserved = [0; 2];
     let mut inst_loaded = inst;
     inst_loaded.geometry = 0;
     inst_loaded.pad = 0;

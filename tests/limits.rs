@@ -10,10 +10,12 @@ use common::{assert_validation_clean, gpu};
 use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};
-use rqr::render::{gbuffer, RenderPath, RenderSettings, Renderer};
+use rqr::render::reproject::RenderPath;
+use rqr::render::{gbuffer, RenderSettings, Renderer};
 use rqr::scene::gpu::GpuScene;
 use rqr::scene::procedural::{assemble, cornell, look_at, sphere};
-use rqr::scene::{Instance, Material, Scene};
+use rqr::scene::textures::GpuTextures;
+use rqr::scene::{ImageData, Instance, Material, Scene};
 use rqr::vk::VkError;
 
 fn settings(width: u32, height: u32, spp: u32) -> RenderSettings {
@@ -77,6 +79,33 @@ fn memory_checks_refuse_work_before_allocating() {
     let mut ctx = gpu();
     let scene = dense_sphere(300); // ~180k triangles
     let gpu_scene = GpuScene::upload(&ctx, &scene, 0).unwrap();
+
+    // Scene buffers and textures: checked against what is left of the heap.
+    ctx.limit_device_memory(ctx.allocated_bytes() + (4 << 20));
+    let err = GpuScene::upload(&ctx, &scene, 0)
+        .err()
+        .expect("~10 MB of mesh data in 4 MiB");
+    assert!(
+        err.to_string().contains("the scene's meshes need about"),
+        "{err}"
+    );
+    assert!(GpuScene::upload(&ctx, &cornell(), 0).is_ok());
+    let mut textured = cornell();
+    textured.images.push(ImageData {
+        width: 2048,
+        height: 2048,
+        rgba8: vec![255; 2048 * 2048 * 4],
+        srgb: true,
+    });
+    let err = GpuTextures::upload(&ctx, &textured)
+        .err()
+        .expect("a 16 MiB texture in 4 MiB");
+    assert!(
+        err.to_string().contains("the scene's textures need about"),
+        "{err}"
+    );
+
+    // Acceleration structures and the BVH: checked against the heap before building.
     ctx.limit_device_memory(4 << 20);
 
     let err = GpuBvh::build(&ctx, &scene, &BvhBuildOptions::default())

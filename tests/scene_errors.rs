@@ -4,7 +4,7 @@
 mod scene_util;
 
 use rqr::scene::{self, LoadOptions, Scene, SceneError};
-use scene_util::{asset, bytes, png, quad_doc, Builder};
+use scene_util::{asset, bytes, png, png_header, quad_doc, Builder};
 use serde_json::{json, Value};
 
 fn load_doc(doc: &Value) -> Result<Scene, SceneError> {
@@ -29,42 +29,6 @@ fn quad() -> (Builder, Value) {
 
 /// A change to a document, paired with the error it must cause.
 type Edit = fn(&mut Value);
-
-/// A PNG whose header claims `width` x `height` (without the pixel data).
-fn png_header(width: u32, height: u32) -> Vec<u8> {
-    fn crc32(data: &[u8]) -> u32 {
-        let mut c = 0xFFFF_FFFFu32;
-        for &b in data {
-            c ^= u32::from(b);
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    }
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    let mut chunk = |kind: &[u8], data: &[u8]| {
-        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-        let mut body = kind.to_vec();
-        body.extend_from_slice(data);
-        out.extend_from_slice(&body);
-        out.extend_from_slice(&crc32(&body).to_be_bytes());
-    };
-    let mut ihdr = Vec::new();
-    ihdr.extend_from_slice(&width.to_be_bytes());
-    ihdr.extend_from_slice(&height.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
-    chunk(b"IHDR", &ihdr);
-    // An empty zlib stream: far too little pixel data, which decoders notice only after
-    // reading the header.
-    chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]);
-    chunk(b"IEND", &[]);
-    out
-}
 
 /// A textured quad whose only image is `image` (a JSON image object, e.g. with a uri).
 fn textured(b: &mut Builder, image: Value) -> Value {

@@ -6,6 +6,7 @@
 #include "scene.glsl"
 #include "trace.glsl"
 
+// Workgroup shape (experiments compile other shapes with glslc -D, see benches/bvh.rs --wg).
 #ifndef BENCH_WG_X
 #define BENCH_WG_X 8
 #define BENCH_WG_Y 8
@@ -46,14 +47,7 @@ float rnd(inout uint s) {
 }
 
 void main() {
-#ifdef BENCH_SWIZZLE
-    // Each run of 8 consecutive invocations (one SIMD vector on lavapipe) covers a 4x2 block.
-    uint li = gl_LocalInvocationIndex;
-    uint g = li >> 3u, j = li & 7u;
-    uvec2 px = gl_WorkGroupID.xy * uvec2(8u) + uvec2((j & 3u) + 4u * (g & 1u), (j >> 2u) + 2u * (g >> 1u));
-#else
     uvec2 px = gl_GlobalInvocationID.xy;
-#endif
     if (px.x >= pc.width || px.y >= pc.height) {
         return;
     }

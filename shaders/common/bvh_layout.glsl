@@ -9,19 +9,18 @@
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
-// Inner node (64 bytes): boxes of child 0 and 1, their links, their primitive counts.
+// Inner node (64 bytes) of the 4-wide BVH: child boxes quantized to 8 bits per plane in the
+// node's frame (box = origin + q * scale, scale = 2^(exponent - 127) per axis), and links.
 // Link bit 31 clear: inner node index. Bit 31 set: leaf of ((link >> 27) & 15) + 1 primitives
 // starting at (link & 0x07FFFFFF) (triangles in a bottom level, one scene instance in the top
-// level). Absent children have inverted boxes (min = +inf, max = -inf).
+// level). Unused slots: link 0xFFFFFFFF, inverted box (q_min 255, q_max 0).
 struct BvhNode {
-    vec3 min0;
-    vec3 max0;
-    vec3 min1;
-    vec3 max1;
-    uint link0;
-    uint link1;
-    uint count0; // statistics and tests only; traversal never loads the counts
-    uint count1;
+    vec3 origin;
+    uint exponents; // byte k: biased exponent of axis k's scale
+    uint planes[6]; // min_x max_x min_y max_y min_z max_z; byte c = child c
+    uint links[4];
+    uint reserved0;
+    uint reserved1;
 };
 
 // Three exact vertex copies (object space) and the triangle's original index (40 bytes).
@@ -44,7 +43,8 @@ struct BvhInstance {
 #define BVH_LINK_COUNT_SHIFT 27
 #define BVH_LINK_FIRST_MASK 0x07FFFFFFu
 #define BVH_INSTANCE_ALPHA_TEST 1u
-#define BVH_STACK_SIZE 64
+#define BVH_STACK_SIZE 96
+#define BVH_LINK_EMPTY 0xFFFFFFFFu
 
 layout(set = 0, binding = 2, scalar) uniform BvhRefs {
     uint64_t nodes;     // BvhNode[]: top level (root = node 0), then every bottom level
@@ -64,21 +64,27 @@ layout(buffer_reference, scalar, buffer_reference_align = 8) readonly buffer Bvh
 vec2 bvh_floats(uint64_t x) { return uintBitsToFloat(unpackUint2x32(x)); }
 uvec2 bvh_uints(uint64_t x) { return unpackUint2x32(x); }
 
-// Boxes and links of node `i` (the counts are not loaded and read as 0).
+// Node `i` without its reserved words (read as 0).
 BvhNode bvh_load_node(uint i) {
     BvhWords p = BvhWords(bvh.nodes + uint64_t(i) * 64ul);
-    vec2 a = bvh_floats(p.w[0]), b = bvh_floats(p.w[1]), c = bvh_floats(p.w[2]);
-    vec2 d = bvh_floats(p.w[3]), e = bvh_floats(p.w[4]), f = bvh_floats(p.w[5]);
     BvhNode n;
-    n.min0 = vec3(a, b.x);
-    n.max0 = vec3(b.y, c);
-    n.min1 = vec3(d, e.x);
-    n.max1 = vec3(e.y, f);
-    uvec2 links = bvh_uints(p.w[6]);
-    n.link0 = links.x;
-    n.link1 = links.y;
-    n.count0 = 0u;
-    n.count1 = 0u;
+    vec2 o = bvh_floats(p.w[0]);
+    uvec2 oe = bvh_uints(p.w[1]);
+    n.origin = vec3(o, uintBitsToFloat(oe.x));
+    n.exponents = oe.y;
+    for (int k = 0; k < 3; ++k) {
+        uvec2 q = bvh_uints(p.w[2 + k]);
+        n.planes[2 * k] = q.x;
+        n.planes[2 * k + 1] = q.y;
+    }
+    uvec2 l01 = bvh_uints(p.w[5]);
+    uvec2 l23 = bvh_uints(p.w[6]);
+    n.links[0] = l01.x;
+    n.links[1] = l01.y;
+    n.links[2] = l23.x;
+    n.links[3] = l23.y;
+    n.reserved0 = 0u;
+    n.reserved1 = 0u;
     return n;
 }
 

@@ -5,8 +5,9 @@
 //
 // Traversal: one explicit stack for both levels. A top-level leaf (an instance) switches the
 // ray to object space and remembers the stack height; popping back to that height switches
-// it back. Each inner node holds both children's boxes: both are slab-tested, the nearer hit
-// child is visited next and the farther one pushed.
+// it back. Each 4-wide node holds its children's quantized boxes: all are slab-tested, the
+// nearest hit child is visited next and the others are pushed with their entry distances
+// (popped entries beyond the closest hit so far are dropped without a node load).
 #include "bvh_layout.glsl"
 
 // Direction components smaller than this are clamped (keeping their sign) before 1/d so that
@@ -16,7 +17,7 @@
 struct BvhRay {
     vec3 origin;
     vec3 inv_dir;     // 1 / dir
-    vec3 o_times_inv; // -origin * inv_dir: each slab plane is one fma(p, inv_dir, o_times_inv)
+    vec3 o_times_inv; // -origin * inv_dir: a plane p is at t = fma(p, inv_dir, o_times_inv)
     bvec3 neg;        // dir < 0: the near plane is the box max on that axis
     ivec3 k;          // watertight test axes (kx, ky, kz), kz = dominant axis of dir
     vec3 shear;       // (dir[kx] / dir[kz], dir[ky] / dir[kz], 1 / dir[kz])
@@ -47,18 +48,11 @@ BvhRay bvh_make_ray(vec3 origin, vec3 dir) {
     return r;
 }
 
-// Slab test of one box against [tmin, tmax]: near/far planes are picked by the sign of the
-// direction, so an inverted (empty) box never hits. `entry` orders the children.
-bool bvh_slab(BvhRay r, vec3 bmin, vec3 bmax, float tmin, float tmax, out float entry) {
-    vec3 tnear = fma(mix(bmin, bmax, r.neg), r.inv_dir, r.o_times_inv);
-    vec3 tfar = fma(mix(bmax, bmin, r.neg), r.inv_dir, r.o_times_inv);
-    entry = max(max(tnear.x, tnear.y), max(tnear.z, tmin));
-    float exit_ = min(min(tfar.x, tfar.y), min(tfar.z, tmax));
-    return entry <= exit_;
-}
-
-// a * b - c * d with a correctly signed result (Kahan's algorithm; needs a fused fma): the
-// fallback of the watertight test where the plain product difference rounds to zero.
+// a * b - c * d, re-evaluated where the watertight test's plain difference rounds to zero.
+// With a fused fma (GPUs) Kahan's algorithm gives the correctly signed value. Where fma() is a
+// multiply and an add (lavapipe; tests/bvh_gpu.rs reports which) it degenerates to the plain
+// difference, which keeps the test watertight all the same: a non-zero plain difference always
+// has the right sign and zero counts as inside; only the tie-break on the edge itself is lost.
 float bvh_diff_of_products(float a, float b, float c, float d) {
     precise float cd = c * d;
     precise float err = fma(-c, d, cd);
@@ -123,6 +117,24 @@ uint bvh_stat_iters = 0u;
 #define BVH_COUNT(x)
 #endif
 
+#define BVH_MISS 3.0e38
+
+// Entry distance of child `shift / 8` of node `n`, or BVH_MISS. Near and far planes are picked
+// by the sign of the direction, so an unused slot (inverted box) never hits.
+float bvh_child_entry(BvhRay r, BvhNode n, uint shift, vec3 a, vec3 b, float tmin, float tmax) {
+    vec3 qlo = vec3((uvec3(n.planes[0], n.planes[2], n.planes[4]) >> shift) & 255u);
+    vec3 qhi = vec3((uvec3(n.planes[1], n.planes[3], n.planes[5]) >> shift) & 255u);
+    vec3 tnear = fma(mix(qlo, qhi, r.neg), a, b);
+    vec3 tfar = fma(mix(qhi, qlo, r.neg), a, b);
+    float entry = max(max(tnear.x, tnear.y), max(tnear.z, tmin));
+    float exit_ = min(min(tfar.x, tfar.y), min(tfar.z, tmax));
+    return entry <= exit_ ? entry : BVH_MISS;
+}
+
+#define BVH_CSWAP(ka, la, kb, lb) \
+    { bool s_ = kb < ka; float tk_ = ka; uint tl_ = la; \
+      ka = s_ ? kb : ka; la = s_ ? lb : la; kb = s_ ? tk_ : kb; lb = s_ ? tl_ : lb; }
+
 #define BVH_LINK_POP 0xFFFFFFFFu
 #define BVH_NO_BLAS 0xFFFFFFFFu
 
@@ -174,21 +186,37 @@ Hit bvh_traverse(vec3 origin, vec3 dir, float tmin, float tmax, const bool any_h
         if ((link & BVH_LINK_LEAF) == 0u) {
             BVH_COUNT(bvh_stat_nodes);
             BvhNode n = bvh_load_node(link);
-            float t0, t1;
-            bool h0 = bvh_slab(ray, n.min0, n.max0, tmin, best.t, t0);
-            bool h1 = bvh_slab(ray, n.min1, n.max1, tmin, best.t, t1);
-            if (h0 && h1) {
-                bool first0 = t0 <= t1;
-                // The stack bound is checked on the host (BvhError::TooDeep); the guard only
-                // keeps a corrupt BVH from writing out of bounds.
-                if (sp < BVH_STACK_SIZE) {
-                    tstack[sp] = first0 ? t1 : t0;
-                    stack[sp++] = first0 ? n.link1 : n.link0;
-                }
-                link = first0 ? n.link0 : n.link1;
-            } else {
-                link = h0 ? n.link0 : (h1 ? n.link1 : BVH_LINK_POP);
+            // Ray in the node's quantization frame: each plane is one fma(q, a, b).
+            vec3 scale = uintBitsToFloat((uvec3(n.exponents, n.exponents >> 8, n.exponents >> 16) & 255u) << 23);
+            vec3 a = scale * ray.inv_dir;
+            vec3 b = fma(n.origin, ray.inv_dir, ray.o_times_inv);
+            float k0 = bvh_child_entry(ray, n, 0u, a, b, tmin, best.t);
+            float k1 = bvh_child_entry(ray, n, 8u, a, b, tmin, best.t);
+            float k2 = bvh_child_entry(ray, n, 16u, a, b, tmin, best.t);
+            float k3 = bvh_child_entry(ray, n, 24u, a, b, tmin, best.t);
+            uint l0 = n.links[0], l1 = n.links[1], l2 = n.links[2], l3 = n.links[3];
+            // Sorting network: nearest hit first, misses (BVH_MISS) last.
+            BVH_CSWAP(k0, l0, k1, l1);
+            BVH_CSWAP(k2, l2, k3, l3);
+            BVH_CSWAP(k0, l0, k2, l2);
+            BVH_CSWAP(k1, l1, k3, l3);
+            BVH_CSWAP(k1, l1, k2, l2);
+            // Farther hits are pushed farthest first, so the stack pops them in order. The
+            // stack bound is checked on the host (BvhError::TooDeep); the guard only keeps a
+            // corrupt BVH from writing out of bounds.
+            if (k3 < BVH_MISS && sp < BVH_STACK_SIZE) {
+                tstack[sp] = k3;
+                stack[sp++] = l3;
             }
+            if (k2 < BVH_MISS && sp < BVH_STACK_SIZE) {
+                tstack[sp] = k2;
+                stack[sp++] = l2;
+            }
+            if (k1 < BVH_MISS && sp < BVH_STACK_SIZE) {
+                tstack[sp] = k1;
+                stack[sp++] = l1;
+            }
+            link = k0 < BVH_MISS ? l0 : BVH_LINK_POP;
         } else if (link != BVH_LINK_POP) {
             if (blas_sp == BVH_NO_BLAS) {
                 // Top-level leaf: enter the instance's bottom level in object space. t keeps

@@ -18,7 +18,12 @@ void putf(float v) { put(floatBitsToUint(v)); }
 void put3(vec3 v) { putf(v.x); putf(v.y); putf(v.z); }
 void put4(vec4 v) { putf(v.x); putf(v.y); putf(v.z); putf(v.w); }
 void put64(uint64_t v) { uvec2 p = unpackUint2x32(v); put(p.x); put(p.y); }
-void put_node(BvhNode v) { put3(v.min0); put3(v.max0); put3(v.min1); put3(v.max1); put(v.link0); put(v.link1); put(v.count0); put(v.count1); }
+void put_node(BvhNode v) {
+    put3(v.origin); put(v.exponents);
+    for (int k = 0; k < 6; ++k) put(v.planes[k]);
+    for (int k = 0; k < 4; ++k) put(v.links[k]);
+    put(v.reserved0); put(v.reserved1);
+}
 void put_tri(BvhTriangle t) { put3(t.v0); put3(t.v1); put3(t.v2); put(t.primitive); }
 void put_inst(BvhInstance i) {
     put4(i.world_to_object[0]); put4(i.world_to_object[1]); put4(i.world_to_object[2]);

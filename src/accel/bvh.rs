@@ -36,13 +36,11 @@ pub enum BvhError {
     /// More primitives/nodes than the node links can address.
     #[error("the BVH cannot address this many {0} (links hold 27-bit primitive and 31-bit node indices)")]
     TooMany(&'static str),
-    /// The tree is deeper than the shader's traversal stack.
-    #[error(
-        "BVH depth {depth} (top + bottom level) exceeds the traversal stack of {limit} entries"
-    )]
+    /// A traversal could need more stack entries than the shader has.
+    #[error("the BVH can need {entries} traversal stack entries (top + bottom level) but the shader has {limit}")]
     TooDeep {
-        /// Inner nodes on the longest path.
-        depth: u32,
+        /// Most entries a traversal can push.
+        entries: u32,
         /// `BVH_STACK_SIZE`.
         limit: u32,
     },
@@ -130,12 +128,14 @@ pub struct BvhStats {
     pub triangle_count: usize,
     /// Scene instances.
     pub instance_count: usize,
-    /// Inner nodes on the longest top-level path.
+    /// Nodes on the longest top-level path.
     pub tlas_depth: u32,
-    /// Inner nodes on the longest path of any bottom level.
+    /// Nodes on the longest path of any bottom level.
     pub max_blas_depth: u32,
-    /// `tlas_depth + max_blas_depth`: the stack bound.
+    /// `tlas_depth + max_blas_depth`.
     pub max_depth: u32,
+    /// Most traversal stack entries a ray can need (checked against `BVH_STACK_SIZE`).
+    pub max_stack: u32,
     /// Leaf size limit used.
     pub max_leaf_size: u32,
     /// Triangles left out (non-finite or repeated vertices: no ray can hit them).
@@ -171,7 +171,7 @@ impl BvhData {
     }
 
     /// Upper bound of [`Self::byte_size`] before building: at most one node per triangle
-    /// (a binary tree over n leaves has n - 1 inner nodes, plus one per single-leaf root) and
+    /// (a tree over n leaves has fewer than n inner nodes, plus one per single-leaf root) and
     /// one top-level node per instance.
     pub fn estimate_bytes(scene: &Scene) -> u64 {
         let tris = scene.unique_triangle_count() as u64;

@@ -139,7 +139,7 @@ impl RayBackend {
                     "build_ms": s.build_ms, "blas_ms": s.blas_ms, "tlas_ms": s.tlas_ms, "bytes": s.bytes,
                     "node_count": s.node_count, "tlas_nodes": s.tlas_nodes, "blas_count": s.blas_count,
                     "triangle_count": s.triangle_count, "instance_count": s.instance_count,
-                    "max_depth": s.max_depth, "max_leaf_size": s.max_leaf_size,
+                    "max_depth": s.max_depth, "max_stack": s.max_stack, "max_leaf_size": s.max_leaf_size,
                     "skipped_triangles": s.skipped_triangles, "skipped_instances": s.skipped_instances,
                 })
             }

@@ -21,9 +21,8 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
-pub use frame::{
-    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SamplerKind, Tonemap,
-};
+pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use reproject::RenderPath;
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]

@@ -191,6 +191,14 @@ impl GpuScene {
             vk::BufferUsageFlags::empty()
         };
         let none = vk::BufferUsageFlags::empty();
+        let bytes = std::mem::size_of_val(positions.as_slice())
+            + std::mem::size_of_val(attributes.as_slice())
+            + std::mem::size_of_val(indices.as_slice())
+            + std::mem::size_of_val(instances.as_slice());
+        ctx.check_memory(
+            &format!("{}: the scene's meshes", scene.source),
+            bytes as u64,
+        )?;
         let positions_buf = Buffer::from_slice(ctx, "scene positions", &positions, as_input)?;
         let attributes_buf = Buffer::from_slice(ctx, "scene attributes", &attributes, none)?;
         let indices_buf = Buffer::from_slice(ctx, "scene indices", &indices, as_input)?;

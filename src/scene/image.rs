@@ -77,27 +77,35 @@ pub(crate) fn percent_decode(s: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// Decodes a PNG or JPEG (format from the magic bytes, else from `mime`) to RGBA8, refusing
-/// images wider or taller than `max_size` before decoding them.
-pub(crate) fn decode(bytes: &[u8], mime: Option<&str>, max_size: u32) -> Result<Decoded, String> {
+/// PNG or JPEG, from the magic bytes, else from `mime`.
+fn format_of(bytes: &[u8], mime: Option<&str>) -> Result<ImageFormat, String> {
     let guessed = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot read: {e}"))?
         .format();
-    let format = match guessed.or_else(|| mime.and_then(ImageFormat::from_mime_type)) {
-        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => f,
-        Some(f) => {
-            return Err(format!(
-                "{f:?} images are not supported (glTF core allows PNG and JPEG)"
-            ))
-        }
-        None => {
-            return Err(format!(
-                "not a PNG or JPEG image (mimeType {})",
-                mime.unwrap_or("absent")
-            ))
-        }
-    };
+    match guessed.or_else(|| mime.and_then(ImageFormat::from_mime_type)) {
+        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => Ok(f),
+        Some(f) => Err(format!(
+            "{f:?} images are not supported (glTF core allows PNG and JPEG)"
+        )),
+        None => Err(format!(
+            "not a PNG or JPEG image (mimeType {})",
+            mime.unwrap_or("absent")
+        )),
+    }
+}
+
+/// Width and height from the image header, without decoding the pixels.
+pub(crate) fn dimensions(bytes: &[u8], mime: Option<&str>) -> Result<(u32, u32), String> {
+    ImageReader::with_format(Cursor::new(bytes), format_of(bytes, mime)?)
+        .into_dimensions()
+        .map_err(|e| format!("cannot decode: {e}"))
+}
+
+/// Decodes a PNG or JPEG (format from the magic bytes, else from `mime`) to RGBA8, refusing
+/// images wider or taller than `max_size` before decoding them.
+pub(crate) fn decode(bytes: &[u8], mime: Option<&str>, max_size: u32) -> Result<Decoded, String> {
+    let format = format_of(bytes, mime)?;
     let (w, h) = ImageReader::with_format(Cursor::new(bytes), format)
         .into_dimensions()
         .map_err(|e| format!("cannot decode: {e}"))?;

@@ -35,6 +35,26 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// against files whose node graph shares subtrees exponentially.
 pub const MAX_INSTANCES: usize = 1 << 22;
 
+/// Most vertices of all unique geometry in a scene (after un-welding for flat normals and
+/// tangent seams): bounds the memory a small file can make the loader allocate, e.g. many
+/// primitives sharing one large accessor.
+pub const MAX_SCENE_VERTICES: usize = 1 << 26;
+
+/// Most triangles of all unique geometry in a scene (instances do not count).
+pub const MAX_SCENE_TRIANGLES: usize = 1 << 26;
+
+/// Most texels of all decoded images in a scene (4 GiB as RGBA8): sixteen 8192² or four
+/// 16384² images.
+pub const MAX_SCENE_TEXELS: u64 = 1 << 30;
+
+/// Most bytes of buffers (their declared `byteLength`s) and of encoded images read for one
+/// file: many buffers or images naming the same large file would otherwise each get a copy.
+pub const MAX_READ_BYTES: u64 = 1 << 32;
+
+/// Largest world-space coordinate a vertex may reach: squared distances of larger ones
+/// overflow `f32` in the shaders' ray math.
+pub const MAX_COORDINATE: f32 = 1e18;
+
 /// How to load a file.
 #[derive(Clone, Debug)]
 pub struct LoadOptions {
@@ -104,6 +124,8 @@ pub fn load_slice(
         texture_of: HashMap::new(),
         image_of: HashMap::new(),
         image_sources: Vec::new(),
+        vertices: 0,
+        triangles: 0,
         root,
     };
     loader.check_extensions()?;
@@ -111,7 +133,7 @@ pub fn load_slice(
     loader.check_node_graph()?;
     loader.load_scene()?;
     loader.decode_images()?;
-    Ok(loader.finish())
+    loader.finish()
 }
 
 /// Splits a GLB container into its JSON chunk and optional BIN chunk.
@@ -201,6 +223,9 @@ struct Loader<'a> {
     image_of: HashMap<(usize, bool), u32>,
     /// glTF image of each scene image, decoded at the end.
     image_sources: Vec<usize>,
+    /// Vertices and triangles of `scene.geometries` so far (see [`MAX_SCENE_VERTICES`]).
+    vertices: usize,
+    triangles: usize,
 }
 
 fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
@@ -279,6 +304,17 @@ impl Loader<'_> {
     }
 
     fn load_buffers(&mut self, bin: Option<&[u8]>) -> Result<(), SceneError> {
+        let declared = self
+            .root
+            .buffers
+            .iter()
+            .fold(0u64, |sum, b| sum.saturating_add(b.byte_length.0));
+        if declared > MAX_READ_BYTES {
+            return Err(self.err(
+                "buffers",
+                format!("{declared} bytes in total exceed rqr's limit of {MAX_READ_BYTES}"),
+            ));
+        }
         let mut data = Vec::with_capacity(self.root.buffers.len());
         for (i, b) in self.root.buffers.iter().enumerate() {
             let element = match &b.uri {
@@ -310,6 +346,8 @@ impl Loader<'_> {
                 ));
             }
             bytes.truncate(want as usize);
+            // A file larger than byteLength must not stay allocated in full.
+            bytes.shrink_to_fit();
             data.push(bytes);
         }
         self.buffers = Buffers { data };
@@ -451,6 +489,7 @@ impl Loader<'_> {
             }
             roots
         };
+        self.check_declared_vertices(&roots)?;
         self.scene.mesh_count = self.root.meshes.len();
         self.scene.primitive_count = self.root.meshes.iter().map(|m| m.primitives.len()).sum();
 
@@ -667,6 +706,11 @@ impl Loader<'_> {
             return Ok(g);
         }
         let g = self.build_geometry(mesh, p)?;
+        if let Some((g, _)) = &g {
+            self.vertices += g.positions.len();
+            self.triangles += g.triangle_count();
+            self.check_geometry_budget(&format!("mesh {mesh} primitive {p}"), 0)?;
+        }
         let index = g.map(|(g, bounds)| {
             self.scene.geometries.push(g);
             self.geometry_bounds.push(bounds);
@@ -674,6 +718,97 @@ impl Loader<'_> {
         });
         self.geometry_of.insert((mesh, p), index);
         Ok(index)
+    }
+
+    /// Refuses a scene whose meshes declare more POSITION elements than
+    /// [`MAX_SCENE_VERTICES`], from the JSON alone: many primitives sharing one large
+    /// accessor are refused before any of them is expanded.
+    fn check_declared_vertices(&self, roots: &[usize]) -> Result<(), SceneError> {
+        use gj::mesh::{Mode, Semantic};
+        let nodes = &self.root.nodes;
+        let mut seen = vec![false; nodes.len()];
+        let mut used = vec![false; self.root.meshes.len()];
+        let mut stack = roots.to_vec();
+        while let Some(n) = stack.pop() {
+            if std::mem::replace(&mut seen[n], true) {
+                continue;
+            }
+            if let Some(m) = nodes[n].mesh.filter(|m| m.value() < used.len()) {
+                used[m.value()] = true;
+            }
+            stack.extend(nodes[n].children.iter().flatten().map(|c| c.value()));
+        }
+        let mut vertices = 0usize;
+        for (m, mesh) in self
+            .root
+            .meshes
+            .iter()
+            .enumerate()
+            .filter(|(m, _)| used[*m])
+        {
+            for (p, prim) in mesh.primitives.iter().enumerate() {
+                let triangles = matches!(
+                    checked(&prim.mode),
+                    Some(Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)
+                );
+                let Some(index) = prim
+                    .attributes
+                    .get(&Checked::Valid(Semantic::Positions))
+                    .map(|a| a.value())
+                else {
+                    continue;
+                };
+                let Some(acc) = self.root.accessors.get(index) else {
+                    continue;
+                };
+                let count = acc.count.0;
+                // An accessor beyond its own limits, or that its buffer view cannot hold,
+                // gets a more precise error from the reader.
+                let impossible = match acc.buffer_view {
+                    None => count > accessor::MAX_UNBACKED_COUNT,
+                    Some(v) => {
+                        count > accessor::MAX_ACCESSOR_COUNT
+                            || self
+                                .root
+                                .buffer_views
+                                .get(v.value())
+                                .is_none_or(|view| view.byte_length.0 < count)
+                    }
+                };
+                if triangles && !impossible {
+                    vertices = vertices.saturating_add(count as usize);
+                }
+                if vertices > MAX_SCENE_VERTICES {
+                    return Err(self.err(
+                        format!("mesh {m} primitive {p}"),
+                        format!("POSITION accessor {index} brings the scene's meshes to {vertices} vertices, more than rqr's limit of {MAX_SCENE_VERTICES}"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Fails when the scene's unique geometry, plus `more` vertices about to be read, exceeds
+    /// [`MAX_SCENE_VERTICES`] or [`MAX_SCENE_TRIANGLES`].
+    fn check_geometry_budget(&self, element: &str, more: usize) -> Result<(), SceneError> {
+        let vertices = self.vertices.saturating_add(more);
+        if vertices > MAX_SCENE_VERTICES {
+            return Err(self.err(
+                element,
+                format!("the scene's meshes reach {vertices} vertices, more than rqr's limit of {MAX_SCENE_VERTICES}"),
+            ));
+        }
+        if self.triangles > MAX_SCENE_TRIANGLES {
+            return Err(self.err(
+                element,
+                format!(
+                    "the scene's meshes reach {} triangles, more than rqr's limit of {MAX_SCENE_TRIANGLES}",
+                    self.triangles
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn build_geometry(
@@ -705,6 +840,7 @@ impl Loader<'_> {
             return Ok(None);
         };
         let vertex_count = pos.count();
+        self.check_geometry_budget(&element, vertex_count)?;
         let mut bounds = Aabb::EMPTY;
         let mut positions = Vec::with_capacity(vertex_count);
         for (i, c) in pos.values.chunks_exact(3).enumerate() {
@@ -1206,8 +1342,27 @@ impl Loader<'_> {
         unique.sort_unstable();
         unique.dedup();
         let mut jobs = Vec::with_capacity(unique.len());
+        let (mut read, mut texels) = (0u64, 0u64);
         for &i in &unique {
-            jobs.push((i, self.image_bytes(i)?));
+            let (bytes, mime) = self.image_bytes(i)?;
+            let data: &[u8] = match &bytes {
+                ImageBytes::Borrowed(b) => b,
+                ImageBytes::Owned(v) => {
+                    read += v.len() as u64;
+                    v
+                }
+            };
+            // Undecodable headers are reported by the decoder below, with the reason.
+            if let Ok((w, h)) = img::dimensions(data, mime.as_deref()) {
+                texels += u64::from(w) * u64::from(h);
+            }
+            if read > MAX_READ_BYTES || texels > MAX_SCENE_TEXELS {
+                return Err(self.err(
+                    self.image_element(i),
+                    format!("the scene's images exceed rqr's limit of {MAX_SCENE_TEXELS} texels or {MAX_READ_BYTES} bytes"),
+                ));
+            }
+            jobs.push((i, (bytes, mime)));
         }
         let max = self.opts.max_image_size;
         let threads = std::thread::available_parallelism()
@@ -1391,7 +1546,7 @@ impl Loader<'_> {
         })
     }
 
-    fn finish(mut self) -> Scene {
+    fn finish(mut self) -> Result<Scene, SceneError> {
         // Exact bounds (every transformed vertex) unless that is a lot of work; then the
         // transformed corners of each geometry's box, which is conservative.
         let work: usize = self
@@ -1403,9 +1558,16 @@ impl Loader<'_> {
         let mut bounds = Aabb::EMPTY;
         for inst in &self.scene.instances {
             let g = inst.geometry as usize;
+            let mut local = Aabb::EMPTY;
+            // Overflowing products can be NaN, which min/max would skip: count them apart.
+            let mut overflow = false;
+            let mut grow = |p: Vec3| {
+                overflow |= !p.is_finite();
+                local.grow(p);
+            };
             if work <= 1 << 25 {
                 for p in &self.scene.geometries[g].positions {
-                    bounds.grow(inst.transform.transform_point3(*p));
+                    grow(inst.transform.transform_point3(*p));
                 }
             } else {
                 let b = self.geometry_bounds[g];
@@ -1415,18 +1577,39 @@ impl Loader<'_> {
                         if k & 2 == 0 { b.min.y } else { b.max.y },
                         if k & 4 == 0 { b.min.z } else { b.max.z },
                     );
-                    bounds.grow(inst.transform.transform_point3(c));
+                    grow(inst.transform.transform_point3(c));
                 }
+            }
+            if !local.is_empty() || overflow {
+                let reach = if overflow {
+                    f32::INFINITY
+                } else {
+                    local.min.abs().max(local.max.abs()).max_element()
+                };
+                if reach > MAX_COORDINATE {
+                    return Err(self.err(
+                        format!("node {}", inst.node),
+                        format!("mesh vertices reach world coordinate {reach:e}, beyond rqr's limit of ±{MAX_COORDINATE:e} (single-precision ray math would overflow)"),
+                    ));
+                }
+                bounds.grow(local.min);
+                bounds.grow(local.max);
             }
         }
         self.scene.bounds = bounds;
+        if self.scene.triangle_count() == 0 {
+            log::warn!(
+                "{}: the scene has no triangles: nothing to render but the background",
+                self.file
+            );
+        }
         if self.scene.materials.is_empty() {
             self.scene.materials.push(Material {
                 name: "default".into(),
                 ..Default::default()
             });
         }
-        self.scene
+        Ok(self.scene)
     }
 }
 

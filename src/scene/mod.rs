@@ -22,6 +22,8 @@ pub use default_scene::{load_default, DEFAULT_SCENE_GLB};
 pub use error::SceneError;
 pub use image::MAX_IMAGE_SIZE;
 pub use loader::{
-    load, load_slice, texture_transform_matrix, LoadOptions, MAX_INSTANCES, SUPPORTED_EXTENSIONS,
+    load, load_slice, texture_transform_matrix, LoadOptions, MAX_COORDINATE, MAX_INSTANCES,
+    MAX_READ_BYTES, MAX_SCENE_TEXELS, MAX_SCENE_TRIANGLES, MAX_SCENE_VERTICES,
+    SUPPORTED_EXTENSIONS,
 };
 pub use types::*;

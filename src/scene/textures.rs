@@ -124,6 +124,13 @@ impl GpuTextures {
                 )));
             }
         }
+        // A full mip chain adds a third to the largest level.
+        let bytes: u64 = scene
+            .images
+            .iter()
+            .map(|i| i.rgba8.len() as u64 / 3 * 4)
+            .sum();
+        ctx.check_memory(&format!("{}: the scene's textures", scene.source), bytes)?;
         let mut images = Vec::with_capacity(scene.images.len());
         for (i, img) in scene.images.iter().enumerate() {
             images.push(Self::upload_image(ctx, i, img)?);

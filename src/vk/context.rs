@@ -699,6 +699,25 @@ impl Context {
             .unwrap_or(0)
     }
 
+    /// Refuses to allocate `bytes` more for `what` when they, plus what is allocated now,
+    /// exceed the largest device-local heap: a clear error before the allocation instead of
+    /// an out-of-memory failure halfway through an upload.
+    pub fn check_memory(&self, what: &str, bytes: u64) -> VkResult<()> {
+        let heap = self.info.largest_device_heap();
+        let in_use = self.allocated_bytes();
+        if bytes.saturating_add(in_use) > heap {
+            let mib = |b: u64| b.div_ceil(1 << 20);
+            return Err(VkError::Limit(format!(
+                "{what} need about {} MiB of device memory on top of {} MiB in use, more than the {} MiB device heap of '{}'",
+                mib(bytes),
+                mib(in_use),
+                mib(heap),
+                self.info.name
+            )));
+        }
+        Ok(())
+    }
+
     /// Makes every memory heap look at most `bytes` large to the checks that run before
     /// allocating (render targets, acceleration structures, BVH): work that would not fit
     /// a device with that much memory fails with the same clear error. For tests and for

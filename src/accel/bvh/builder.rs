@@ -1,5 +1,5 @@
 //! Host build of the two-level BVH with `obvhs` (PLOC + reinsertion + SAH leaf collapse) and
-//! flattening into the 64-byte node layout of [`super::layout`].
+//! flattening of the binary tree into the 4-wide quantized node layout of [`super::layout`].
 
 use std::time::Instant;
 
@@ -12,8 +12,8 @@ use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 
 use super::cpu::world_to_object_rows;
 use super::layout::{
-    leaf_link, BvhBox, BvhChild, BvhInstance, BvhNode, BvhTriangle, BVH_INSTANCE_ALPHA_TEST,
-    BVH_STACK_SIZE, LINK_FIRST_MASK, MAX_LEAF_PRIMITIVES,
+    decode_link, leaf_link, BvhBox, BvhChild, BvhInstance, BvhNode, BvhTriangle,
+    BVH_INSTANCE_ALPHA_TEST, BVH_STACK_SIZE, LINK_EMPTY, LINK_FIRST_MASK, MAX_LEAF_PRIMITIVES,
 };
 use super::{BvhBuildOptions, BvhData, BvhError, BvhStats, PlocSearch};
 use crate::scene::{AlphaMode, Scene};
@@ -24,10 +24,14 @@ use crate::scene::{AlphaMode, Scene};
 /// conservative for ray origins up to ~10x the scene's size away (see README).
 const PAD_RELATIVE: f32 = 1.0 / (1 << 20) as f32;
 
-fn pad_box(min: Vec3, max: Vec3, scale: f32) -> ([f32; 3], [f32; 3]) {
+fn pad_box(b: &ObAabb, scale: f32) -> BvhBox {
+    let (min, max) = (Vec3::from(b.min), Vec3::from(b.max));
     let m = min.abs().max(max.abs());
     let pad = (m + Vec3::splat(scale)) * PAD_RELATIVE;
-    ((min - pad).to_array(), (max + pad).to_array())
+    BvhBox {
+        min: (min - pad).to_array(),
+        max: (max + pad).to_array(),
+    }
 }
 
 fn search(s: PlocSearch) -> PlocSearchDistance {
@@ -61,43 +65,55 @@ fn build_bvh2(aabbs: &[ObAabb], opts: &BvhBuildOptions, max_leaf: u32) -> Bvh2 {
     bvh
 }
 
-/// Primitive count below every node of `bvh` (one post-order pass).
-fn subtree_counts(bvh: &Bvh2) -> Vec<u32> {
-    let mut counts = vec![0u32; bvh.nodes.len()];
-    // (node, children done)
-    let mut stack = vec![(0usize, false)];
-    while let Some((i, done)) = stack.pop() {
-        let n = &bvh.nodes[i];
-        if n.is_leaf() {
-            counts[i] = n.prim_count;
-        } else if done {
-            let f = n.first_index as usize;
-            counts[i] = counts[f] + counts[f + 1];
-        } else {
-            stack.push((i, true));
-            stack.push((n.first_index as usize, false));
-            stack.push((n.first_index as usize + 1, false));
-        }
-    }
-    counts
+/// Shape of a flattened level: root node, levels of 4-wide nodes on the longest path, and
+/// the most stack entries a traversal of it can hold.
+struct Flattened {
+    root: u32,
+    depth: u32,
+    stack: u32,
 }
 
-/// Appends the flattened form of `bvh` to `nodes` and returns (root node, depth). `leaf(prims)`
-/// turns a leaf's primitives (values of `bvh.primitive_indices`) into a link. Depth counts the
-/// inner nodes on the longest root-to-leaf path, which bounds the traversal stack. A root that
-/// is itself a leaf gets a node of its own whose second child is empty.
+/// The children of binary node `src` gathered into one 4-wide node: the inner child with the
+/// largest surface area is opened until there are four (or only leaves remain).
+fn open_children(bvh: &Bvh2, src: usize) -> Vec<usize> {
+    let first = bvh.nodes[src].first_index as usize;
+    let mut kids = vec![first, first + 1];
+    while kids.len() < 4 {
+        let Some((pos, _)) = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| !bvh.nodes[k].is_leaf())
+            .max_by(|a, b| {
+                let area = |i: usize| bvh.nodes[i].aabb().half_area();
+                area(*a.1).total_cmp(&area(*b.1))
+            })
+        else {
+            break;
+        };
+        let f = bvh.nodes[kids[pos]].first_index as usize;
+        kids.splice(pos..=pos, [f, f + 1]);
+    }
+    kids
+}
+
+/// Appends the flattened form of `bvh` to `nodes`. `leaf(prims)` turns a leaf's primitives
+/// (values of `bvh.primitive_indices`) into a link. A root that is itself a leaf gets a node of
+/// its own with one child.
 fn flatten(
     bvh: &Bvh2,
     scale: f32,
     nodes: &mut Vec<BvhNode>,
     leaf: &mut dyn FnMut(&[u32]) -> Result<u32, BvhError>,
-) -> Result<(u32, u32), BvhError> {
+) -> Result<Flattened, BvhError> {
     let node_index = |len: usize| u32::try_from(len).map_err(|_| BvhError::too_many("nodes"));
-    let root_index = node_index(nodes.len())?;
-    let counts = subtree_counts(bvh);
+    let root = node_index(nodes.len())?;
+    let quantize = |children: &[BvhChild]| {
+        BvhNode::new(children).map_err(|_| {
+            BvhError::InvalidScene("bounds too large to quantize (beyond ~1e38)".into())
+        })
+    };
     let mut child = |src: usize| -> Result<(BvhChild, bool), BvhError> {
         let n = &bvh.nodes[src];
-        let (min, max) = pad_box(n.aabb().min.into(), n.aabb().max.into(), scale);
         let inner = !n.is_leaf();
         let link = if inner {
             u32::MAX // patched when the child node is emitted
@@ -105,41 +121,53 @@ fn flatten(
             let first = n.first_index as usize;
             leaf(&bvh.primitive_indices[first..first + n.prim_count as usize])?
         };
-        let c = BvhChild {
-            bounds: BvhBox { min, max },
-            link,
-            prim_count: counts[src],
-        };
-        Ok((c, inner))
+        let bounds = pad_box(n.aabb(), scale);
+        Ok((BvhChild { bounds, link }, inner))
     };
     if bvh.nodes[0].is_leaf() {
         let (c, _) = child(0)?;
-        nodes.push(BvhNode::from_children([c, BvhChild::EMPTY]));
-        return Ok((root_index, 1));
+        nodes.push(quantize(&[c])?);
+        return Ok(Flattened {
+            root,
+            depth: 1,
+            stack: 0,
+        });
     }
     // Depth-first pre-order: a node is followed by its first subtree, so the path a coherent
-    // ray takes stays in neighbouring cache lines. Entries: (source node, parent slot, depth).
-    let mut max_depth = 1u32;
-    type Pending = (usize, Option<(usize, usize)>, u32);
-    let mut stack: Vec<Pending> = vec![(0, None, 1)];
-    while let Some((src, parent, depth)) = stack.pop() {
-        max_depth = max_depth.max(depth);
+    // ray takes stays in neighbouring cache lines. Entries: (source node, parent slot, depth,
+    // stack entries pushed above it).
+    type Pending = (usize, Option<(usize, usize)>, u32, u32);
+    let mut out = Flattened {
+        root,
+        depth: 1,
+        stack: 0,
+    };
+    let mut stack: Vec<Pending> = vec![(0, None, 1, 0)];
+    while let Some((src, parent, depth, pushed)) = stack.pop() {
+        out.depth = out.depth.max(depth);
         let index = nodes.len();
         if let Some((p, k)) = parent {
             nodes[p].links[k] = node_index(index)?;
         }
-        let first = bvh.nodes[src].first_index as usize;
-        let (c0, inner0) = child(first)?;
-        let (c1, inner1) = child(first + 1)?;
-        nodes.push(BvhNode::from_children([c0, c1]));
-        if inner1 {
-            stack.push((first + 1, Some((index, 1)), depth + 1));
+        let kids = open_children(bvh, src);
+        let mut children = Vec::with_capacity(kids.len());
+        let mut inner = Vec::new();
+        for (k, &c) in kids.iter().enumerate() {
+            let (record, is_inner) = child(c)?;
+            children.push(record);
+            if is_inner {
+                inner.push((c, k));
+            }
         }
-        if inner0 {
-            stack.push((first, Some((index, 0)), depth + 1));
+        nodes.push(quantize(&children)?);
+        // A visit pushes every hit child but the nearest.
+        let pushed = pushed + kids.len() as u32 - 1;
+        out.stack = out.stack.max(pushed);
+        for &(c, k) in inner.iter().rev() {
+            stack.push((c, Some((index, k)), depth + 1, pushed));
         }
     }
-    Ok((root_index, max_depth))
+    Ok(out)
 }
 
 /// One geometry's usable triangles: exact vertex copies with their original primitive index.
@@ -233,6 +261,7 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
     // Per geometry: (root node index relative to blas_nodes, object bounds).
     let mut blas: Vec<Option<(u32, ObAabb)>> = vec![None; scene.geometries.len()];
     let mut alpha = vec![false; scene.geometries.len()];
+    let mut max_blas_stack = 0u32;
     for g in 0..scene.geometries.len() {
         if !used[g] {
             continue;
@@ -256,7 +285,7 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
         }
         let bvh = build_bvh2(&gt.aabbs, opts, max_leaf);
         let scale = max_abs(&gt.bounds);
-        let (root, depth) = flatten(&bvh, scale, &mut blas_nodes, &mut |prims| {
+        let shape = flatten(&bvh, scale, &mut blas_nodes, &mut |prims| {
             let first = triangles.len() as u32;
             for &p in prims {
                 triangles.push(gt.tris[p as usize]);
@@ -264,8 +293,9 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
             leaf_link(first, prims.len() as u32).ok_or_else(|| BvhError::too_many("triangles"))
         })?;
         stats.blas_count += 1;
-        stats.max_blas_depth = stats.max_blas_depth.max(depth);
-        blas[g] = Some((root, gt.bounds));
+        stats.max_blas_depth = stats.max_blas_depth.max(shape.depth);
+        max_blas_stack = max_blas_stack.max(shape.stack);
+        blas[g] = Some((shape.root, gt.bounds));
     }
     stats.blas_ms = t_blas.elapsed().as_secs_f64() * 1e3;
 
@@ -296,13 +326,14 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
         inst_ids.push(i as u32);
     }
     let mut nodes: Vec<BvhNode> = Vec::new();
+    let mut tlas_stack = 0;
     if inst_aabbs.is_empty() {
-        nodes.push(BvhNode::from_children([BvhChild::EMPTY; 2]));
+        nodes.push(BvhNode::EMPTY);
         stats.tlas_depth = 1;
     } else {
         let tlas = build_bvh2(&inst_aabbs, opts, 1);
         let scale = max_abs(&world);
-        let (_, depth) = flatten(&tlas, scale, &mut nodes, &mut |prims| {
+        let shape = flatten(&tlas, scale, &mut nodes, &mut |prims| {
             // Top-level leaves hold exactly one instance (max leaf size 1), addressed directly.
             let [p] = prims else {
                 return Err(BvhError::InvalidScene(
@@ -311,7 +342,8 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
             };
             leaf_link(inst_ids[*p as usize], 1).ok_or_else(|| BvhError::too_many("instances"))
         })?;
-        stats.tlas_depth = depth;
+        stats.tlas_depth = shape.depth;
+        tlas_stack = shape.stack;
     }
     stats.tlas_nodes = nodes.len();
     stats.tlas_ms = t_tlas.elapsed().as_secs_f64() * 1e3;
@@ -322,9 +354,9 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
         return Err(BvhError::too_many("nodes"));
     }
     for mut n in blas_nodes {
-        for k in 0..2 {
-            if n.prim_counts[k] != 0 && super::layout::decode_link(n.links[k]).is_ok() {
-                n.links[k] += offset;
+        for link in &mut n.links {
+            if *link != LINK_EMPTY && decode_link(*link).is_ok() {
+                *link += offset;
             }
         }
         nodes.push(n);
@@ -348,9 +380,10 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
         .collect();
 
     stats.max_depth = stats.tlas_depth + stats.max_blas_depth;
-    if stats.max_depth > BVH_STACK_SIZE {
+    stats.max_stack = tlas_stack + max_blas_stack;
+    if stats.max_stack > BVH_STACK_SIZE {
         return Err(BvhError::TooDeep {
-            depth: stats.max_depth,
+            entries: stats.max_stack,
             limit: BVH_STACK_SIZE,
         });
     }

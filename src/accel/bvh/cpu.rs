@@ -4,7 +4,7 @@
 
 use glam::{Mat4, Vec2, Vec3};
 
-use super::layout::{decode_link, BvhBox, BvhChild, BVH_INSTANCE_ALPHA_TEST};
+use super::layout::{decode_link, BvhNode, BVH_INSTANCE_ALPHA_TEST, BVH_WIDTH, LINK_EMPTY};
 use super::{BvhData, TLAS_ROOT};
 use crate::scene::{AlphaMode, Scene};
 
@@ -90,22 +90,33 @@ impl RayPre {
         }
     }
 
-    /// Slab test of a child box: `Some(t_entry)` when `[t_entry, t_exit]` overlaps
-    /// `[tmin, tmax]`. Near and far planes are picked by the sign of `inv_dir`, so an inverted
-    /// (empty) box never hits.
-    pub fn slab(&self, bounds: &BvhBox, tmin: f32, tmax: f32) -> Option<f32> {
-        let mut entry = tmin;
-        let mut exit = tmax;
-        for a in 0..3 {
-            let (near, far) = if self.inv_dir[a] < 0.0 {
-                (bounds.max[a], bounds.min[a])
-            } else {
-                (bounds.min[a], bounds.max[a])
-            };
-            entry = entry.max(near.mul_add(self.inv_dir[a], self.o_times_inv[a]));
-            exit = exit.min(far.mul_add(self.inv_dir[a], self.o_times_inv[a]));
-        }
-        (entry <= exit).then_some(entry)
+    /// Slab tests of a node's children, as `trace_bvh.glsl` does them: the ray is moved into
+    /// the node's quantization frame once (`a = scale * inv_dir`,
+    /// `b = fma(origin, inv_dir, o_times_inv)`), then every plane is one `fma(q, a, b)`. Near
+    /// and far planes are picked by the sign of the direction, so an inverted (unused) box
+    /// never hits. Returns each child's entry distance where `[t_entry, t_exit]` overlaps
+    /// `[tmin, tmax]`.
+    pub fn node_hits(&self, node: &BvhNode, tmin: f32, tmax: f32) -> [Option<f32>; BVH_WIDTH] {
+        let scale = node.scales();
+        let a: [f32; 3] = [0, 1, 2].map(|k| scale[k] * self.inv_dir[k]);
+        let b: [f32; 3] =
+            [0, 1, 2].map(|k| node.origin[k].mul_add(self.inv_dir[k], self.o_times_inv[k]));
+        std::array::from_fn(|c| {
+            let mut entry = tmin;
+            let mut exit = tmax;
+            for k in 0..3 {
+                let lo = f32::from(node.planes[2 * k][c]);
+                let hi = f32::from(node.planes[2 * k + 1][c]);
+                let (near, far) = if self.inv_dir[k] < 0.0 {
+                    (hi, lo)
+                } else {
+                    (lo, hi)
+                };
+                entry = entry.max(near.mul_add(a[k], b[k]));
+                exit = exit.min(far.mul_add(a[k], b[k]));
+            }
+            (entry <= exit).then_some(entry)
+        })
     }
 
     /// Watertight ray/triangle test (Woop, Benthin, Wald 2013): `Some((t, b1, b2))` for a hit
@@ -249,10 +260,7 @@ impl BvhData {
         // (node, instance whose bottom level this is, or None in the top level)
         let mut stack: Vec<(u32, Option<u32>)> = vec![(TLAS_ROOT, None)];
         while let Some((node, inst)) = stack.pop() {
-            for child in &self.nodes[node as usize].children() {
-                if child.is_empty() {
-                    continue;
-                }
+            for child in self.nodes[node as usize].children() {
                 match (decode_link(child.link), inst) {
                     (Ok(n), _) => stack.push((n, inst)),
                     (Err((i, _)), None) => {
@@ -281,15 +289,16 @@ impl BvhData {
         let mut stack: Vec<(u32, RayPre, Option<u32>)> = vec![(TLAS_ROOT, world, None)];
         while let Some((node, pre, inst)) = stack.pop() {
             let n = &self.nodes[node as usize];
-            let mut hits: Vec<(f32, BvhChild)> = n
-                .children()
-                .into_iter()
-                .filter_map(|c| pre.slab(&c.bounds, ray.tmin, tmax).map(|t| (t, c)))
+            let mut hits: Vec<(f32, u32)> = pre
+                .node_hits(n, ray.tmin, tmax)
+                .iter()
+                .zip(n.links)
+                .filter_map(|(t, link)| t.filter(|_| link != LINK_EMPTY).map(|t| (t, link)))
                 .collect();
-            // Farther child pushed first so the nearer one is popped next.
+            // Farther children pushed first so the nearest one is popped next.
             hits.sort_by(|a, b| b.0.total_cmp(&a.0));
-            for (_, child) in hits {
-                match (decode_link(child.link), inst) {
+            for (_, link) in hits {
+                match (decode_link(link), inst) {
                     (Ok(next), _) => stack.push((next, pre, inst)),
                     (Err((i, _)), None) => {
                         let bi = &self.instances[i as usize];

@@ -1,0 +1,234 @@
+//! The bad-input corpus (`corpus.rs`, plus the fuzzer's finds in `regressions/`) through the
+//! library and through the real binary: every case fails with a one-line error naming the
+//! file and the element (exit code 1), or loads with the documented warning and then renders
+//! with every backend; never a panic, a hang or a validation error.
+
+#[path = "../scene_util/mod.rs"]
+mod scene_util;
+
+mod corpus;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use corpus::{Case, Expect};
+use rqr::scene::{self, LoadOptions};
+
+/// Longest a load may take in the library (a hang fails the test rather than blocking it).
+const LOAD_LIMIT: Duration = Duration::from_secs(60);
+/// Longest `rqr info` may take.
+const INFO_LIMIT: Duration = Duration::from_secs(60);
+/// Longest a 32×32 `rqr render` may take (lavapipe compiles pipelines on first use).
+const RENDER_LIMIT: Duration = Duration::from_secs(300);
+
+fn work_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("rqr-bad-inputs-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes the case's files into `dir/name/`; returns the scene path.
+fn write_case(dir: &Path, case: &Case) -> PathBuf {
+    let d = dir.join(&case.name);
+    std::fs::create_dir_all(&d).unwrap();
+    for (rel, data) in &case.files {
+        std::fs::write(d.join(rel), data).unwrap();
+    }
+    d.join(&case.files[0].0)
+}
+
+/// Runs `rqr args`, killing it after `limit`.
+fn rqr(args: &[&str], limit: Duration) -> (Output, Duration) {
+    let start = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_rqr"))
+        .args(args)
+        .env("RQR_VALIDATION", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("running rqr");
+    // Drain the pipes while waiting: a chatty child must not block on a full pipe.
+    let stdout = child.stdout.take().unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let read = |mut r: Box<dyn std::io::Read + Send>| {
+        std::thread::spawn(move || {
+            let mut v = Vec::new();
+            r.read_to_end(&mut v).ok();
+            v
+        })
+    };
+    let (out_t, err_t) = (read(Box::new(stdout)), read(Box::new(stderr)));
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > limit {
+            child.kill().ok();
+            child.wait().ok();
+            panic!(
+                "rqr {args:?} still running after {limit:?} (killed); stderr: {}",
+                String::from_utf8_lossy(&err_t.join().unwrap())
+            );
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let out = Output {
+        status,
+        stdout: out_t.join().unwrap(),
+        stderr: err_t.join().unwrap(),
+    };
+    (out, start.elapsed())
+}
+
+/// Loads in a thread with a deadline: `Ok(scene stats)` or `Err(message)`.
+fn load_bounded(path: &Path) -> Result<usize, String> {
+    let (tx, rx) = mpsc::channel();
+    let p = path.to_path_buf();
+    std::thread::spawn(move || {
+        let r = scene::load(&p, &LoadOptions::default())
+            .map(|s| s.triangle_count())
+            .map_err(|e| e.to_string());
+        tx.send(r).ok();
+    });
+    rx.recv_timeout(LOAD_LIMIT)
+        .unwrap_or_else(|_| panic!("loading {} took over {LOAD_LIMIT:?}", path.display()))
+}
+
+fn no_panic_or_validation(what: &str, out: &Output) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    for bad in [
+        "panicked",
+        "RUST_BACKTRACE",
+        "Validation Error",
+        "SIGSEGV",
+        "stack overflow",
+    ] {
+        assert!(!err.contains(bad), "{what}: {err}");
+    }
+}
+
+/// Checks one case through the library and `rqr info` (and `rqr render` when it loads).
+fn check(dir: &Path, case: &Case, render: bool) {
+    let path = write_case(dir, case);
+    let shown = path.display().to_string();
+    let what = format!("case {}", case.name);
+    let lib = load_bounded(&path);
+    let (info, took) = rqr(&["info", &shown], INFO_LIMIT);
+    no_panic_or_validation(&what, &info);
+    let stderr = String::from_utf8_lossy(&info.stderr).into_owned();
+    match &case.expect {
+        Expect::Fails(_) | Expect::FailsAny => {
+            let e = lib
+                .err()
+                .unwrap_or_else(|| panic!("{what}: the library loaded it"));
+            assert!(e.starts_with(&format!("{shown}: ")), "{what}: {e}");
+            assert!(!e.contains('\n'), "{what}: not one line: {e}");
+            if let Expect::Fails(needles) = &case.expect {
+                for n in needles {
+                    assert!(e.contains(n), "{what}: '{n}' not in '{e}'");
+                }
+            }
+            assert_eq!(info.status.code(), Some(1), "{what}: {stderr}");
+            let lines: Vec<&str> = stderr.lines().filter(|l| !l.contains(" WARN ")).collect();
+            assert_eq!(lines, [format!("rqr: error: {e}")], "{what}");
+            assert!(info.stdout.is_empty(), "{what}");
+        }
+        Expect::Loads { warning, render: r } => {
+            if let Err(e) = lib {
+                panic!("{what}: {e}");
+            }
+            assert!(info.status.success(), "{what}: {stderr}");
+            if let Some(w) = warning {
+                assert!(
+                    stderr.contains(w),
+                    "{what}: warning '{w}' not in '{stderr}'"
+                );
+            }
+            if *r && render {
+                for backend in ["hw", "bvh"] {
+                    let png = dir.join(format!("{}-{backend}.png", case.name));
+                    let args = [
+                        "render",
+                        &shown,
+                        "--width",
+                        "32",
+                        "--height",
+                        "32",
+                        "--backend",
+                        backend,
+                        "-o",
+                        png.to_str().unwrap(),
+                    ];
+                    let (out, _) = rqr(&args, RENDER_LIMIT);
+                    no_panic_or_validation(&what, &out);
+                    assert!(
+                        out.status.success(),
+                        "{what}: render --backend {backend}: {}",
+                        String::from_utf8_lossy(&out.stderr)
+                    );
+                    let img = image::open(&png).unwrap().to_rgba8();
+                    assert_eq!(img.dimensions(), (32, 32), "{what}");
+                }
+            }
+        }
+    }
+    assert!(took < INFO_LIMIT, "{what}: rqr info took {took:?}");
+    std::fs::remove_dir_all(path.parent().unwrap()).ok();
+}
+
+#[test]
+fn named_cases_fail_cleanly_or_render() {
+    let dir = work_dir("named");
+    let mut cases = corpus::cases();
+    assert!(cases.len() >= 60, "{} cases", cases.len());
+    // RQR_BAD_INPUT=substring runs only the matching cases (debugging).
+    if let Ok(only) = std::env::var("RQR_BAD_INPUT") {
+        cases.retain(|c| c.name.contains(&only));
+    }
+    for case in &cases {
+        let start = Instant::now();
+        check(&dir, case, true);
+        eprintln!("{:<45} {:>6.2} s", case.name, start.elapsed().as_secs_f64());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_million_nodes_side_by_side_render() {
+    let dir = work_dir("flat");
+    check(&dir, &corpus::heavy_case("nodes_million_flat"), true);
+}
+
+#[test]
+fn a_million_nodes_deep_render() {
+    let dir = work_dir("deep");
+    check(&dir, &corpus::heavy_case("nodes_million_deep"), true);
+}
+
+#[test]
+fn a_16k_by_16k_texture_renders() {
+    let dir = work_dir("16k");
+    check(&dir, &corpus::heavy_case("image_16k_by_16k"), true);
+}
+
+#[test]
+fn every_cut_point_of_a_glb_fails_cleanly() {
+    let dir = work_dir("cuts");
+    let cases = corpus::truncations();
+    assert!(cases.len() > 500, "{} cut points", cases.len());
+    for case in &cases {
+        check(&dir, case, false);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn fuzzer_regressions_fail_cleanly() {
+    let dir = work_dir("regressions");
+    for case in &corpus::regressions() {
+        check(&dir, case, false);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
