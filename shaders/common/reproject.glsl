@@ -78,7 +78,7 @@ layout(set = 0, binding = 4, scalar) uniform Params {
     uint max_age;              // a sample older than this is re-traced
     float frameless_fraction;  // share of pixels re-traced per frame (0..1)
     float subsample_threshold; // adaptive sub-sampling: largest channel difference to interpolate
-    uint frame_index;          // global frame number
+    uint pad0;
     float plane_threshold;     // plane distance / view depth
     float normal_threshold;    // smallest dot of the two geometric normals
     float edge_threshold;      // rt path: plane distance / view depth between neighbours = an edge

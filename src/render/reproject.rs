@@ -27,7 +27,9 @@
 //!
 //! Reused samples keep the world position where their colour was computed (as in the Render
 //! Cache, Walter et al. 1999), so the error of a reused pixel stays within its footprint and
-//! does not drift. Interpolated colours are never cached.
+//! does not drift. Fills and interpolated pixels are cached at their own primary hit, flagged
+//! so that fills never copy them ([`MAX_FILL_HOPS`]): no colour moves more than one fill
+//! radius from where it was computed.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -219,7 +221,7 @@ struct GpuParams {
     max_age: u32,
     frameless_fraction: f32,
     subsample_threshold: f32,
-    frame_index: u32,
+    pad: u32,
     plane_threshold: f32,
     normal_threshold: f32,
     edge_threshold: f32,
@@ -529,14 +531,13 @@ impl<'r> Reprojector<'r> {
     }
 
     /// Renders one frame through `camera`, reusing what the cache allows, and caches its
-    /// samples for the next call. `frame_index` is the global frame number; `draws` are
-    /// the scene's raster draws (hybrid path; ignored by the rt path).
+    /// samples for the next call. `draws` are the scene's raster draws (hybrid path; ignored
+    /// by the rt path).
     pub fn render(
         &mut self,
         ctx: &Context,
         draws: &[gbuffer::Draw],
         camera: &Camera,
-        frame_index: u32,
     ) -> crate::Result<ReprojectedFrame> {
         let s = &self.settings;
         let scale = self.renderer.scene_scale();
@@ -568,7 +569,7 @@ impl<'r> Reprojector<'r> {
             max_age: o.max_age.unwrap_or(u32::MAX),
             frameless_fraction: o.frameless_percent.unwrap_or(0.0) / 100.0,
             subsample_threshold: o.subsample_threshold,
-            frame_index,
+            pad: 0,
             plane_threshold: PLANE_DISTANCE_THRESHOLD,
             normal_threshold: NORMAL_DOT_THRESHOLD,
             edge_threshold: EDGE_PLANE_THRESHOLD,

@@ -327,7 +327,13 @@ impl CameraAnimation {
             .as_ref()
             .and_then(|k| k.sample(time))
             .unwrap_or(r);
-        let world = self.parent_world * Mat4::from_scale_rotation_translation(s, r.normalize(), t);
+        let mut world =
+            self.parent_world * Mat4::from_scale_rotation_translation(s, r.normalize(), t);
+        if !world.is_finite() {
+            // Degenerate keys (a zero quaternion): keep the node's rest pose.
+            let (t, r, s) = self.rest;
+            world = self.parent_world * Mat4::from_scale_rotation_translation(s, r.normalize(), t);
+        }
         Camera {
             camera_to_world: crate::scene::camera::camera_pose(world),
             projection: base.projection,
@@ -636,7 +642,7 @@ impl<'r> Sequence<'r> {
                     output,
                     sources,
                     stats,
-                } = r.render(ctx, &self.draws, &camera, index)?;
+                } = r.render(ctx, &self.draws, &camera)?;
                 (output, sources, stats)
             }
             None => {
