@@ -8,6 +8,7 @@
 #include "trace.glsl"
 #include "frame.glsl"
 #include "sampling.glsl"
+#include "counters.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(push_constant) uniform Push { uint mode; } pc;
@@ -17,7 +18,7 @@ layout(set = 0, binding = 4, scalar) buffer Hits { vec4 hits[]; };
 layout(set = 0, binding = 5, std430) buffer Counters { uint counters[]; }; // rays traced, rays that hit
 
 // No barriers or shared memory: on a CPU Vulkan (lavapipe) a barrier turns every invocation
-// into a coroutine, which costs more than the atomics. The geometric normal of the primary hit
+// into a coroutine; counters are summed per subgroup (counters.glsl). The geometric normal of the primary hit
 // is fetched by the bounce pass, which needs it, so the primary pass times tracing only.
 void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;
@@ -28,10 +29,8 @@ void main() {
     if (pc.mode == 0u) {
         Ray r = camera_ray(vec2(pix) + 0.5);
         Hit h = trace_closest(r.origin, r.dir, 0.0, 3.0e38);
-        atomicAdd(counters[0], 1u);
-        if (hit_found(h)) {
-            atomicAdd(counters[1], 1u);
-        }
+        COUNTER_ADD(counters[0], 1u);
+        COUNTER_ADD(counters[1], hit_found(h) ? 1u : 0u);
         hits[2u * i] = vec4(r.origin + h.t * r.dir, intBitsToFloat(h.instance));
         hits[2u * i + 1u] = vec4(r.dir, intBitsToFloat(h.primitive));
     } else {
@@ -54,9 +53,7 @@ void main() {
         vec3 bt = cross(n, t);
         vec3 d = normalize(radius * cos(phi) * t + radius * sin(phi) * bt + sqrt(max(0.0, 1.0 - u.x)) * n);
         Hit h = trace_closest(p, d, 0.0, 3.0e38);
-        atomicAdd(counters[0], 1u);
-        if (hit_found(h)) {
-            atomicAdd(counters[1], 1u);
-        }
+        COUNTER_ADD(counters[0], 1u);
+        COUNTER_ADD(counters[1], hit_found(h) ? 1u : 0u);
     }
 }

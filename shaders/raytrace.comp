@@ -10,6 +10,7 @@
 #include "sampling.glsl"
 #include "brdf.glsl"
 #include "shade.glsl"
+#include "counters.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 // FLAG_ADAPTIVE_CORNERS selects the corner pass; FLAG_WRITE_AOV enables AOV output.
@@ -56,9 +57,9 @@ float differ(vec3 x, vec3 y) {
 
 void flush_counters(uint samples) {
     for (uint k = 0u; k < 4u; ++k) {
-        if (rays_by_kind[k] != 0u) atomicAdd(counters[k], rays_by_kind[k]);
+        COUNTER_ADD(counters[k], rays_by_kind[k]);
     }
-    if (samples != 0u) atomicAdd(counters[4], samples);
+    COUNTER_ADD(counters[4], samples);
 }
 
 void main() {

@@ -14,6 +14,7 @@
 #include "sampling.glsl"
 #include "brdf.glsl"
 #include "shade.glsl"
+#include "counters.glsl"
 #include "reproject.glsl"
 
 layout(local_size_x = 64) in;
@@ -109,7 +110,7 @@ void main() {
     cache_next[q] = e;
 
     for (uint k = 0u; k < 4u; ++k) {
-        if (rays_by_kind[k] != 0u) atomicAdd(counters[k], rays_by_kind[k]);
+        COUNTER_ADD(counters[k], rays_by_kind[k]);
     }
-    atomicAdd(counters[C_SAMPLES], 1u);
+    COUNTER_ADD(counters[C_SAMPLES], 1u);
 }

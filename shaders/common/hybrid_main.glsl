@@ -10,6 +10,7 @@
 #include "sampling.glsl"
 #include "brdf.glsl"
 #include "shade.glsl"
+#include "counters.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #define HYBRID_FIRST_SAMPLE 1u
@@ -124,7 +125,7 @@ void main() {
         aov_out[index] = a;
     }
     for (uint k = 0u; k < 4u; ++k) {
-        if (rays_by_kind[k] != 0u) atomicAdd(counters[k], rays_by_kind[k]);
+        COUNTER_ADD(counters[k], rays_by_kind[k]);
     }
-    atomicAdd(counters[4], 1u);
+    COUNTER_ADD(counters[4], 1u);
 }

@@ -565,6 +565,19 @@ impl Context {
         if let Some((_, name)) = required.iter().find(|(v, _)| *v != vk::TRUE) {
             return Err(missing(name));
         }
+        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
+        // SAFETY: as above; a core 1.1 property struct.
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+        if !subgroup
+            .supported_stages
+            .contains(vk::ShaderStageFlags::COMPUTE)
+            || !subgroup
+                .supported_operations
+                .contains(vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::ARITHMETIC)
+        {
+            return Err(missing("subgroup arithmetic in compute shaders"));
+        }
 
         // SAFETY: as above.
         let exts = unsafe { instance.enumerate_device_extension_properties(physical) }

@@ -203,6 +203,17 @@ pub(crate) fn describe_device(
         }
     }
 
+    // Ray and sample counters are summed per subgroup before one atomic per subgroup
+    // (shaders/common/counters.glsl).
+    let subgroup_ops = vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::ARITHMETIC;
+    if !subgroup
+        .supported_stages
+        .contains(vk::ShaderStageFlags::COMPUTE)
+        || !subgroup.supported_operations.contains(subgroup_ops)
+    {
+        missing.push("subgroup arithmetic in compute shaders".to_string());
+    }
+
     // SAFETY: as above.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
     let wanted = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
