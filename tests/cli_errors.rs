@@ -260,3 +260,31 @@ fn gpu_timeout_is_a_clean_error_naming_the_pass() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `rqr info | head -1`: once stdout's reader is gone, a command stops quietly with the
+/// status a shell gives a command killed by SIGPIPE (141), instead of `println!` panicking.
+#[cfg(unix)]
+#[test]
+fn closed_stdout_ends_commands_quietly() {
+    let dir = tmp_dir("epipe");
+    let out_png = dir.join("out.png");
+    let out_png_arg = out_png.to_str().unwrap();
+    let cases: [&[&str]; 5] = [
+        &["info"],
+        &["info", "--json"],
+        &["probe"],
+        &["probe", "--json"],
+        &["render", "--width", "8", "--height", "8", "-o", out_png_arg],
+    ];
+    for args in cases {
+        let (out, _) = common::run_rqr_stdout_closed(args, VALIDATED, Duration::from_secs(120));
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(141), "rqr {args:?}: {err}");
+        for bad in ["panicked", "Broken pipe", "rqr: error", "Validation Error"] {
+            assert!(!err.contains(bad), "rqr {args:?}: {err}");
+        }
+    }
+    // The render's work was done: only its summary line found nobody to read it.
+    assert!(out_png.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
