@@ -190,7 +190,8 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
     let out_png = dir.join("out.png");
     let out_png = out_png.to_str().unwrap();
 
-    // A square image whose 48-byte-per-pixel AOV buffer exceeds maxStorageBufferRange.
+    // A square image whose 48-byte-per-pixel AOV buffer (allocated only for --aov) exceeds
+    // maxStorageBufferRange.
     let range = dev["max_storage_buffer_range"].as_u64().unwrap();
     let side = ((range / 48) as f64).sqrt() as u64 + 2;
     assert!(
@@ -198,10 +199,13 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
         "maxStorageBufferRange {range} fits any image"
     );
     let side = side.to_string();
-    let args = ["render", "--width", &side, "--height", &side, "-o", out_png];
+    let args = [
+        "render", "--width", &side, "--height", &side, "--aov", "depth", "-o", out_png,
+    ];
     let (out, took) = rqr(&args, VALIDATED, Duration::from_secs(120));
     assert_clean_failure(&args, &out, 1, "maxStorageBufferRange");
-    assert!(error_line(&out).contains(&format!("resolution {side}x{side}")));
+    assert!(error_line(&out).contains(&format!("resolution {side}x{side} with AOVs")));
+    assert!(error_line(&out).contains("render without AOVs (--aov)"));
     assert!(took < Duration::from_secs(60), "took {took:?}");
 
     // Hybrid keeps one ~100-byte G-buffer per sample: enough samples exceed the heap.

@@ -49,28 +49,37 @@ fn dense_sphere(segments: u32) -> Scene {
 #[test]
 fn render_estimates_grow_with_what_they_allocate() {
     let s = settings(640, 480, 1);
-    let rt = s.estimate_bytes(RenderPath::RayTraced);
+    let rt = s.estimate_bytes(RenderPath::RayTraced, true);
     // Colour (16 B) + AOVs (48 B) + tonemap (4 B) per pixel, plus the adaptive corners.
     assert!(rt >= 640 * 480 * (16 + 48 + 4 + 16), "{rt}");
     assert!(rt <= 640 * 480 * 100, "{rt}");
+    // Without AOVs, no AOV buffer (a one-element placeholder is bound instead).
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        assert_eq!(
+            s.estimate_bytes(path, true) - s.estimate_bytes(path, false),
+            640 * 480 * 48,
+            "{path:?}"
+        );
+    }
     // The ray-traced path reuses its buffers for every sample; hybrid adds a G-buffer each.
     assert_eq!(
-        settings(640, 480, 64).estimate_bytes(RenderPath::RayTraced),
+        settings(640, 480, 64).estimate_bytes(RenderPath::RayTraced, true),
         rt
     );
-    let h1 = s.estimate_bytes(RenderPath::Hybrid);
-    let h4 = settings(640, 480, 4).estimate_bytes(RenderPath::Hybrid);
+    let h1 = s.estimate_bytes(RenderPath::Hybrid, true);
+    let h4 = settings(640, 480, 4).estimate_bytes(RenderPath::Hybrid, true);
     let gbuffer = (h4 - h1) / 3;
     assert_eq!(
         gbuffer,
         640 * 480 * (5 * 16 + 2 * 8 + 4),
         "7 targets + depth"
     );
-    assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced) > 3 * rt);
-    // The largest storage buffer is the AOV array.
-    assert_eq!(s.largest_buffer_bytes(), 640 * 480 * 48);
+    assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced, true) > 3 * rt);
+    // The largest storage buffer is the AOV array; without AOVs, the adaptive corners.
+    assert_eq!(s.largest_buffer_bytes(true), 640 * 480 * 48);
+    assert_eq!(s.largest_buffer_bytes(false), 641 * 481 * 16);
     // Absurd requests saturate instead of overflowing.
-    let huge = settings(16384, 16384, 4096).estimate_bytes(RenderPath::Hybrid);
+    let huge = settings(16384, 16384, 4096).estimate_bytes(RenderPath::Hybrid, true);
     assert!(huge > 1 << 40);
 }
 
@@ -175,11 +184,89 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
     let side = ((u64::from(info.max_storage_buffer_range) / 48) as f64).sqrt() as u32 + 2;
     if side <= info.max_image_dimension_2d {
         let err = renderer
-            .render_rt(&ctx, &settings(side, side, 1), &camera, false)
+            .render_rt(&ctx, &settings(side, side, 1), &camera, true)
             .err()
             .expect("AOV buffer beyond maxStorageBufferRange");
         assert!(err.to_string().contains("maxStorageBufferRange"), "{err}");
+        // Without AOVs the same resolution passes the device's storage range (checked, not
+        // rendered: slow on lavapipe). The heap was limited above: lift that for this check.
+        let mut info = info.clone();
+        for heap in &mut info.memory_heaps {
+            heap.size_bytes = 64 << 30;
+        }
+        let s = settings(side, side, 1);
+        for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+            s.check_device(&info, path, false, 0).unwrap();
+            assert!(s.check_device(&info, path, true, 0).is_err());
+        }
     }
+    assert_validation_clean(&ctx);
+}
+
+#[test]
+fn aovs_alone_exceed_the_storage_range_at_2048() {
+    let ctx = gpu();
+    // The device as lavapipe reports it (maxStorageBufferRange 128 MiB), with a heap and an
+    // image limit that are not in the way.
+    let mut info = ctx.info().clone();
+    info.max_storage_buffer_range = 128 << 20;
+    info.max_image_dimension_2d = 16384;
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = 64 << 30;
+    }
+    let s = settings(2048, 2048, 1);
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        // Colour and corners: 16 B per pixel, 64 MiB.
+        s.check_device(&info, path, false, 0)
+            .unwrap_or_else(|e| panic!("{path:?} without AOVs: {e}"));
+        // AOVs: 48 B per pixel, 192 MiB.
+        let err = s
+            .check_device(&info, path, true, 0)
+            .expect_err("192 MiB of AOVs in a 128 MiB storage range");
+        let msg = err.to_string();
+        for needle in [
+            "resolution 2048x2048 with AOVs needs a 192 MiB per-pixel buffer",
+            "at most 128 MiB per storage buffer (maxStorageBufferRange)",
+            "render without AOVs",
+        ] {
+            assert!(msg.contains(needle), "'{needle}' not in: {msg}");
+        }
+    }
+    // Beyond what colour alone can bind, dropping AOVs is no way out: the hint says so.
+    let err = settings(4096, 4096, 1)
+        .check_device(&info, RenderPath::RayTraced, true, 0)
+        .expect_err("256 MiB of colour");
+    assert!(!err.to_string().contains("without AOVs"), "{err}");
+    assert!(err.to_string().ends_with("lower the resolution"), "{err}");
+}
+
+#[test]
+fn renders_without_aovs_bind_a_placeholder() {
+    let ctx = gpu();
+    let scene = cornell();
+    let camera = scene.cameras[0];
+    let draws = gbuffer::draws(&scene);
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let s = settings(48, 32, 1);
+    let rt = renderer.render_rt(&ctx, &s, &camera, false).unwrap();
+    let hy = renderer
+        .render_hybrid(&ctx, &draws, &s, &camera, false)
+        .unwrap();
+    for out in [&rt, &hy] {
+        assert!(out.aov.is_empty());
+        assert_eq!(out.color.len(), 48 * 32);
+        assert!(out.color.iter().any(|c| c[0] > 0.0));
+    }
+    // The same frame with AOVs: identical colour, and the AOVs are all there.
+    let rt_aov = renderer.render_rt(&ctx, &s, &camera, true).unwrap();
+    assert_eq!(rt_aov.aov.len(), 48 * 32);
+    assert!(rt_aov.aov.iter().any(|a| a.instance() >= 0));
+    assert_eq!(rt_aov.color, rt.color);
+    let hy_aov = renderer
+        .render_hybrid(&ctx, &draws, &s, &camera, true)
+        .unwrap();
+    assert_eq!(hy_aov.aov.len(), 48 * 32);
+    assert_eq!(hy_aov.color, hy.color);
     assert_validation_clean(&ctx);
 }
 

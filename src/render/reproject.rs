@@ -347,6 +347,7 @@ impl<'r> Reprojector<'r> {
             .check_device(
                 ctx.info(),
                 path,
+                false,
                 ctx.allocated_bytes()
                     .saturating_add(Self::estimate_bytes(settings)),
             )
