@@ -10,7 +10,8 @@ use common::{assert_validation_clean, gpu};
 use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};
-use rqr::render::reproject::RenderPath;
+use rqr::render::reproject::{RenderPath, Reprojector, ReuseOptions};
+use rqr::render::sequence::{CameraPath, Sequence, SequenceOptions};
 use rqr::render::{gbuffer, RenderSettings, Renderer};
 use rqr::scene::gpu::GpuScene;
 use rqr::scene::procedural::{assemble, cornell, look_at, sphere};
@@ -294,5 +295,127 @@ fn fence_timeout_mid_frame_defers_destruction_and_recovers() {
         .render_rt(&ctx, &settings(32, 32, 1), &camera, false)
         .unwrap();
     assert!(out.color.iter().any(|c| c[0] > 0.0));
+    assert_validation_clean(&ctx);
+}
+
+/// Options of a sequence on the ray-traced path, with or without reprojection.
+fn sequence_options(reproject: bool) -> SequenceOptions {
+    SequenceOptions {
+        path: RenderPath::RayTraced,
+        reuse: ReuseOptions {
+            reproject,
+            ..Default::default()
+        },
+        reference: true,
+    }
+}
+
+#[test]
+fn reprojection_cache_is_checked_with_the_full_render() {
+    let ctx = gpu();
+    // lavapipe's storage range, a heap that is not in the way.
+    let mut info = ctx.info().clone();
+    info.max_storage_buffer_range = 128 << 20;
+    info.max_image_dimension_2d = 16384;
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = 64 << 30;
+    }
+    // The sample caches hold 64 bytes per pixel: 1500² needs 138 MiB per cache, while the
+    // full render's largest buffer (16 bytes per pixel) fits.
+    let s = settings(1500, 1500, 1);
+    assert_eq!(Reprojector::largest_buffer_bytes(&s), 1500 * 1500 * 64);
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        s.check_device(&info, path, false, 0).unwrap();
+        let err = Reprojector::check_device(&s, &info, path, 0)
+            .expect_err("a 138 MiB cache in a 128 MiB storage range")
+            .to_string();
+        for needle in [
+            "resolution 1500x1500 with reuse between frames needs a 138 MiB sample cache",
+            "(maxStorageBufferRange)",
+            "--reproject",
+        ] {
+            assert!(err.contains(needle), "'{needle}' not in: {err}");
+        }
+        Reprojector::check_device(&settings(1024, 1024, 1), &info, path, 0).unwrap();
+    }
+
+    // The heap: the cache and its per-pixel buffers (two 64-byte caches and more per pixel)
+    // come on top of the full render.
+    let s = settings(512, 512, 1);
+    let full = s.estimate_bytes(RenderPath::RayTraced, false);
+    let cache = Reprojector::estimate_bytes(&s);
+    assert!(cache >= 512 * 512 * 2 * 64, "{cache}");
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = full + cache - 1;
+    }
+    s.check_device(&info, RenderPath::RayTraced, false, 0)
+        .unwrap();
+    let err = Reprojector::check_device(&s, &info, RenderPath::RayTraced, 0)
+        .expect_err("one byte short")
+        .to_string();
+    assert!(
+        err.contains("for the sample cache and its per-pixel buffers")
+            && err.contains("of device memory"),
+        "{err}"
+    );
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = full + cache;
+    }
+    Reprojector::check_device(&s, &info, RenderPath::RayTraced, 0).unwrap();
+}
+
+#[test]
+fn sequences_check_the_reprojection_cache_before_allocating() {
+    let mut ctx = gpu();
+    let scene = cornell();
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let new_sequence = |ctx: &rqr::vk::Context, s: &RenderSettings, reproject: bool| {
+        Sequence::new(
+            ctx,
+            &renderer,
+            &scene,
+            s,
+            scene.cameras[0],
+            CameraPath::Static,
+            sequence_options(reproject),
+        )
+        .map(|_| ())
+    };
+
+    // A side whose sample cache exceeds the device's maxStorageBufferRange (lavapipe: 1450).
+    let info = ctx.info();
+    let side = ((u64::from(info.max_storage_buffer_range) / 64) as f64).sqrt() as u32 + 2;
+    if side <= info.max_image_dimension_2d
+        && settings(side, side, 1)
+            .check_device(info, RenderPath::RayTraced, false, ctx.allocated_bytes())
+            .is_ok()
+    {
+        let before = ctx.allocated_bytes();
+        let err = new_sequence(&ctx, &settings(side, side, 1), true)
+            .expect_err("sample cache beyond maxStorageBufferRange");
+        assert!(
+            err.to_string().contains("sample cache")
+                && err.to_string().contains("maxStorageBufferRange"),
+            "{err}"
+        );
+        assert_eq!(ctx.allocated_bytes(), before, "allocated before failing");
+        // Without reuse the same frames fit (nothing is allocated before the first frame).
+        new_sequence(&ctx, &settings(side, side, 1), false).unwrap();
+    }
+
+    // Leave 8 MiB: a 256² frame fits, its sample cache (~17 MiB) does not.
+    ctx.limit_device_memory(ctx.allocated_bytes() + (8 << 20));
+    let before = ctx.allocated_bytes();
+    let err = new_sequence(&ctx, &settings(256, 256, 1), true).expect_err("cache beyond the heap");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("256x256 with reuse between frames") && msg.contains("of device memory"),
+        "{msg}"
+    );
+    assert_eq!(ctx.allocated_bytes(), before, "allocated before failing");
+    new_sequence(&ctx, &settings(256, 256, 1), false).unwrap();
+    // A sequence without reuse is checked up front too.
+    let err = new_sequence(&ctx, &settings(1024, 1024, 1), false).expect_err("~37 MiB frames");
+    assert!(err.to_string().contains("of device memory"), "{err}");
     assert_validation_clean(&ctx);
 }
