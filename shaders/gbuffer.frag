@@ -1,7 +1,9 @@
 #version 460
-// G-buffer raster pass, fragment stage: evaluates the material with the SAME surface_at() as
-// the ray-traced path (ray-cone texture LOD from the camera distance), alpha-tests MASK
-// materials with the same alpha_accepts(), and writes the G-buffer.
+// Full G-buffer raster pass (`--gbuffer full`), fragment stage: takes the hit from intersecting
+// the sample's camera ray with the rasterized triangle (ray_triangle_hit), evaluates the
+// material with the SAME surface_at() as the ray-traced path (ray-cone texture LOD from the
+// camera distance), alpha-tests MASK materials with the same alpha_accepts(), and writes the
+// G-buffer.
 #include "scene.glsl"
 #include "frame.glsl"
 #include "surface.glsl"
@@ -32,25 +34,8 @@ void main() {
     GpuInstance inst = scene_instance(pc.instance);
     GpuGeometry g = scene_geometry(inst.geometry);
     uvec3 tri = scene_triangle(g, in_prim);
-    // Barycentrics from intersecting that ray with the rasterized triangle in object space,
-    // like the ray backends, instead of the rasterizer's interpolation: refraction and
-    // reflection magnify interpolation error, and this keeps hybrid hits within float noise of
-    // ray-traced ones. Clamped to the triangle for samples just outside its edges.
-    {
-        Ray cam = camera_ray(film);
-        vec3 o = (inst.world_to_object * vec4(cam.origin, 1.0)).xyz;
-        vec3 d = mat3(inst.world_to_object) * cam.dir;
-        vec3 a = scene_position(tri.x), e1 = scene_position(tri.y) - a, e2 = scene_position(tri.z) - a;
-        vec3 pv = cross(d, e2);
-        float det = dot(e1, pv);
-        if (abs(det) > 1e-30) {
-            vec3 tv = o - a;
-            vec2 uv = vec2(dot(tv, pv), dot(d, cross(tv, e1))) / det;
-            uv = max(uv, vec2(0.0));
-            float sum = uv.x + uv.y;
-            bary = sum > 1.0 ? uv / sum : uv;
-        }
-    }
+    Ray cam = camera_ray(film);
+    bary = ray_triangle_hit(pc.instance, in_prim, cam.origin, cam.dir, bary).xy;
     vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
     vec3 p = (inst.object_to_world * vec4(w.x * scene_position(tri.x) + w.y * scene_position(tri.y) + w.z * scene_position(tri.z), 1.0)).xyz;
     vec3 dir;

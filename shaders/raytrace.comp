@@ -32,9 +32,10 @@ PrimaryInfo no_info() {
 }
 
 Surface unused_surface;
+Hit unused_hit;
 
 vec3 radiance_at(vec2 film, inout PrimaryInfo info) {
-    return whitted(camera_ray(film), false, unused_surface, 0.0, info);
+    return whitted(camera_ray(film), PRIMARY_TRACE, unused_surface, unused_hit, info);
 }
 
 // The seed's adaptive quincunx supersampling. The pixel's corners come from the corner pass

@@ -81,7 +81,9 @@ void main() {
     if (known && !info.hit) {
         c = background_radiance(camera.dir);
     } else {
-        c = whitted(camera, known, s, t, info);
+        Hit at = miss_hit(BIG_FLOAT);
+        at.t = t;
+        c = whitted(camera, known ? PRIMARY_SURFACE : PRIMARY_TRACE, s, at, info);
     }
     color[q] = vec4(c, 1.0);
     state[q] = (st & ~PX_KIND_MASK) | PX_TRACED;

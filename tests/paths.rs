@@ -6,6 +6,7 @@ mod common;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};
+use rqr::render::gbuffer::GbufferLayout;
 use rqr::render::{compare, gbuffer, RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::procedural::{assemble, cornell, look_at, quad};
 use rqr::scene::{Instance, Material, Projection, Scene};
@@ -32,7 +33,8 @@ fn diff(a: &RenderOutput, b: &RenderOutput) -> compare::ImageDiff {
 }
 
 /// The invariant of the two paths on one scene: same camera, spp and sampler → PSNR ≥ 40 dB,
-/// FLIP mean ≤ 0.02, primary ids on ≥ 99.9 % of pixels, the same secondary rays (± silhouettes).
+/// FLIP mean ≤ 0.02, primary ids on ≥ 99.9 % of pixels, the same secondary rays (± silhouettes),
+/// with both G-buffer layouts.
 fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
     let ctx = common::gpu();
     let draws = gbuffer::draws(scene);
@@ -43,10 +45,16 @@ fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
         .unwrap_or_else(|| rqr::scene::auto_camera(&scene.bounds, 1.0));
     for backend in backends(&ctx) {
         let renderer = Renderer::new(&ctx, scene, backend).unwrap();
-        for (spp, sampler) in [(1, SamplerKind::Center), (4, SamplerKind::Grid)] {
+        for (spp, sampler, gbuffer) in [
+            (1, SamplerKind::Center, GbufferLayout::Visibility),
+            (1, SamplerKind::Center, GbufferLayout::Full),
+            (4, SamplerKind::Grid, GbufferLayout::Visibility),
+            (4, SamplerKind::Grid, GbufferLayout::Full),
+        ] {
             let s = RenderSettings {
                 spp,
                 sampler,
+                gbuffer,
                 ..settings(size)
             };
             let rt = renderer.render_rt(&ctx, &s, &camera, true).unwrap();
@@ -56,7 +64,7 @@ fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
             let d = diff(&rt, &hy);
             assert!(
                 d.psnr_db >= 40.0 && d.flip_mean <= 0.02,
-                "{name} {backend:?} spp {spp}: PSNR {:.1} dB, FLIP mean {:.4}",
+                "{name} {backend:?} spp {spp} {gbuffer:?}: PSNR {:.1} dB, FLIP mean {:.4}",
                 d.psnr_db,
                 d.flip_mean
             );
@@ -204,31 +212,39 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
     )
     .unwrap();
     let n = 32u32;
-    let out = renderer
-        .render_hybrid(
-            &ctx,
-            &gbuffer::draws(&scene),
-            &settings(n),
-            &scene.cameras[0],
-            true,
-        )
-        .unwrap();
-    let tan = (yfov * 0.5).tan();
-    for y in 0..n {
-        for x in 0..n {
-            let a = out.aov[(y * n + x) as usize];
-            assert_eq!(a.instance(), 0);
-            // The ray through pixel centre (x+0.5, y+0.5) has direction (u, -1, v) in camera terms.
-            let u = ((x as f32 + 0.5) / n as f32 * 2.0 - 1.0) * tan;
-            let v = ((y as f32 + 0.5) / n as f32 * 2.0 - 1.0) * tan;
-            let expected = height * (1.0 + u * u + v * v).sqrt();
-            assert!(
-                (a.depth() - expected).abs() < 1e-4 * expected,
-                "pixel {x},{y}: depth {} vs {expected}",
-                a.depth()
-            );
-            let normal = Vec3::from_slice(&a.normal_depth[..3]);
-            assert!((normal - Vec3::Y).length() < 1e-5, "normal {normal}");
+    for gbuffer in [GbufferLayout::Visibility, GbufferLayout::Full] {
+        let out = renderer
+            .render_hybrid(
+                &ctx,
+                &gbuffer::draws(&scene),
+                &RenderSettings {
+                    gbuffer,
+                    ..settings(n)
+                },
+                &scene.cameras[0],
+                true,
+            )
+            .unwrap();
+        let tan = (yfov * 0.5).tan();
+        for y in 0..n {
+            for x in 0..n {
+                let a = out.aov[(y * n + x) as usize];
+                assert_eq!(a.instance(), 0);
+                // The ray through pixel centre (x+0.5, y+0.5) has direction (u, -1, v) in camera terms.
+                let u = ((x as f32 + 0.5) / n as f32 * 2.0 - 1.0) * tan;
+                let v = ((y as f32 + 0.5) / n as f32 * 2.0 - 1.0) * tan;
+                let expected = height * (1.0 + u * u + v * v).sqrt();
+                assert!(
+                    (a.depth() - expected).abs() < 1e-4 * expected,
+                    "{gbuffer:?} pixel {x},{y}: depth {} vs {expected}",
+                    a.depth()
+                );
+                let normal = Vec3::from_slice(&a.normal_depth[..3]);
+                assert!(
+                    (normal - Vec3::Y).length() < 1e-5,
+                    "{gbuffer:?} normal {normal}"
+                );
+            }
         }
     }
     common::assert_validation_clean(&ctx);

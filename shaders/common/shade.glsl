@@ -142,9 +142,14 @@ vec3 volume_absorption(Surface s, float t) {
     return exp(log(max(s.atten_color, vec3(1e-6))) * (t / s.atten_dist));
 }
 
-// Radiance along a camera ray. When `have_surface` is true the primary hit is `primary_surface`
-// at distance `primary_t` (the hybrid path's G-buffer) and no primary ray is traced.
-vec3 whitted(Ray camera, bool have_surface, Surface primary_surface, float primary_t, inout PrimaryInfo info) {
+// Where the first segment of a camera path comes from.
+#define PRIMARY_TRACE 0u   // trace_closest() (pure ray-traced path)
+#define PRIMARY_SURFACE 1u // a shaded surface at distance primary_hit.t (full G-buffer)
+#define PRIMARY_HIT 2u     // primary_hit, shaded like a traced hit (visibility buffer)
+
+// Radiance along a camera ray. Only the first segment depends on `primary`: the hybrid path
+// hands in what its raster pass saw instead of tracing a primary ray.
+vec3 whitted(Ray camera, uint primary, Surface primary_surface, Hit primary_hit, inout PrimaryInfo info) {
     int sp = 0;
     path_stack[sp++] = PathRay(camera.origin, camera.dir, vec3(1.0), 1u, RAY_PRIMARY, 0.0);
     vec3 color = vec3(0.0);
@@ -153,13 +158,18 @@ vec3 whitted(Ray camera, bool have_surface, Surface primary_surface, float prima
         PathRay r = path_stack[--sp];
         Surface s;
         float t;
-        if (first && have_surface) {
+        if (first && primary == PRIMARY_SURFACE) {
             s = primary_surface;
-            t = primary_t;
+            t = primary_hit.t;
             first = false;
         } else {
-            rays_by_kind[r.kind] += 1u;
-            Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
+            Hit h;
+            if (first && primary == PRIMARY_HIT) {
+                h = primary_hit;
+            } else {
+                rays_by_kind[r.kind] += 1u;
+                h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
+            }
             if (first) {
                 info.hit = hit_found(h);
                 info.t = info.hit ? h.t : 0.0;

@@ -33,6 +33,34 @@ vec4 sample_slot(GpuTextureSlot slot, vec2 uv0, vec2 uv1, float lod_base) {
     return textureLod(textures[nonuniformEXT(slot.texture)], texture_uv(slot, uv0, uv1), max(lod, 0.0));
 }
 
+// Barycentrics (b1, b2) and distance t where the ray (origin, unit dir) meets triangle
+// (instance, prim), clamped onto the triangle. The raster passes know which triangle covers a
+// sample and take the hit from this intersection, like the ray backends, instead of the
+// rasterizer's interpolation: refraction and reflection magnify interpolation error, and this
+// keeps hybrid hits within float noise of ray-traced ones. A sample just outside the triangle's
+// edges is clamped to it; t is then the clamped point's distance along dir. `fallback` is kept
+// for a ray parallel to the triangle.
+vec3 ray_triangle_hit(uint instance, uint prim, vec3 origin, vec3 dir, vec2 fallback) {
+    GpuInstance inst = scene_instance(instance);
+    GpuGeometry g = scene_geometry(inst.geometry);
+    uvec3 tri = scene_triangle(g, prim);
+    vec3 o = (inst.world_to_object * vec4(origin, 1.0)).xyz;
+    vec3 d = mat3(inst.world_to_object) * dir;
+    vec3 a = scene_position(tri.x), e1 = scene_position(tri.y) - a, e2 = scene_position(tri.z) - a;
+    vec2 bary = fallback;
+    vec3 pv = cross(d, e2);
+    float det = dot(e1, pv);
+    if (abs(det) > 1e-30) {
+        vec3 tv = o - a;
+        vec2 uv = vec2(dot(tv, pv), dot(d, cross(tv, e1))) / det;
+        uv = max(uv, vec2(0.0));
+        float sum = uv.x + uv.y;
+        bary = sum > 1.0 ? uv / sum : uv;
+    }
+    vec3 p = (inst.object_to_world * vec4(a + bary.x * e1 + bary.y * e2, 1.0)).xyz;
+    return vec3(bary, dot(p - origin, dir));
+}
+
 // Shades the material of triangle (instance, prim) at barycentrics `bary`.
 // `cone_width` is the ray cone's width at the hit (texture LOD, Akenine-Moller et al. 2019);
 // pass a negative width to sample mip 0. `dir` is the unit ray direction.

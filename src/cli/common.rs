@@ -8,6 +8,7 @@ use anyhow::{bail, Context as _, Result};
 use clap::Args;
 use glam::Vec3;
 use rqr::accel::{Backend, BackendChoice};
+use rqr::render::gbuffer::GbufferLayout;
 use rqr::render::{FilterKind, RenderSettings, SamplerKind, Tonemap};
 use rqr::scene::{Camera, LoadOptions, Scene};
 use rqr::vk::{Context, ContextOptions, DeviceSelector};
@@ -213,6 +214,10 @@ pub struct ImageArgs {
     /// Seed of the random samplers.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+    /// Hybrid path: what the raster pass writes (`visibility`: instance + primitive, the
+    /// material is evaluated in the shading pass; `full`: the classic 7-attachment G-buffer).
+    #[arg(long, value_enum, default_value_t = GbufferLayout::Visibility)]
+    pub gbuffer: GbufferLayout,
 }
 
 impl ImageArgs {
@@ -236,6 +241,7 @@ impl ImageArgs {
             seed: self.seed,
             tonemap: self.tonemap,
             exposure: self.exposure,
+            gbuffer: self.gbuffer,
         };
         s.validate(MAX_SIDE)?;
         Ok(s)

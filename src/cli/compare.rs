@@ -142,26 +142,27 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     for backend in &backends {
         bar.set_message(format!("{} backend", backend.as_str()));
         let renderer = Renderer::new(&ctx, &scene, *backend)?;
-        let run_path = |hybrid: bool| -> Result<PathResult> {
-            let mut frames = Vec::new();
-            // Frame 0 warms up pipelines (lavapipe JIT-compiles shaders on first use): not timed.
-            for i in 0..=args.repeat {
-                let out = if hybrid {
-                    renderer.render_hybrid(&ctx, &draws, &settings, &camera, true)?
-                } else {
-                    renderer.render_rt(&ctx, &settings, &camera, true)?
-                };
-                bar.inc(1);
-                if i > 0 {
-                    frames.push(out);
-                }
+        // The two paths alternate frame by frame, so a machine whose speed drifts (shared
+        // CPUs) slows both alike. Frame 0 of each warms up pipelines (lavapipe JIT-compiles
+        // shaders on first use) and is not timed.
+        let (mut rt_frames, mut hybrid_frames) = (Vec::new(), Vec::new());
+        for i in 0..=args.repeat {
+            let rt = renderer.render_rt(&ctx, &settings, &camera, true)?;
+            bar.inc(1);
+            let hybrid = renderer.render_hybrid(&ctx, &draws, &settings, &camera, true)?;
+            bar.inc(1);
+            if i > 0 {
+                rt_frames.push(rt);
+                hybrid_frames.push(hybrid);
             }
+        }
+        let finish = |mut frames: Vec<RenderOutput>| -> Result<PathResult> {
             let passes = median_passes(&frames);
             let last = frames.pop().context("no frames")?;
             Ok(PathResult { passes, last })
         };
-        let rt = run_path(false)?;
-        let hybrid = run_path(true)?;
+        let rt = finish(rt_frames)?;
+        let hybrid = finish(hybrid_frames)?;
         let diff = compare::compare(
             settings.width,
             settings.height,
@@ -268,7 +269,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         "device_type": ctx.info().device_type,
         "scene": args.scene.name(),
         "settings": settings,
-        "timing": format!("GPU timestamps, median of {} frames after one untimed warm-up frame", args.repeat),
+        "timing": format!("GPU timestamps, median of {} frames after one untimed warm-up frame; ray-traced and hybrid frames alternate", args.repeat),
         "backends": report_backends,
         "rt_across_backends": cross_backend,
     });
@@ -279,7 +280,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
 
     let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | total ms  | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(
-        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}. GPU ms are medians of {} frames (first frame excluded: pipeline JIT on lavapipe).\n\n{header}{table}\n",
+        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}. GPU ms are medians of {} frames, the two paths alternating (first frame excluded: pipeline JIT on lavapipe).\n\n{header}{table}\n",
         args.scene.name(),
         ctx.info().name,
         ctx.info().device_type,
@@ -288,6 +289,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         settings.spp,
         settings.sampler,
         settings.max_depth,
+        settings.gbuffer,
         args.repeat
     );
     for b in &report_backends {

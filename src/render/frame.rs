@@ -93,6 +93,8 @@ pub struct RenderSettings {
     pub tonemap: Tonemap,
     /// Exposure in EV (multiplies by 2^EV before tonemapping).
     pub exposure: f32,
+    /// What the hybrid path's raster pass writes.
+    pub gbuffer: super::gbuffer::GbufferLayout,
 }
 
 impl Default for RenderSettings {
@@ -115,6 +117,7 @@ impl Default for RenderSettings {
             seed: 0,
             tonemap: Tonemap::default(),
             exposure: 0.0,
+            gbuffer: Default::default(),
         }
     }
 }
@@ -213,7 +216,7 @@ fn format_bytes(format: ash::vk::Format) -> u64 {
     use ash::vk::Format;
     match format {
         Format::R32G32B32A32_SFLOAT | Format::R32G32B32A32_UINT => 16,
-        Format::R16G16B16A16_SFLOAT => 8,
+        Format::R16G16B16A16_SFLOAT | Format::R32G32_UINT => 8,
         _ => 4,
     }
 }
@@ -244,7 +247,9 @@ impl RenderSettings {
                 pixels * (RGBA32F + aov + tonemapped) + corners * RGBA32F
             }
             RenderPath::Hybrid => {
-                let gbuffer: u64 = super::gbuffer::GBUFFER_FORMATS
+                let gbuffer: u64 = self
+                    .gbuffer
+                    .formats()
                     .iter()
                     .map(|&f| format_bytes(f))
                     .sum::<u64>()

@@ -1,5 +1,7 @@
 //! G-buffer raster pass of the hybrid path: dynamic rendering, vertex pulling, depth test,
-//! back-face culling honouring doubleSided, alpha MASK discard (`shaders/gbuffer.{vert,frag}`).
+//! back-face culling honouring doubleSided, alpha MASK discard. Two layouts: a visibility
+//! buffer (`shaders/visibility.frag`, the default) or the full G-buffer
+//! (`shaders/gbuffer.frag`); see [`GbufferLayout`].
 
 use ash::vk;
 
@@ -10,7 +12,35 @@ use crate::vk::{
     VkResult,
 };
 
-/// G-buffer attachment formats, in location order (see `gbuffer.frag` for the contents).
+/// What the hybrid path's raster pass writes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GbufferLayout {
+    /// Instance and primitive per pixel (8 bytes); the shading pass recovers the hit by
+    /// intersecting the pixel's camera ray with that triangle and evaluates the material exactly
+    /// like a traced hit. No material work per overdrawn fragment.
+    #[default]
+    Visibility,
+    /// The classic deferred G-buffer (112 bytes per pixel): position, shading and geometric
+    /// normals, base colour, metallic, roughness, emissive, occlusion, ids, transmission,
+    /// barycentrics and motion vectors, evaluated in the fragment shader.
+    Full,
+}
+
+impl GbufferLayout {
+    /// Attachment formats in location order.
+    pub fn formats(self) -> &'static [vk::Format] {
+        match self {
+            GbufferLayout::Visibility => &VISIBILITY_FORMATS,
+            GbufferLayout::Full => &GBUFFER_FORMATS,
+        }
+    }
+}
+
+/// Visibility-buffer attachment: instance, primitive (`visibility.frag`).
+pub const VISIBILITY_FORMATS: [vk::Format; 1] = [vk::Format::R32G32_UINT];
+
+/// Full G-buffer attachment formats, in location order (see `gbuffer.frag` for the contents).
 pub const GBUFFER_FORMATS: [vk::Format; 7] = [
     vk::Format::R32G32B32A32_SFLOAT, // position, t
     vk::Format::R32G32B32A32_SFLOAT, // shading normal, roughness
@@ -74,15 +104,18 @@ pub struct GbufferPass {
     pub images: Vec<Image>,
     depth: Image,
     extent: vk::Extent2D,
+    layout: GbufferLayout,
 }
 
 impl GbufferPass {
-    /// Creates the pipeline and attachments at `extent`; `frame` is the Frame uniform buffer.
+    /// Creates the pipeline and attachments of `layout` at `extent`; `frame` is the Frame
+    /// uniform buffer.
     pub fn new(
         ctx: &Context,
         pass: &PassContext<'_>,
         frame: &Buffer,
         extent: vk::Extent2D,
+        layout: GbufferLayout,
     ) -> VkResult<Self> {
         let bindings = [
             Binding::UniformBuffer,
@@ -91,14 +124,17 @@ impl GbufferPass {
             Binding::UniformBuffer,
         ];
         let targets = GraphicsTargets {
-            color_formats: &GBUFFER_FORMATS,
+            color_formats: layout.formats(),
             depth_format: vk::Format::D32_SFLOAT,
         };
         let make = |alpha_test: u32| {
             GraphicsPipeline::new(
                 ctx,
                 crate::shaders::GBUFFER_VERT,
-                crate::shaders::GBUFFER_FRAG,
+                match layout {
+                    GbufferLayout::Visibility => crate::shaders::VISIBILITY_FRAG,
+                    GbufferLayout::Full => crate::shaders::GBUFFER_FRAG,
+                },
                 &bindings,
                 4,
                 &targets,
@@ -117,7 +153,8 @@ impl GbufferPass {
         let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
             | vk::ImageUsageFlags::STORAGE
             | vk::ImageUsageFlags::TRANSFER_SRC;
-        let images = GBUFFER_FORMATS
+        let images = layout
+            .formats()
             .iter()
             .enumerate()
             .map(|(i, &f)| Image::new(ctx, &format!("gbuffer {i}"), extent, f, usage, 1))
@@ -138,7 +175,13 @@ impl GbufferPass {
             images,
             depth,
             extent,
+            layout,
         })
+    }
+
+    /// What this pass writes.
+    pub fn layout(&self) -> GbufferLayout {
+        self.layout
     }
 
     /// Records the raster pass; afterwards every colour image is in `GENERAL` layout.
@@ -168,7 +211,10 @@ impl GbufferPass {
             .iter()
             .enumerate()
             .map(|(i, image)| {
-                let clear = if GBUFFER_FORMATS[i] == vk::Format::R32G32B32A32_UINT {
+                let format = self.layout.formats()[i];
+                let clear = if format == vk::Format::R32G32B32A32_UINT
+                    || format == vk::Format::R32G32_UINT
+                {
                     vk::ClearColorValue {
                         uint32: [u32::MAX; 4],
                     }

@@ -1,9 +1,10 @@
-//! Hybrid path, shading pass: reads the G-buffer and runs the shared Whitted loop for
-//! shadows, reflections and refractions (`shaders/hybrid.comp`).
+//! Hybrid path, shading pass: reads the raster pass's images (visibility buffer or full
+//! G-buffer) and runs the shared Whitted loop for shadows, reflections and refractions
+//! (`shaders/hybrid_vis.comp`, `shaders/hybrid.comp`, both `shaders/common/hybrid_main.glsl`).
 
 use ash::vk;
 
-use super::gbuffer::GbufferPass;
+use super::gbuffer::{GbufferLayout, GbufferPass};
 use super::PassContext;
 use crate::accel::Backend;
 use crate::vk::{Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, VkResult};
@@ -19,10 +20,12 @@ pub struct HybridPass {
     set: DescriptorSet,
 }
 
-fn spirv(backend: Backend) -> &'static [u8] {
-    match backend {
-        Backend::Hw => crate::shaders::HYBRID_COMP_HW,
-        Backend::Bvh => crate::shaders::HYBRID_COMP_BVH,
+fn spirv(backend: Backend, layout: GbufferLayout) -> &'static [u8] {
+    match (backend, layout) {
+        (Backend::Hw, GbufferLayout::Full) => crate::shaders::HYBRID_COMP_HW,
+        (Backend::Bvh, GbufferLayout::Full) => crate::shaders::HYBRID_COMP_BVH,
+        (Backend::Hw, GbufferLayout::Visibility) => crate::shaders::HYBRID_VIS_COMP_HW,
+        (Backend::Bvh, GbufferLayout::Visibility) => crate::shaders::HYBRID_VIS_COMP_BVH,
     }
 }
 
@@ -53,7 +56,7 @@ impl HybridPass {
         let pipeline = ComputePipeline::new(
             ctx,
             "hybrid shading",
-            spirv(pass.backend.kind()),
+            spirv(pass.backend.kind(), gbuffer.layout()),
             &bindings,
             8,
         )?;

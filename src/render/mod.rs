@@ -323,7 +323,7 @@ impl Renderer {
             f.jitter = jitter;
             let mut buf = buf;
             buf.write(bytemuck::bytes_of(&f))?;
-            let g = gbuffer::GbufferPass::new(ctx, &pass_ctx, &buf, extent)?;
+            let g = gbuffer::GbufferPass::new(ctx, &pass_ctx, &buf, extent, settings.gbuffer)?;
             let h = hybrid::HybridPass::new(ctx, &pass_ctx, &buf, &accum, &aov, &counters, &g)?;
             passes.push((buf, g, h));
             weights.push(weight);

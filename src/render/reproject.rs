@@ -382,7 +382,15 @@ impl<'r> Reprojector<'r> {
         let counters = storage("reproject counters", COUNTER_SLOTS * 4)?;
         let visibility = match path {
             RenderPath::Hybrid => {
-                Visibility::Raster(Box::new(GbufferPass::new(ctx, &pass, &frame, extent)?))
+                // The cache stores positions and motion, so reprojection rasterizes the full
+                // G-buffer.
+                Visibility::Raster(Box::new(GbufferPass::new(
+                    ctx,
+                    &pass,
+                    &frame,
+                    extent,
+                    gbuffer::GbufferLayout::Full,
+                )?))
             }
             RenderPath::RayTraced => Visibility::Traced(
                 GBUFFER_FORMATS
