@@ -208,7 +208,8 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
     assert!(error_line(&out).contains("render without AOVs (--aov)"));
     assert!(took < Duration::from_secs(60), "took {took:?}");
 
-    // Hybrid keeps one ~100-byte G-buffer per sample: enough samples exceed the heap.
+    // Hybrid keeps one G-buffer per sample (the full layout: ~116 bytes per pixel with depth):
+    // enough samples exceed the heap.
     let heap = dev["memory_heaps"]
         .as_array()
         .unwrap()
@@ -219,7 +220,18 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
         .unwrap();
     let spp = (heap / (100 << 20) + 1).to_string();
     let args = [
-        "render", "--mode", "hybrid", "--width", "1024", "--height", "1024", "--spp", &spp, "-o",
+        "render",
+        "--mode",
+        "hybrid",
+        "--gbuffer",
+        "full",
+        "--width",
+        "1024",
+        "--height",
+        "1024",
+        "--spp",
+        &spp,
+        "-o",
         out_png,
     ];
     let (out, took) = rqr(&args, VALIDATED, Duration::from_secs(120));

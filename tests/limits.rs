@@ -10,6 +10,7 @@ use common::{assert_validation_clean, gpu};
 use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};
+use rqr::render::gbuffer::GbufferLayout;
 use rqr::render::reproject::{RenderPath, Reprojector, ReuseOptions};
 use rqr::render::sequence::{CameraPath, Sequence, SequenceOptions};
 use rqr::render::{gbuffer, RenderSettings, Renderer};
@@ -67,13 +68,25 @@ fn render_estimates_grow_with_what_they_allocate() {
         settings(640, 480, 64).estimate_bytes(RenderPath::RayTraced, true),
         rt
     );
-    let h1 = s.estimate_bytes(RenderPath::Hybrid, true);
-    let h4 = settings(640, 480, 4).estimate_bytes(RenderPath::Hybrid, true);
-    let gbuffer = (h4 - h1) / 3;
+    let per_sample = |layout: GbufferLayout| {
+        let at = |spp| {
+            RenderSettings {
+                gbuffer: layout,
+                ..settings(640, 480, spp)
+            }
+            .estimate_bytes(RenderPath::Hybrid, true)
+        };
+        (at(4) - at(1)) / 3
+    };
     assert_eq!(
-        gbuffer,
+        per_sample(GbufferLayout::Full),
         640 * 480 * (5 * 16 + 2 * 8 + 4),
         "7 targets + depth"
+    );
+    assert_eq!(
+        per_sample(GbufferLayout::Visibility),
+        640 * 480 * (8 + 4),
+        "visibility + depth"
     );
     assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced, true) > 3 * rt);
     // The largest storage buffer is the AOV array; without AOVs, the adaptive corners.
@@ -169,10 +182,14 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
         msg.contains("256x256") && msg.contains("of device memory"),
         "{msg}"
     );
+    let full_gbuffer = RenderSettings {
+        gbuffer: GbufferLayout::Full,
+        ..settings(32, 32, 64)
+    };
     let err = renderer
-        .render_hybrid(&ctx, &draws, &settings(32, 32, 64), &camera, false)
+        .render_hybrid(&ctx, &draws, &full_gbuffer, &camera, false)
         .err()
-        .expect("64 G-buffers of 32² need ~6.5 MiB");
+        .expect("64 full G-buffers of 32² need ~7 MiB");
     assert!(err.to_string().contains("--spp"), "{err}");
     // Small frames still fit.
     let out = renderer
@@ -250,24 +267,32 @@ fn renders_without_aovs_bind_a_placeholder() {
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let s = settings(48, 32, 1);
     let rt = renderer.render_rt(&ctx, &s, &camera, false).unwrap();
-    let hy = renderer
-        .render_hybrid(&ctx, &draws, &s, &camera, false)
-        .unwrap();
-    for out in [&rt, &hy] {
-        assert!(out.aov.is_empty());
-        assert_eq!(out.color.len(), 48 * 32);
-        assert!(out.color.iter().any(|c| c[0] > 0.0));
-    }
+    assert!(rt.aov.is_empty());
+    assert_eq!(rt.color.len(), 48 * 32);
+    assert!(rt.color.iter().any(|c| c[0] > 0.0));
     // The same frame with AOVs: identical colour, and the AOVs are all there.
     let rt_aov = renderer.render_rt(&ctx, &s, &camera, true).unwrap();
     assert_eq!(rt_aov.aov.len(), 48 * 32);
     assert!(rt_aov.aov.iter().any(|a| a.instance() >= 0));
     assert_eq!(rt_aov.color, rt.color);
-    let hy_aov = renderer
-        .render_hybrid(&ctx, &draws, &s, &camera, true)
-        .unwrap();
-    assert_eq!(hy_aov.aov.len(), 48 * 32);
-    assert_eq!(hy_aov.color, hy.color);
+    // Hybrid, with either raster layout (different shading shaders).
+    for layout in [GbufferLayout::Visibility, GbufferLayout::Full] {
+        let s = RenderSettings {
+            gbuffer: layout,
+            ..s.clone()
+        };
+        let hy = renderer
+            .render_hybrid(&ctx, &draws, &s, &camera, false)
+            .unwrap();
+        assert!(hy.aov.is_empty(), "{layout:?}");
+        assert!(hy.color.iter().any(|c| c[0] > 0.0), "{layout:?}");
+        let hy_aov = renderer
+            .render_hybrid(&ctx, &draws, &s, &camera, true)
+            .unwrap();
+        assert_eq!(hy_aov.aov.len(), 48 * 32, "{layout:?}");
+        assert!(hy_aov.aov.iter().any(|a| a.instance() >= 0), "{layout:?}");
+        assert_eq!(hy_aov.color, hy.color, "{layout:?}");
+    }
     assert_validation_clean(&ctx);
 }
 
