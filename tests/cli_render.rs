@@ -87,33 +87,48 @@ fn render_writes_png_exr_aovs_and_json() {
 #[test]
 fn hybrid_render_traces_no_primary_rays() {
     let dir = tmpdir("hybrid");
-    let out = rqr()
-        .args([
-            "render",
-            "--mode",
-            "hybrid",
-            "--backend",
-            "bvh",
-            "--width",
-            "32",
-            "--height",
-            "32",
-            "--json",
-            "-o",
-        ])
-        .arg(dir.join("h.png"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(j["backend"], "bvh");
-    assert_eq!(j["rays"]["primary"], 0);
-    assert!(j["gpu_ms"]["gbuffer"].as_f64().unwrap() >= 0.0);
-    assert!(j["rays"]["shadow"].as_u64().unwrap() > 0);
+    let mut pixels = Vec::new();
+    for gbuffer in ["visibility", "full"] {
+        let png = dir.join(format!("h_{gbuffer}.png"));
+        let out = rqr()
+            .args([
+                "render",
+                "--mode",
+                "hybrid",
+                "--gbuffer",
+                gbuffer,
+                "--backend",
+                "bvh",
+                "--width",
+                "32",
+                "--height",
+                "32",
+                "--json",
+                "-o",
+            ])
+            .arg(&png)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(j["backend"], "bvh");
+        assert_eq!(j["gbuffer"], gbuffer);
+        assert_eq!(j["rays"]["primary"], 0);
+        assert!(j["gpu_ms"]["gbuffer"].as_f64().unwrap() >= 0.0);
+        assert!(j["rays"]["shadow"].as_u64().unwrap() > 0);
+        pixels.push(image::open(&png).unwrap().to_rgb8());
+    }
+    // Both layouts shade the same hits: the images agree (8-bit, small tolerance).
+    let differing = pixels[0]
+        .pixels()
+        .zip(pixels[1].pixels())
+        .filter(|(a, b)| a.0.iter().zip(b.0).any(|(x, y)| x.abs_diff(y) > 8))
+        .count();
+    assert!(differing <= 4, "{differing} of 1024 pixels differ");
 }
 
 #[test]

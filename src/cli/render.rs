@@ -258,6 +258,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "sampler": settings.sampler,
             "mean_spp": out.mean_spp(),
             "max_depth": settings.max_depth,
+            "gbuffer": matches!(args.mode, Mode::Hybrid).then_some(settings.gbuffer),
             "gpu_ms": out.gpu_ms.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
             "total_gpu_ms": out.total_ms(),
             "rays": out.rays,
