@@ -190,7 +190,8 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
     let out_png = dir.join("out.png");
     let out_png = out_png.to_str().unwrap();
 
-    // A square image whose 48-byte-per-pixel AOV buffer exceeds maxStorageBufferRange.
+    // A square image whose 48-byte-per-pixel AOV buffer (allocated only for --aov) exceeds
+    // maxStorageBufferRange.
     let range = dev["max_storage_buffer_range"].as_u64().unwrap();
     let side = ((range / 48) as f64).sqrt() as u64 + 2;
     assert!(
@@ -198,13 +199,17 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
         "maxStorageBufferRange {range} fits any image"
     );
     let side = side.to_string();
-    let args = ["render", "--width", &side, "--height", &side, "-o", out_png];
+    let args = [
+        "render", "--width", &side, "--height", &side, "--aov", "depth", "-o", out_png,
+    ];
     let (out, took) = rqr(&args, VALIDATED, Duration::from_secs(120));
     assert_clean_failure(&args, &out, 1, "maxStorageBufferRange");
-    assert!(error_line(&out).contains(&format!("resolution {side}x{side}")));
+    assert!(error_line(&out).contains(&format!("resolution {side}x{side} with AOVs")));
+    assert!(error_line(&out).contains("render without AOVs (--aov)"));
     assert!(took < Duration::from_secs(60), "took {took:?}");
 
-    // Hybrid keeps one ~100-byte G-buffer per sample: enough samples exceed the heap.
+    // Hybrid keeps one G-buffer per sample (the full layout: ~116 bytes per pixel with depth):
+    // enough samples exceed the heap.
     let heap = dev["memory_heaps"]
         .as_array()
         .unwrap()
@@ -215,7 +220,18 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
         .unwrap();
     let spp = (heap / (100 << 20) + 1).to_string();
     let args = [
-        "render", "--mode", "hybrid", "--width", "1024", "--height", "1024", "--spp", &spp, "-o",
+        "render",
+        "--mode",
+        "hybrid",
+        "--gbuffer",
+        "full",
+        "--width",
+        "1024",
+        "--height",
+        "1024",
+        "--spp",
+        &spp,
+        "-o",
         out_png,
     ];
     let (out, took) = rqr(&args, VALIDATED, Duration::from_secs(120));
@@ -258,5 +274,33 @@ fn gpu_timeout_is_a_clean_error_naming_the_pass() {
         );
         assert!(!out_png.exists());
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `rqr info | head -1`: once stdout's reader is gone, a command stops quietly with the
+/// status a shell gives a command killed by SIGPIPE (141), instead of `println!` panicking.
+#[cfg(unix)]
+#[test]
+fn closed_stdout_ends_commands_quietly() {
+    let dir = tmp_dir("epipe");
+    let out_png = dir.join("out.png");
+    let out_png_arg = out_png.to_str().unwrap();
+    let cases: [&[&str]; 5] = [
+        &["info"],
+        &["info", "--json"],
+        &["probe"],
+        &["probe", "--json"],
+        &["render", "--width", "8", "--height", "8", "-o", out_png_arg],
+    ];
+    for args in cases {
+        let (out, _) = common::run_rqr_stdout_closed(args, VALIDATED, Duration::from_secs(120));
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(141), "rqr {args:?}: {err}");
+        for bad in ["panicked", "Broken pipe", "rqr: error", "Validation Error"] {
+            assert!(!err.contains(bad), "rqr {args:?}: {err}");
+        }
+    }
+    // The render's work was done: only its summary line found nobody to read it.
+    assert!(out_png.exists());
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -10,7 +10,9 @@ use common::{assert_validation_clean, gpu};
 use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};
-use rqr::render::reproject::RenderPath;
+use rqr::render::gbuffer::GbufferLayout;
+use rqr::render::reproject::{RenderPath, Reprojector, ReuseOptions};
+use rqr::render::sequence::{CameraPath, Sequence, SequenceOptions};
 use rqr::render::{gbuffer, RenderSettings, Renderer};
 use rqr::scene::gpu::GpuScene;
 use rqr::scene::procedural::{assemble, cornell, look_at, sphere};
@@ -49,28 +51,49 @@ fn dense_sphere(segments: u32) -> Scene {
 #[test]
 fn render_estimates_grow_with_what_they_allocate() {
     let s = settings(640, 480, 1);
-    let rt = s.estimate_bytes(RenderPath::RayTraced);
+    let rt = s.estimate_bytes(RenderPath::RayTraced, true);
     // Colour (16 B) + AOVs (48 B) + tonemap (4 B) per pixel, plus the adaptive corners.
     assert!(rt >= 640 * 480 * (16 + 48 + 4 + 16), "{rt}");
     assert!(rt <= 640 * 480 * 100, "{rt}");
+    // Without AOVs, no AOV buffer (a one-element placeholder is bound instead).
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        assert_eq!(
+            s.estimate_bytes(path, true) - s.estimate_bytes(path, false),
+            640 * 480 * 48,
+            "{path:?}"
+        );
+    }
     // The ray-traced path reuses its buffers for every sample; hybrid adds a G-buffer each.
     assert_eq!(
-        settings(640, 480, 64).estimate_bytes(RenderPath::RayTraced),
+        settings(640, 480, 64).estimate_bytes(RenderPath::RayTraced, true),
         rt
     );
-    let h1 = s.estimate_bytes(RenderPath::Hybrid);
-    let h4 = settings(640, 480, 4).estimate_bytes(RenderPath::Hybrid);
-    let gbuffer = (h4 - h1) / 3;
+    let per_sample = |layout: GbufferLayout| {
+        let at = |spp| {
+            RenderSettings {
+                gbuffer: layout,
+                ..settings(640, 480, spp)
+            }
+            .estimate_bytes(RenderPath::Hybrid, true)
+        };
+        (at(4) - at(1)) / 3
+    };
     assert_eq!(
-        gbuffer,
+        per_sample(GbufferLayout::Full),
         640 * 480 * (5 * 16 + 2 * 8 + 4),
         "7 targets + depth"
     );
-    assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced) > 3 * rt);
-    // The largest storage buffer is the AOV array.
-    assert_eq!(s.largest_buffer_bytes(), 640 * 480 * 48);
+    assert_eq!(
+        per_sample(GbufferLayout::Visibility),
+        640 * 480 * (8 + 4),
+        "visibility + depth"
+    );
+    assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced, true) > 3 * rt);
+    // The largest storage buffer is the AOV array; without AOVs, the adaptive corners.
+    assert_eq!(s.largest_buffer_bytes(true), 640 * 480 * 48);
+    assert_eq!(s.largest_buffer_bytes(false), 641 * 481 * 16);
     // Absurd requests saturate instead of overflowing.
-    let huge = settings(16384, 16384, 4096).estimate_bytes(RenderPath::Hybrid);
+    let huge = settings(16384, 16384, 4096).estimate_bytes(RenderPath::Hybrid, true);
     assert!(huge > 1 << 40);
 }
 
@@ -159,10 +182,14 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
         msg.contains("256x256") && msg.contains("of device memory"),
         "{msg}"
     );
+    let full_gbuffer = RenderSettings {
+        gbuffer: GbufferLayout::Full,
+        ..settings(32, 32, 64)
+    };
     let err = renderer
-        .render_hybrid(&ctx, &draws, &settings(32, 32, 64), &camera, false)
+        .render_hybrid(&ctx, &draws, &full_gbuffer, &camera, false)
         .err()
-        .expect("64 G-buffers of 32² need ~6.5 MiB");
+        .expect("64 full G-buffers of 32² need ~7 MiB");
     assert!(err.to_string().contains("--spp"), "{err}");
     // Small frames still fit.
     let out = renderer
@@ -175,10 +202,96 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
     let side = ((u64::from(info.max_storage_buffer_range) / 48) as f64).sqrt() as u32 + 2;
     if side <= info.max_image_dimension_2d {
         let err = renderer
-            .render_rt(&ctx, &settings(side, side, 1), &camera, false)
+            .render_rt(&ctx, &settings(side, side, 1), &camera, true)
             .err()
             .expect("AOV buffer beyond maxStorageBufferRange");
         assert!(err.to_string().contains("maxStorageBufferRange"), "{err}");
+        // Without AOVs the same resolution passes the device's storage range (checked, not
+        // rendered: slow on lavapipe). The heap was limited above: lift that for this check.
+        let mut info = info.clone();
+        for heap in &mut info.memory_heaps {
+            heap.size_bytes = 64 << 30;
+        }
+        let s = settings(side, side, 1);
+        for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+            s.check_device(&info, path, false, 0).unwrap();
+            assert!(s.check_device(&info, path, true, 0).is_err());
+        }
+    }
+    assert_validation_clean(&ctx);
+}
+
+#[test]
+fn aovs_alone_exceed_the_storage_range_at_2048() {
+    let ctx = gpu();
+    // The device as lavapipe reports it (maxStorageBufferRange 128 MiB), with a heap and an
+    // image limit that are not in the way.
+    let mut info = ctx.info().clone();
+    info.max_storage_buffer_range = 128 << 20;
+    info.max_image_dimension_2d = 16384;
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = 64 << 30;
+    }
+    let s = settings(2048, 2048, 1);
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        // Colour and corners: 16 B per pixel, 64 MiB.
+        s.check_device(&info, path, false, 0)
+            .unwrap_or_else(|e| panic!("{path:?} without AOVs: {e}"));
+        // AOVs: 48 B per pixel, 192 MiB.
+        let err = s
+            .check_device(&info, path, true, 0)
+            .expect_err("192 MiB of AOVs in a 128 MiB storage range");
+        let msg = err.to_string();
+        for needle in [
+            "resolution 2048x2048 with AOVs needs a 192 MiB per-pixel buffer",
+            "at most 128 MiB per storage buffer (maxStorageBufferRange)",
+            "render without AOVs",
+        ] {
+            assert!(msg.contains(needle), "'{needle}' not in: {msg}");
+        }
+    }
+    // Beyond what colour alone can bind, dropping AOVs is no way out: the hint says so.
+    let err = settings(4096, 4096, 1)
+        .check_device(&info, RenderPath::RayTraced, true, 0)
+        .expect_err("256 MiB of colour");
+    assert!(!err.to_string().contains("without AOVs"), "{err}");
+    assert!(err.to_string().ends_with("lower the resolution"), "{err}");
+}
+
+#[test]
+fn renders_without_aovs_bind_a_placeholder() {
+    let ctx = gpu();
+    let scene = cornell();
+    let camera = scene.cameras[0];
+    let draws = gbuffer::draws(&scene);
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let s = settings(48, 32, 1);
+    let rt = renderer.render_rt(&ctx, &s, &camera, false).unwrap();
+    assert!(rt.aov.is_empty());
+    assert_eq!(rt.color.len(), 48 * 32);
+    assert!(rt.color.iter().any(|c| c[0] > 0.0));
+    // The same frame with AOVs: identical colour, and the AOVs are all there.
+    let rt_aov = renderer.render_rt(&ctx, &s, &camera, true).unwrap();
+    assert_eq!(rt_aov.aov.len(), 48 * 32);
+    assert!(rt_aov.aov.iter().any(|a| a.instance() >= 0));
+    assert_eq!(rt_aov.color, rt.color);
+    // Hybrid, with either raster layout (different shading shaders).
+    for layout in [GbufferLayout::Visibility, GbufferLayout::Full] {
+        let s = RenderSettings {
+            gbuffer: layout,
+            ..s.clone()
+        };
+        let hy = renderer
+            .render_hybrid(&ctx, &draws, &s, &camera, false)
+            .unwrap();
+        assert!(hy.aov.is_empty(), "{layout:?}");
+        assert!(hy.color.iter().any(|c| c[0] > 0.0), "{layout:?}");
+        let hy_aov = renderer
+            .render_hybrid(&ctx, &draws, &s, &camera, true)
+            .unwrap();
+        assert_eq!(hy_aov.aov.len(), 48 * 32, "{layout:?}");
+        assert!(hy_aov.aov.iter().any(|a| a.instance() >= 0), "{layout:?}");
+        assert_eq!(hy_aov.color, hy.color, "{layout:?}");
     }
     assert_validation_clean(&ctx);
 }
@@ -207,5 +320,127 @@ fn fence_timeout_mid_frame_defers_destruction_and_recovers() {
         .render_rt(&ctx, &settings(32, 32, 1), &camera, false)
         .unwrap();
     assert!(out.color.iter().any(|c| c[0] > 0.0));
+    assert_validation_clean(&ctx);
+}
+
+/// Options of a sequence on the ray-traced path, with or without reprojection.
+fn sequence_options(reproject: bool) -> SequenceOptions {
+    SequenceOptions {
+        path: RenderPath::RayTraced,
+        reuse: ReuseOptions {
+            reproject,
+            ..Default::default()
+        },
+        reference: true,
+    }
+}
+
+#[test]
+fn reprojection_cache_is_checked_with_the_full_render() {
+    let ctx = gpu();
+    // lavapipe's storage range, a heap that is not in the way.
+    let mut info = ctx.info().clone();
+    info.max_storage_buffer_range = 128 << 20;
+    info.max_image_dimension_2d = 16384;
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = 64 << 30;
+    }
+    // The sample caches hold 64 bytes per pixel: 1500² needs 138 MiB per cache, while the
+    // full render's largest buffer (16 bytes per pixel) fits.
+    let s = settings(1500, 1500, 1);
+    assert_eq!(Reprojector::largest_buffer_bytes(&s), 1500 * 1500 * 64);
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        s.check_device(&info, path, false, 0).unwrap();
+        let err = Reprojector::check_device(&s, &info, path, 0)
+            .expect_err("a 138 MiB cache in a 128 MiB storage range")
+            .to_string();
+        for needle in [
+            "resolution 1500x1500 with reuse between frames needs a 138 MiB sample cache",
+            "(maxStorageBufferRange)",
+            "--reproject",
+        ] {
+            assert!(err.contains(needle), "'{needle}' not in: {err}");
+        }
+        Reprojector::check_device(&settings(1024, 1024, 1), &info, path, 0).unwrap();
+    }
+
+    // The heap: the cache and its per-pixel buffers (two 64-byte caches and more per pixel)
+    // come on top of the full render.
+    let s = settings(512, 512, 1);
+    let full = s.estimate_bytes(RenderPath::RayTraced, false);
+    let cache = Reprojector::estimate_bytes(&s);
+    assert!(cache >= 512 * 512 * 2 * 64, "{cache}");
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = full + cache - 1;
+    }
+    s.check_device(&info, RenderPath::RayTraced, false, 0)
+        .unwrap();
+    let err = Reprojector::check_device(&s, &info, RenderPath::RayTraced, 0)
+        .expect_err("one byte short")
+        .to_string();
+    assert!(
+        err.contains("for the sample cache and its per-pixel buffers")
+            && err.contains("of device memory"),
+        "{err}"
+    );
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = full + cache;
+    }
+    Reprojector::check_device(&s, &info, RenderPath::RayTraced, 0).unwrap();
+}
+
+#[test]
+fn sequences_check_the_reprojection_cache_before_allocating() {
+    let mut ctx = gpu();
+    let scene = cornell();
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let new_sequence = |ctx: &rqr::vk::Context, s: &RenderSettings, reproject: bool| {
+        Sequence::new(
+            ctx,
+            &renderer,
+            &scene,
+            s,
+            scene.cameras[0],
+            CameraPath::Static,
+            sequence_options(reproject),
+        )
+        .map(|_| ())
+    };
+
+    // A side whose sample cache exceeds the device's maxStorageBufferRange (lavapipe: 1450).
+    let info = ctx.info();
+    let side = ((u64::from(info.max_storage_buffer_range) / 64) as f64).sqrt() as u32 + 2;
+    if side <= info.max_image_dimension_2d
+        && settings(side, side, 1)
+            .check_device(info, RenderPath::RayTraced, false, ctx.allocated_bytes())
+            .is_ok()
+    {
+        let before = ctx.allocated_bytes();
+        let err = new_sequence(&ctx, &settings(side, side, 1), true)
+            .expect_err("sample cache beyond maxStorageBufferRange");
+        assert!(
+            err.to_string().contains("sample cache")
+                && err.to_string().contains("maxStorageBufferRange"),
+            "{err}"
+        );
+        assert_eq!(ctx.allocated_bytes(), before, "allocated before failing");
+        // Without reuse the same frames fit (nothing is allocated before the first frame).
+        new_sequence(&ctx, &settings(side, side, 1), false).unwrap();
+    }
+
+    // Leave 8 MiB: a 256² frame fits, its sample cache (~17 MiB) does not.
+    ctx.limit_device_memory(ctx.allocated_bytes() + (8 << 20));
+    let before = ctx.allocated_bytes();
+    let err = new_sequence(&ctx, &settings(256, 256, 1), true).expect_err("cache beyond the heap");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("256x256 with reuse between frames") && msg.contains("of device memory"),
+        "{msg}"
+    );
+    assert_eq!(ctx.allocated_bytes(), before, "allocated before failing");
+    new_sequence(&ctx, &settings(256, 256, 1), false).unwrap();
+    // A sequence without reuse is checked up front too.
+    let err = new_sequence(&ctx, &settings(1024, 1024, 1), false).expect_err("~37 MiB frames");
+    assert!(err.to_string().contains("of device memory"), "{err}");
     assert_validation_clean(&ctx);
 }

@@ -11,6 +11,7 @@ use rqr::render::{CameraSetup, GpuFrame, RenderSettings, Renderer};
 use serde_json::json;
 
 use super::common::{CameraArgs, DeviceArgs, SceneArgs, MAX_SIDE};
+use super::outln;
 
 /// `rqr bench` arguments.
 #[derive(Args, Debug)]
@@ -115,9 +116,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         "backends": results,
     });
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&doc)?);
+        outln!("{}", serde_json::to_string_pretty(&doc)?)?;
     } else {
-        println!(
+        outln!(
             "{} ({} triangles, {} unique) on {} ({}), {}x{}, median of {}",
             args.scene.name(),
             scene.triangle_count(),
@@ -127,9 +128,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             args.width,
             args.height,
             args.repeat
-        );
-        println!("| backend | build ms | build MiB | primary Mrays/s | incoherent Mrays/s |");
-        println!("|---------|----------|-----------|-----------------|--------------------|");
+        )?;
+        outln!("| backend | build ms | build MiB | primary Mrays/s | incoherent Mrays/s |")?;
+        outln!("|---------|----------|-----------|-----------------|--------------------|")?;
         for r in doc["backends"].as_array().context("results")? {
             let build = &r["build"];
             let build_ms = build["build_ms"].as_f64().unwrap_or_else(|| {
@@ -142,14 +143,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 build["blas_bytes"].as_u64().unwrap_or(0)
                     + build["tlas_bytes"].as_u64().unwrap_or(0)
             });
-            println!(
+            outln!(
                 "| {:<7} | {:>8.2} | {:>9.2} | {:>15.3} | {:>18.3} |",
                 r["backend"].as_str().unwrap_or("?"),
                 build_ms,
                 bytes as f64 / 1048576.0,
                 r["primary"]["mrays_per_s"].as_f64().unwrap_or(0.0),
                 r["incoherent"]["mrays_per_s"].as_f64().unwrap_or(0.0)
-            );
+            )?;
         }
     }
     let errors = ctx.validation_errors();

@@ -13,6 +13,7 @@ use serde_json::json;
 
 use super::common::{CameraArgs, DeviceArgs, ImageArgs, SceneArgs};
 use super::render::mrays_per_s;
+use super::{out, outln};
 
 /// Which backends to run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -316,8 +317,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         )?;
     }
     std::fs::write(args.output.join("report.md"), &md)?;
-    print!("{md}");
-    println!("wrote {}", args.output.display());
+    out!("{md}")?;
+    outln!("wrote {}", args.output.display())?;
     let errors = ctx.validation_errors();
     if !errors.is_empty() {
         anyhow::bail!(

@@ -5,6 +5,8 @@ use clap::Args;
 use rqr::scene::{self, LoadOptions, Scene};
 use serde::Serialize;
 
+use super::outln;
+
 /// `rqr info` arguments.
 #[derive(Args, Debug)]
 pub struct InfoArgs {
@@ -90,7 +92,7 @@ fn to_json(s: &Scene) -> InfoJson<'_> {
 pub fn run(args: &InfoArgs) -> Result<()> {
     let s = load_scene(args.scene.as_ref(), args.scene_index)?;
     if args.json {
-        println!("{}", serde_json::to_string(&to_json(&s))?);
+        outln!("{}", serde_json::to_string(&to_json(&s))?)?;
         return Ok(());
     }
     let list = |v: &[String]| {
@@ -148,7 +150,7 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         ),
     ];
     for (k, v) in rows {
-        println!("{k:<18} {v}");
+        outln!("{k:<18} {v}")?;
     }
     Ok(())
 }

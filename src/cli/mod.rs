@@ -1,4 +1,8 @@
 //! The `rqr` command line: `probe`, `info`, `render`, `compare`, `bench`.
+//!
+//! Subcommands print to stdout through [`outln!`] and [`out!`], never `println!`: a reader
+//! that goes away (`rqr info | head -1`) must end the command quietly, not panic.
+#![deny(clippy::print_stdout)]
 
 use std::process::ExitCode;
 
@@ -16,6 +20,60 @@ mod render;
 
 /// Exit code for "no Vulkan loader or no device".
 const EXIT_NO_VULKAN: u8 = 2;
+
+/// Exit code when stdout's reader went away: 128 + SIGPIPE, what a shell reports for a
+/// command killed by a closed pipe (`yes | head -1`), since the command did not finish.
+const EXIT_STDOUT_CLOSED: u8 = 141;
+
+/// Writing to stdout failed.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum StdoutError {
+    /// The reading end of the pipe was closed (`EPIPE`, e.g. `rqr info | head -1`): [`main`]
+    /// exits quietly with [`EXIT_STDOUT_CLOSED`].
+    #[error("stdout was closed")]
+    Closed,
+    /// Any other failure (a full disk behind a redirection, say).
+    #[error("cannot write to stdout: {0}")]
+    Io(std::io::Error),
+}
+
+/// Writes `args` (and a newline when `newline`) to stdout and flushes, returning the error
+/// instead of panicking like `println!`.
+pub(crate) fn write_stdout(
+    args: std::fmt::Arguments<'_>,
+    newline: bool,
+) -> Result<(), StdoutError> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    out.write_fmt(args)
+        .and_then(|()| {
+            if newline {
+                out.write_all(b"\n")
+            } else {
+                Ok(())
+            }
+        })
+        .and_then(|()| out.flush())
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::BrokenPipe => StdoutError::Closed,
+            _ => StdoutError::Io(e),
+        })
+}
+
+/// `println!` that returns a [`StdoutError`] instead of panicking (use with `?`).
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::cli::write_stdout(format_args!($($arg)*), true)
+    };
+}
+
+/// `print!` that returns a [`StdoutError`] instead of panicking (use with `?`).
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::write_stdout(format_args!($($arg)*), false)
+    };
+}
+pub(crate) use {out, outln};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -55,6 +113,13 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e)
+            if e.chain()
+                .any(|c| matches!(c.downcast_ref(), Some(StdoutError::Closed))) =>
+        {
+            // Nobody reads stdout any more: stop like a command killed by SIGPIPE, silently.
+            ExitCode::from(EXIT_STDOUT_CLOSED)
+        }
         Err(e) => {
             eprintln!("rqr: error: {e:#}");
             let no_vulkan = e.chain().any(|cause| {

@@ -3,6 +3,8 @@ use clap::Args;
 use rqr::accel::BackendChoice;
 use rqr::vk::{DeviceInfo, DeviceSelector};
 
+use super::{outln, StdoutError};
+
 /// `rqr probe` arguments.
 #[derive(Args, Debug)]
 pub struct ProbeArgs {
@@ -29,15 +31,15 @@ fn yes(b: bool) -> &'static str {
     }
 }
 
-fn print_device(d: &DeviceInfo, selected: bool) {
-    println!(
+fn print_device(d: &DeviceInfo, selected: bool) -> Result<(), StdoutError> {
+    outln!(
         "{} [{}] {} ({}, vendor 0x{:04x})",
         if selected { "*" } else { " " },
         d.index,
         d.name,
         d.device_type,
         d.vendor_id
-    );
+    )?;
     let rows: Vec<(&str, String)> = vec![
         ("Vulkan", d.api_version.clone()),
         ("driver", format!("{} ({})", d.driver_name, d.driver_info)),
@@ -107,18 +109,19 @@ fn print_device(d: &DeviceInfo, selected: bool) {
         ),
     ];
     for (k, v) in rows {
-        println!("    {k:<26} {v}");
+        outln!("    {k:<26} {v}")?;
     }
+    Ok(())
 }
 
 /// Runs `rqr probe`.
 pub fn run(args: &ProbeArgs) -> Result<()> {
     let report = super::probe_report(&args.device, args.backend)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        outln!("{}", serde_json::to_string_pretty(&report)?)?;
     } else {
         for d in &report.devices {
-            print_device(d, report.selected == Some(d.index));
+            print_device(d, report.selected == Some(d.index))?;
         }
     }
     Ok(())

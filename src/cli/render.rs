@@ -18,6 +18,7 @@ use rqr::render::{gbuffer, output, RenderOutput, Renderer};
 use serde_json::json;
 
 use super::common::{check_output_file, CameraArgs, DeviceArgs, ImageArgs, SceneArgs};
+use super::{out, outln};
 
 /// Which rendering path.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum, serde::Serialize)]
@@ -267,9 +268,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "output": args.output,
             "aovs": aovs,
         });
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
-        println!(
+        outln!(
             "{} {}x{} {} spp ({}, {}): {:.1} ms GPU, {} rays ({:.2} Mrays/s) -> {}",
             args.scene.name(),
             settings.width,
@@ -284,9 +285,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             out.rays.total(),
             mrays_per_s(&out),
             args.output.display()
-        );
+        )?;
         for p in &aovs {
-            println!("  AOV {}", p.display());
+            outln!("  AOV {}", p.display())?;
         }
     }
     let errors = ctx.validation_errors();
@@ -424,7 +425,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
                         .collect::<serde_json::Map<_, _>>()),
                 );
             }
-            bar.suspend(|| println!("{line}"));
+            bar.suspend(|| outln!("{line}"))?;
         }
         bar.set_message(match &summary.reference {
             Some(r) => format!(
@@ -455,12 +456,12 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         "reuse": reuse,
     });
     if args.json {
-        println!(
+        outln!(
             "{}",
             json!({"type": "summary", "run": header, "summary": total})
-        );
+        )?;
     } else {
-        print!("{}", markdown_report(&header, &summaries, &total));
+        out!("{}", markdown_report(&header, &summaries, &total))?;
     }
     if let Some(p) = &seq.report {
         if p.extension().and_then(|e| e.to_str()) == Some("json") {

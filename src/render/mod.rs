@@ -168,7 +168,9 @@ impl Renderer {
         self.scene_scale
     }
 
-    /// Renders one image with the pure ray-traced path.
+    /// Renders one image with the pure ray-traced path. With `write_aov` it also fills
+    /// [`RenderOutput::aov`], which takes a 48-byte-per-pixel buffer (checked against the
+    /// device's `maxStorageBufferRange` and heap first); without, no such buffer is allocated.
     pub fn render_rt(
         &self,
         ctx: &Context,
@@ -177,11 +179,16 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .check_device(ctx.info(), RenderPath::RayTraced, ctx.allocated_bytes())
+            .check_device(
+                ctx.info(),
+                RenderPath::RayTraced,
+                write_aov,
+                ctx.allocated_bytes(),
+            )
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
         let frame = GpuFrame::new(settings, &setup, self.scene_scale);
-        let pass = raytraced::RaytracedPass::new(ctx, &self.pass_context(), frame)?;
+        let pass = raytraced::RaytracedPass::new(ctx, &self.pass_context(), frame, write_aov)?;
         let pixels = settings.width * settings.height;
         let tonemap = tonemap::TonemapPass::new(ctx, &pass.color, pixels)?;
         let mut profiler = GpuProfiler::new(ctx, 8).ok();
@@ -189,7 +196,7 @@ impl Renderer {
             if let Some(p) = profiler.as_mut() {
                 p.reset(cmd);
             }
-            pass.record(ctx, cmd, profiler.as_mut(), write_aov);
+            pass.record(ctx, cmd, profiler.as_mut());
             memory_barrier(ctx.device(), cmd);
             tonemap.record(cmd, profiler.as_mut(), settings.tonemap, settings.exposure);
             Ok(())
@@ -227,6 +234,7 @@ impl Renderer {
 impl Renderer {
     /// Renders one image with the hybrid path: per sample, a raster G-buffer pass jittered to
     /// the sample position, then the shading pass (shadow, reflection, refraction rays).
+    /// `write_aov` as in [`Self::render_rt`].
     pub fn render_hybrid(
         &self,
         ctx: &Context,
@@ -236,7 +244,12 @@ impl Renderer {
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
         settings
-            .check_device(ctx.info(), RenderPath::Hybrid, ctx.allocated_bytes())
+            .check_device(
+                ctx.info(),
+                RenderPath::Hybrid,
+                write_aov,
+                ctx.allocated_bytes(),
+            )
             .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
         let positions: Vec<[f32; 2]> = (0..settings.spp)
             .map(|s| sampling::pixel_independent_sample(settings.sampler, s, settings.spp, settings.seed))
@@ -275,10 +288,16 @@ impl Renderer {
             none,
             MemoryLocation::GpuOnly,
         )?;
+        // Per-pixel AOVs only when asked for; else a placeholder (hybrid.comp writes AOVs
+        // only under HYBRID_WRITE_AOV).
         let aov = Buffer::new(
             ctx,
-            "hybrid aov",
-            pixels * std::mem::size_of::<Aov>() as u64,
+            if write_aov {
+                "hybrid aov"
+            } else {
+                "hybrid aov placeholder"
+            },
+            if write_aov { pixels } else { 1 } * std::mem::size_of::<Aov>() as u64,
             none,
             MemoryLocation::GpuOnly,
         )?;

@@ -19,13 +19,15 @@ pub struct RaytracedPass {
     set: DescriptorSet,
     /// Linear HDR colour, `vec4` per pixel.
     pub color: Buffer,
-    /// AOVs per pixel.
+    /// AOVs per pixel when created with `write_aov`, else a one-element placeholder (the
+    /// shader writes AOVs only under `FLAG_WRITE_AOV`).
     pub aov: Buffer,
     /// Ray counters.
     pub counters: Buffer,
     _corners: Buffer,
     frame: Buffer,
     frame_data: GpuFrame,
+    write_aov: bool,
 }
 
 fn spirv(backend: Backend) -> &'static [u8] {
@@ -36,8 +38,15 @@ fn spirv(backend: Backend) -> &'static [u8] {
 }
 
 impl RaytracedPass {
-    /// Creates the pipeline and buffers for `frame`'s resolution.
-    pub fn new(ctx: &Context, pass: &PassContext<'_>, frame: GpuFrame) -> VkResult<Self> {
+    /// Creates the pipeline and buffers for `frame`'s resolution; the per-pixel AOV buffer
+    /// only when `write_aov` (48 bytes per pixel: at full size it alone limits the resolution
+    /// on devices with a small `maxStorageBufferRange`).
+    pub fn new(
+        ctx: &Context,
+        pass: &PassContext<'_>,
+        frame: GpuFrame,
+        write_aov: bool,
+    ) -> VkResult<Self> {
         let bindings = [
             Binding::UniformBuffer,
             Binding::SampledImages(pass.texture_capacity()),
@@ -53,10 +62,15 @@ impl RaytracedPass {
         let pixels = u64::from(frame.width) * u64::from(frame.height);
         let none = vk::BufferUsageFlags::empty();
         let color = Buffer::new(ctx, "rt colour", pixels * 16, none, MemoryLocation::GpuOnly)?;
+        let aov_len = if write_aov { pixels } else { 1 };
         let aov = Buffer::new(
             ctx,
-            "rt aov",
-            pixels * std::mem::size_of::<Aov>() as u64,
+            if write_aov {
+                "rt aov"
+            } else {
+                "rt aov placeholder"
+            },
+            aov_len * std::mem::size_of::<Aov>() as u64,
             none,
             MemoryLocation::GpuOnly,
         )?;
@@ -98,6 +112,7 @@ impl RaytracedPass {
             _corners: corners,
             frame: frame_buf,
             frame_data: frame,
+            write_aov,
         };
         this.set_frame(frame)?;
         Ok(this)
@@ -109,14 +124,18 @@ impl RaytracedPass {
         self.frame.write(bytemuck::bytes_of(&frame))
     }
 
+    /// Whether [`Self::record`] writes the AOVs (the pass was created with `write_aov`).
+    pub fn writes_aov(&self) -> bool {
+        self.write_aov
+    }
+
     /// Records the pass: counter reset, the adaptive corner pass when that sampler is on,
-    /// then one thread per pixel.
+    /// then one thread per pixel (writing AOVs when the pass was created to).
     pub fn record(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         profiler: Option<&mut GpuProfiler>,
-        write_aov: bool,
     ) {
         let device = ctx.device();
         let f = self.frame_data;
@@ -133,7 +152,7 @@ impl RaytracedPass {
             self.pipeline.dispatch(cmd, Some(&self.set), &push, groups);
             memory_barrier(device, cmd);
         }
-        let push = if write_aov { FLAG_WRITE_AOV } else { 0 }.to_le_bytes();
+        let push = if self.write_aov { FLAG_WRITE_AOV } else { 0 }.to_le_bytes();
         self.pipeline.dispatch(
             cmd,
             Some(&self.set),

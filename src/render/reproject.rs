@@ -36,7 +36,7 @@ use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
 pub use super::frame::RenderPath;
-use super::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind};
+use super::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind, SettingsError};
 use super::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
 use super::tonemap::TonemapPass;
 use super::{merge_scopes, RayCounts, RenderOutput, Renderer};
@@ -341,15 +341,7 @@ impl<'r> Reprojector<'r> {
         settings: &RenderSettings,
         options: ReuseOptions,
     ) -> crate::Result<Self> {
-        // The cache and the per-pixel buffers come on top of what a full render of the same
-        // path needs (a sequence with --reference makes one per frame).
-        settings
-            .check_device(
-                ctx.info(),
-                path,
-                ctx.allocated_bytes()
-                    .saturating_add(Self::estimate_bytes(settings)),
-            )
+        Self::check_device(settings, ctx.info(), path, ctx.allocated_bytes())
             .map_err(|e| VkError::Limit(e.to_string()))?;
         options.validate().map_err(VkError::Limit)?;
         if settings.spp != 1 || settings.sampler != SamplerKind::Center {
@@ -525,6 +517,54 @@ impl<'r> Reprojector<'r> {
             })
             .sum();
         pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + 4 * 4 + 16 + 4 + gbuffer)
+    }
+
+    /// The largest buffer the reprojection binds as one storage buffer (either sample cache:
+    /// 64 bytes per pixel), to compare with `maxStorageBufferRange`.
+    pub fn largest_buffer_bytes(settings: &RenderSettings) -> u64 {
+        settings.pixels().saturating_mul(CACHE_ENTRY_BYTES)
+    }
+
+    /// Checks, before anything is allocated, that a reprojector for `settings` on `path` fits
+    /// the device `info` with `in_use` bytes already allocated: the checks of a full render
+    /// of the same path ([`RenderSettings::check_device`], without AOVs), every reprojection
+    /// buffer against `maxStorageBufferRange`, and [`Self::estimate_bytes`] plus the full
+    /// render's estimate against the largest device heap (the cache and the full render live
+    /// together: a sequence with `--reference` makes one per frame). [`Self::new`] and
+    /// [`super::sequence::Sequence::new`] run it first.
+    pub fn check_device(
+        settings: &RenderSettings,
+        info: &crate::vk::DeviceInfo,
+        path: RenderPath,
+        in_use: u64,
+    ) -> Result<(), SettingsError> {
+        settings.check_device(info, path, false, in_use)?;
+        let mib = |b: u64| b.div_ceil(1 << 20);
+        let (w, h) = (settings.width, settings.height);
+        let largest = Self::largest_buffer_bytes(settings);
+        let range = u64::from(info.max_storage_buffer_range);
+        if largest > range {
+            return Err(SettingsError(format!(
+                "resolution {w}x{h} with reuse between frames needs a {} MiB sample cache ({CACHE_ENTRY_BYTES} bytes per pixel), but '{}' binds at most {} MiB per storage buffer (maxStorageBufferRange); lower the resolution or render without --reproject, --frameless and --adaptive-subsample",
+                mib(largest),
+                info.name,
+                mib(range)
+            )));
+        }
+        let cache = Self::estimate_bytes(settings);
+        let full = settings.estimate_bytes(path, false);
+        let heap = info.largest_device_heap();
+        if cache.saturating_add(full).saturating_add(in_use) > heap {
+            return Err(SettingsError(format!(
+                "{w}x{h} with reuse between frames needs about {} MiB of device memory for the sample cache and its per-pixel buffers plus {} MiB for a full render, on top of {} MiB in use, more than the {} MiB device heap of '{}'; lower the resolution or render without --reproject, --frameless and --adaptive-subsample",
+                mib(cache),
+                mib(full),
+                mib(in_use),
+                mib(heap),
+                info.name
+            )));
+        }
+        Ok(())
     }
 
     /// Empties the cache: the next frame traces every pixel (the start of a frame range).

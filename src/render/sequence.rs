@@ -570,7 +570,8 @@ pub struct Sequence<'r> {
 
 impl<'r> Sequence<'r> {
     /// Prepares a sequence of `scene` (already uploaded into `renderer`) along `path`, where
-    /// `base` is frame 0's camera.
+    /// `base` is frame 0's camera. Fails before allocating anything when the frames, and with
+    /// reuse the sample cache ([`Reprojector::check_device`]), do not fit the device.
     pub fn new(
         ctx: &Context,
         renderer: &'r Renderer,
@@ -580,9 +581,15 @@ impl<'r> Sequence<'r> {
         path: CameraPath,
         options: SequenceOptions,
     ) -> crate::Result<Self> {
-        settings
-            .validate(ctx.info().max_image_dimension_2d)
-            .map_err(|e| VkError::Limit(e.to_string()))?;
+        // Before anything is allocated: the frame's buffers, and with reuse the sample cache
+        // and its per-pixel buffers on top, against the device's limits and heap.
+        let in_use = ctx.allocated_bytes();
+        if options.reuse.any() {
+            Reprojector::check_device(settings, ctx.info(), options.path, in_use)
+        } else {
+            settings.check_device(ctx.info(), options.path, false, in_use)
+        }
+        .map_err(|e| VkError::Limit(e.to_string()))?;
         let reprojector = if options.reuse.any() {
             Some(Reprojector::new(
                 ctx,

@@ -46,13 +46,43 @@ pub fn run_rqr(
     env: &[(&str, &str)],
     limit: std::time::Duration,
 ) -> (std::process::Output, std::time::Duration) {
+    run_rqr_to(args, env, limit, std::process::Stdio::piped())
+}
+
+/// [`run_rqr`] with stdout on a pipe whose reader has already exited, as `rqr … | head -1`
+/// leaves it once `head` is done: every write to stdout fails with `EPIPE`, deterministically
+/// (no race with a reader that closes "soon"). The returned output's stdout is empty.
+#[cfg(unix)]
+pub fn run_rqr_stdout_closed(
+    args: &[&str],
+    env: &[(&str, &str)],
+    limit: std::time::Duration,
+) -> (std::process::Output, std::time::Duration) {
+    use std::process::{Command, Stdio};
+    // The write end of `true`'s stdin: once `true` has exited, nothing holds the read end.
+    let mut reader = Command::new("true")
+        .stdin(Stdio::piped())
+        .spawn()
+        .expect("running true");
+    let write_end = reader.stdin.take().unwrap();
+    reader.wait().expect("waiting for true");
+    run_rqr_to(args, env, limit, Stdio::from(write_end))
+}
+
+/// [`run_rqr`] with `stdout` as the child's stdout (captured when it is `Stdio::piped()`).
+fn run_rqr_to(
+    args: &[&str],
+    env: &[(&str, &str)],
+    limit: std::time::Duration,
+    stdout: std::process::Stdio,
+) -> (std::process::Output, std::time::Duration) {
     use std::io::Read;
     use std::process::{Command, Stdio};
     let start = std::time::Instant::now();
     let mut child = Command::new(env!("CARGO_BIN_EXE_rqr"))
         .args(args)
         .envs(env.iter().copied())
-        .stdout(Stdio::piped())
+        .stdout(stdout)
         .stderr(Stdio::piped())
         .spawn()
         .expect("running rqr");
@@ -64,7 +94,7 @@ pub fn run_rqr(
             v
         })
     };
-    let stdout = drain(Box::new(child.stdout.take().unwrap()));
+    let stdout = child.stdout.take().map(|r| drain(Box::new(r)));
     let stderr = drain(Box::new(child.stderr.take().unwrap()));
     let status = loop {
         if let Some(s) = child.try_wait().expect("waiting for rqr") {
@@ -82,7 +112,7 @@ pub fn run_rqr(
     };
     let output = std::process::Output {
         status,
-        stdout: stdout.join().unwrap(),
+        stdout: stdout.map(|t| t.join().unwrap()).unwrap_or_default(),
         stderr: stderr.join().unwrap(),
     };
     (output, start.elapsed())
