@@ -66,13 +66,17 @@ struct GpuMaterial {
     float thickness;
     vec3 attenuation_color;
     float attenuation_distance;
-    GpuTextureSlot base_color_texture;
-    GpuTextureSlot metallic_roughness_texture;
-    GpuTextureSlot normal_texture;
-    GpuTextureSlot occlusion_texture;
-    GpuTextureSlot emissive_texture;
-    GpuTextureSlot transmission_texture;
+    // base colour, metallic-roughness, normal, occlusion, emissive, transmission (TEX_*); the
+    // same bytes as the six named slots of src/scene/layout.rs. An array so that a loop can
+    // load one slot at a time from memory (see surface_at).
+    GpuTextureSlot textures[6];
 };
+#define TEX_BASE_COLOR 0
+#define TEX_METALLIC_ROUGHNESS 1
+#define TEX_NORMAL 2
+#define TEX_OCCLUSION 3
+#define TEX_EMISSIVE 4
+#define TEX_TRANSMISSION 5
 
 #define LIGHT_DIRECTIONAL 0u
 #define LIGHT_POINT 1u
@@ -149,11 +153,11 @@ float surface_alpha(GpuMaterial m, uint instance, uint prim, vec2 bary) {
     if ((g.flags & GEOMETRY_HAS_COLORS) != 0u) {
         alpha *= w.x * scene_vertex(tri.x).color.a + w.y * scene_vertex(tri.y).color.a + w.z * scene_vertex(tri.z).color.a;
     }
-    if (m.base_color_texture.texture >= 0 && uint(m.base_color_texture.texture) < scene.texture_count) {
+    if (m.textures[TEX_BASE_COLOR].texture >= 0 && uint(m.textures[TEX_BASE_COLOR].texture) < scene.texture_count) {
         GpuVertex a = scene_vertex(tri.x), b = scene_vertex(tri.y), c = scene_vertex(tri.z);
         vec2 uv0 = w.x * a.uv0 + w.y * b.uv0 + w.z * c.uv0;
         vec2 uv1 = w.x * a.uv1 + w.y * b.uv1 + w.z * c.uv1;
-        alpha *= textureLod(textures[nonuniformEXT(m.base_color_texture.texture)], texture_uv(m.base_color_texture, uv0, uv1), 0.0).a;
+        alpha *= textureLod(textures[nonuniformEXT(m.textures[TEX_BASE_COLOR].texture)], texture_uv(m.textures[TEX_BASE_COLOR], uv0, uv1), 0.0).a;
     }
     return alpha;
 }

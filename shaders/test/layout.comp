@@ -36,8 +36,7 @@ void main() {
     put4(m.base_color); put3(m.emissive); putf(m.metallic); putf(m.roughness); putf(m.normal_scale);
     putf(m.occlusion_strength); putf(m.alpha_cutoff); put(m.alpha_mode); put(m.double_sided);
     putf(m.transmission); putf(m.ior); putf(m.thickness); put3(m.attenuation_color); putf(m.attenuation_distance);
-    put_slot(m.base_color_texture); put_slot(m.metallic_roughness_texture); put_slot(m.normal_texture);
-    put_slot(m.occlusion_texture); put_slot(m.emissive_texture); put_slot(m.transmission_texture);
+    for (int k = 0; k < 6; ++k) put_slot(m.textures[k]);
 
     GpuLight l = scene_light(0u);
     put3(l.position); put(l.kind); put3(l.direction); putf(l.range); put3(l.radiance);

@@ -601,10 +601,17 @@ impl<'r> Sequence<'r> {
         } else {
             None
         };
+        // Reprojection reads positions and motion from the full G-buffer; full renders of a
+        // reusing sequence (first frame, references) rasterize the same layout so that a static
+        // camera reproduces them exactly.
+        let mut settings = settings.clone();
+        if options.reuse.any() {
+            settings.gbuffer = gbuffer::GbufferLayout::Full;
+        }
         Ok(Self {
             renderer,
             draws: gbuffer::draws(scene),
-            settings: settings.clone(),
+            settings,
             base,
             path,
             options,
