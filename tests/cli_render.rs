@@ -1,5 +1,7 @@
 //! The rendering commands end to end through the real binary.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -20,27 +22,21 @@ fn tmpdir(name: &str) -> std::path::PathBuf {
 fn render_writes_png_exr_aovs_and_json() {
     let dir = tmpdir("render");
     let png = dir.join("room.png");
-    let out = rqr()
-        .args([
-            "render",
-            "--width",
-            "40",
-            "--height",
-            "32",
-            "--aov",
-            "depth,normal,instance",
-            "--json",
-            "-o",
-        ])
-        .arg(&png)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let j = common::run_json(
+        rqr()
+            .args([
+                "render",
+                "--width",
+                "40",
+                "--height",
+                "32",
+                "--aov",
+                "depth,normal,instance",
+                "--json",
+                "-o",
+            ])
+            .arg(&png),
     );
-    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(j["width"], 40);
     assert_eq!(j["height"], 32);
     assert_eq!(j["mode"], "rt");
@@ -90,31 +86,25 @@ fn hybrid_render_traces_no_primary_rays() {
     let mut pixels = Vec::new();
     for gbuffer in ["visibility", "full"] {
         let png = dir.join(format!("h_{gbuffer}.png"));
-        let out = rqr()
-            .args([
-                "render",
-                "--mode",
-                "hybrid",
-                "--gbuffer",
-                gbuffer,
-                "--backend",
-                "bvh",
-                "--width",
-                "32",
-                "--height",
-                "32",
-                "--json",
-                "-o",
-            ])
-            .arg(&png)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let j = common::run_json(
+            rqr()
+                .args([
+                    "render",
+                    "--mode",
+                    "hybrid",
+                    "--gbuffer",
+                    gbuffer,
+                    "--backend",
+                    "bvh",
+                    "--width",
+                    "32",
+                    "--height",
+                    "32",
+                    "--json",
+                    "-o",
+                ])
+                .arg(&png),
         );
-        let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert_eq!(j["backend"], "bvh");
         assert_eq!(j["gbuffer"], gbuffer);
         assert_eq!(j["rays"]["primary"], 0);
@@ -214,26 +204,17 @@ fn compare_writes_every_file_with_a_consistent_report() {
 
 #[test]
 fn bench_reports_build_and_ray_throughput_per_backend() {
-    let out = rqr()
-        .args([
-            "bench",
-            "--all-backends",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "--repeat",
-            "1",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let j = common::run_json(rqr().args([
+        "bench",
+        "--all-backends",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--repeat",
+        "1",
+        "--json",
+    ]));
     let backends = j["backends"].as_array().unwrap();
     assert!(!backends.is_empty());
     for b in backends {

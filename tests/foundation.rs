@@ -52,16 +52,7 @@ fn probe_finds_lavapipe_with_ray_query_and_picks_hw() {
 
 #[test]
 fn probe_json_has_schema_and_honours_backend_bvh() {
-    let out = rqr_bin()
-        .args(["probe", "--json", "--backend", "bvh"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let doc = common::run_json(rqr_bin().args(["probe", "--json", "--backend", "bvh"]));
     assert_eq!(doc["schema"], 1);
     assert!(doc["selected"].is_u64());
     let devices = doc["devices"].as_array().unwrap();

@@ -221,17 +221,22 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
     assert_validation_clean(&ctx);
 }
 
-#[test]
-fn aovs_alone_exceed_the_storage_range_at_2048() {
-    let ctx = gpu();
-    // The device as lavapipe reports it (maxStorageBufferRange 128 MiB), with a heap and an
-    // image limit that are not in the way.
+/// The device as lavapipe reports it (maxStorageBufferRange 128 MiB), with a heap and an image
+/// limit that are not in the way.
+fn lavapipe_storage_range(ctx: &rqr::vk::Context) -> rqr::vk::DeviceInfo {
     let mut info = ctx.info().clone();
     info.max_storage_buffer_range = 128 << 20;
     info.max_image_dimension_2d = 16384;
     for heap in &mut info.memory_heaps {
         heap.size_bytes = 64 << 30;
     }
+    info
+}
+
+#[test]
+fn aovs_alone_exceed_the_storage_range_at_2048() {
+    let ctx = gpu();
+    let info = lavapipe_storage_range(&ctx);
     let s = settings(2048, 2048, 1);
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
         // Colour and corners: 16 B per pixel, 64 MiB.
@@ -338,13 +343,7 @@ fn sequence_options(reproject: bool) -> SequenceOptions {
 #[test]
 fn reprojection_cache_is_checked_with_the_full_render() {
     let ctx = gpu();
-    // lavapipe's storage range, a heap that is not in the way.
-    let mut info = ctx.info().clone();
-    info.max_storage_buffer_range = 128 << 20;
-    info.max_image_dimension_2d = 16384;
-    for heap in &mut info.memory_heaps {
-        heap.size_bytes = 64 << 30;
-    }
+    let mut info = lavapipe_storage_range(&ctx);
     // The sample caches hold 64 bytes per pixel: 1500² needs 138 MiB per cache, while the
     // full render's largest buffer (16 bytes per pixel) fits.
     let s = settings(1500, 1500, 1);

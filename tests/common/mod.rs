@@ -117,3 +117,15 @@ fn run_rqr_to(
     };
     (output, start.elapsed())
 }
+
+/// Runs `cmd` (an `rqr … --json` invocation), asserts it succeeded (printing its stderr
+/// otherwise) and parses its stdout as one JSON document.
+pub fn run_json(cmd: &mut std::process::Command) -> serde_json::Value {
+    let out = cmd.output().expect("rqr runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON document on stdout")
+}
