@@ -3,6 +3,8 @@
 //! buffer (`shaders/visibility.frag`, the default) or the full G-buffer
 //! (`shaders/gbuffer.frag`); see [`GbufferLayout`].
 
+use std::sync::Arc;
+
 use ash::vk;
 
 use super::PassContext;
@@ -96,8 +98,8 @@ pub fn draws(scene: &Scene) -> Vec<Draw> {
 
 /// The raster pass and its attachments.
 pub struct GbufferPass {
-    pipeline: GraphicsPipeline,
-    masked_pipeline: GraphicsPipeline,
+    pipeline: Arc<GraphicsPipeline>,
+    masked_pipeline: Arc<GraphicsPipeline>,
     set: DescriptorSet,
     masked_set: DescriptorSet,
     /// Colour attachments (also read as storage images by the shading pass).
@@ -128,7 +130,7 @@ impl GbufferPass {
             depth_format: vk::Format::D32_SFLOAT,
         };
         let make = |alpha_test: u32| {
-            GraphicsPipeline::new(
+            GraphicsPipeline::cached(
                 ctx,
                 crate::shaders::GBUFFER_VERT,
                 match layout {

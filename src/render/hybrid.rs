@@ -2,6 +2,8 @@
 //! G-buffer) and runs the shared Whitted loop for shadows, reflections and refractions
 //! (`shaders/hybrid_vis.comp`, `shaders/hybrid.comp`, both `shaders/common/hybrid_main.glsl`).
 
+use std::sync::Arc;
+
 use ash::vk;
 
 use super::gbuffer::{GbufferLayout, GbufferPass};
@@ -16,7 +18,7 @@ pub const HYBRID_WRITE_AOV: u32 = 4;
 
 /// Pipeline and descriptor set of the hybrid shading pass.
 pub struct HybridPass {
-    pipeline: ComputePipeline,
+    pipeline: Arc<ComputePipeline>,
     set: DescriptorSet,
 }
 
@@ -53,7 +55,7 @@ impl HybridPass {
             Binding::StorageImage,
             gbuffer.images.len(),
         ));
-        let pipeline = ComputePipeline::new(
+        let pipeline = ComputePipeline::cached(
             ctx,
             "hybrid shading",
             spirv(pass.backend.kind(), gbuffer.layout()),

@@ -1,6 +1,8 @@
 //! Ray-throughput measurement (`rqr bench`): primary rays through pixel centres and one
 //! cosine-weighted bounce per primary hit, through `trace_closest()` only, GPU-timed.
 
+use std::sync::Arc;
+
 use ash::vk;
 
 use super::frame::GpuFrame;
@@ -35,7 +37,7 @@ impl RayBatch {
 
 /// Pipeline and buffers of the throughput benchmark.
 pub struct RayBench {
-    pipeline: ComputePipeline,
+    pipeline: Arc<ComputePipeline>,
     set: DescriptorSet,
     counters: Buffer,
     _hits: Buffer,
@@ -59,7 +61,7 @@ impl RayBench {
             Binding::StorageBuffer,
             Binding::StorageBuffer,
         ];
-        let pipeline = ComputePipeline::new(ctx, "ray bench", spirv, &bindings, 4)?;
+        let pipeline = ComputePipeline::cached(ctx, "ray bench", spirv, &bindings, 4)?;
         let pixels = u64::from(frame.width) * u64::from(frame.height);
         let none = vk::BufferUsageFlags::empty();
         let hits = Buffer::new(

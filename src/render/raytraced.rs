@@ -1,5 +1,7 @@
 //! The pure ray-traced (Whitted) pass: `shaders/raytrace.comp`, one thread per pixel.
 
+use std::sync::Arc;
+
 use ash::vk;
 
 use super::frame::{GpuFrame, SamplerKind, FLAG_ADAPTIVE_CORNERS, FLAG_WRITE_AOV};
@@ -15,7 +17,7 @@ pub const COUNTER_SLOTS: usize = 5;
 
 /// Pipeline and per-resolution buffers of the ray-traced pass.
 pub struct RaytracedPass {
-    pipeline: ComputePipeline,
+    pipeline: Arc<ComputePipeline>,
     set: DescriptorSet,
     /// Linear HDR colour, `vec4` per pixel.
     pub color: Buffer,
@@ -58,7 +60,7 @@ impl RaytracedPass {
             Binding::StorageBuffer,
         ];
         let pipeline =
-            ComputePipeline::new(ctx, "raytrace", spirv(pass.backend.kind()), &bindings, 4)?;
+            ComputePipeline::cached(ctx, "raytrace", spirv(pass.backend.kind()), &bindings, 4)?;
         let pixels = u64::from(frame.width) * u64::from(frame.height);
         let none = vk::BufferUsageFlags::empty();
         let color = Buffer::new(ctx, "rt colour", pixels * 16, none, MemoryLocation::GpuOnly)?;

@@ -31,6 +31,8 @@
 //! so that fills never copy them ([`MAX_FILL_HOPS`]): no colour moves more than one fill
 //! radius from where it was computed.
 
+use std::sync::Arc;
+
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
@@ -309,9 +311,9 @@ pub struct Reprojector<'r> {
     path: RenderPath,
     options: ReuseOptions,
     settings: RenderSettings,
-    stages: ComputePipeline,
-    primary: ComputePipeline,
-    trace: ComputePipeline,
+    stages: Arc<ComputePipeline>,
+    primary: Arc<ComputePipeline>,
+    trace: Arc<ComputePipeline>,
     /// Per cache parity: descriptor sets of `stages`, `primary`, `trace`.
     sets: Vec<[DescriptorSet; 3]>,
     frame: Buffer,
@@ -425,21 +427,21 @@ impl<'r> Reprojector<'r> {
             b
         };
         let backend = pass.backend.kind();
-        let stages = ComputePipeline::new(
+        let stages = ComputePipeline::cached(
             ctx,
             "reproject",
             crate::shaders::REPROJECT_COMP,
             &layout(Binding::Unused),
             8,
         )?;
-        let primary = ComputePipeline::new(
+        let primary = ComputePipeline::cached(
             ctx,
             "reproject visibility",
             primary_spirv(backend),
             &layout(pass.backend.binding()),
             0,
         )?;
-        let trace = ComputePipeline::new(
+        let trace = ComputePipeline::cached(
             ctx,
             "reproject trace",
             trace_spirv(backend),

@@ -1,5 +1,7 @@
 //! Tonemap pass: linear HDR colour buffer → sRGB RGBA8 (`shaders/tonemap.comp`).
 
+use std::sync::Arc;
+
 use ash::vk;
 
 use super::frame::Tonemap;
@@ -9,7 +11,7 @@ use crate::vk::{
 
 /// Pipeline and output buffer of the tonemap pass.
 pub struct TonemapPass {
-    pipeline: ComputePipeline,
+    pipeline: Arc<ComputePipeline>,
     set: DescriptorSet,
     /// RGBA8 pixels, one `u32` each.
     pub output: Buffer,
@@ -19,7 +21,7 @@ pub struct TonemapPass {
 impl TonemapPass {
     /// Reads `color` (`vec4` per pixel) of `count` pixels.
     pub fn new(ctx: &Context, color: &Buffer, count: u32) -> VkResult<Self> {
-        let pipeline = ComputePipeline::new(
+        let pipeline = ComputePipeline::cached(
             ctx,
             "tonemap",
             crate::shaders::TONEMAP_COMP,

@@ -202,6 +202,9 @@ pub struct Context {
     features: Features,
     fence_timeout: Duration,
     validation: bool,
+    /// Pipelines built once and shared by every pass that asks for the same shader (see
+    /// [`super::ComputePipeline::cached`]); dropped with the context.
+    pub(crate) pipelines: Mutex<super::pipeline::PipelineCache>,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -503,6 +506,7 @@ impl Context {
             features,
             fence_timeout: opts.fence_timeout,
             validation,
+            pipelines: Mutex::default(),
         })
     }
 

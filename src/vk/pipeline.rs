@@ -1,4 +1,6 @@
+use std::collections::HashMap;
 use std::ffi::CStr;
+use std::hash::{Hash, Hasher};
 use std::sync::Arc;
 
 use ash::vk;
@@ -82,6 +84,22 @@ pub(crate) fn create_set_layout(
         .push_next(&mut flag_info);
     // SAFETY: valid create info.
     unsafe { device.create_descriptor_set_layout(&info, None) }.call("vkCreateDescriptorSetLayout")
+}
+
+/// Pipelines of a [`Context`], keyed by a hash of everything that defines them. Creating a
+/// pipeline costs lavapipe 50-200 ms of CPU even when its JIT cache hits (SPIR-V to NIR and
+/// NIR optimisation), and passes are built per frame, so every pass reuses one pipeline per
+/// shader for the context's lifetime.
+#[derive(Default)]
+pub(crate) struct PipelineCache {
+    compute: HashMap<u64, Arc<ComputePipeline>>,
+    graphics: HashMap<u64, Arc<GraphicsPipeline>>,
+}
+
+fn cache_key(parts: impl Hash) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    parts.hash(&mut h);
+    h.finish()
 }
 
 /// A compute pipeline with one descriptor set layout and an optional push-constant block.
@@ -174,6 +192,25 @@ impl ComputePipeline {
             pipeline,
             push_size,
         })
+    }
+
+    /// [`Self::new`], built once per context: later calls with the same name, SPIR-V,
+    /// bindings and push-constant size return the same pipeline.
+    pub fn cached(
+        ctx: &Context,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[Binding],
+        push_size: u32,
+    ) -> VkResult<Arc<Self>> {
+        let key = cache_key((name, spirv, format!("{bindings:?}"), push_size));
+        let mut cache = ctx.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = cache.compute.get(&key) {
+            return Ok(p.clone());
+        }
+        let p = Arc::new(Self::new(ctx, name, spirv, bindings, push_size)?);
+        cache.compute.insert(key, p.clone());
+        Ok(p)
     }
 
     /// The pipeline's name (used for timeouts and profiler scopes).
@@ -421,6 +458,41 @@ pub struct GraphicsTargets<'a> {
 }
 
 impl GraphicsPipeline {
+    /// [`Self::new`], built once per context (see [`ComputePipeline::cached`]).
+    pub fn cached(
+        ctx: &Context,
+        vertex: &[u8],
+        fragment: &[u8],
+        bindings: &[Binding],
+        push_size: u32,
+        targets: &GraphicsTargets<'_>,
+        fragment_constants: &[u32],
+    ) -> VkResult<Arc<Self>> {
+        let key = cache_key((
+            vertex,
+            fragment,
+            format!("{bindings:?}"),
+            push_size,
+            format!("{:?} {:?}", targets.color_formats, targets.depth_format),
+            fragment_constants,
+        ));
+        let mut cache = ctx.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = cache.graphics.get(&key) {
+            return Ok(p.clone());
+        }
+        let p = Arc::new(Self::new(
+            ctx,
+            vertex,
+            fragment,
+            bindings,
+            push_size,
+            targets,
+            fragment_constants,
+        )?);
+        cache.graphics.insert(key, p.clone());
+        Ok(p)
+    }
+
     /// Builds the pipeline from vertex and fragment SPIR-V (entry points `main`);
     /// `fragment_constants[i]` specialises the fragment stage's `constant_id = i`.
     pub fn new(
