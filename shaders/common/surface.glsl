@@ -71,7 +71,11 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
     uvec3 tri = scene_triangle(g, prim);
     vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
     vec3 p0 = scene_position(tri.x), p1 = scene_position(tri.y), p2 = scene_position(tri.z);
-    GpuVertex a = scene_vertex(tri.x), b = scene_vertex(tri.y), c = scene_vertex(tri.z);
+    // Attributes are read member by member, colours and tangents only where the geometry has
+    // them (and tangents only for normal mapping): on a CPU Vulkan every component loaded costs
+    // one scalar load per SIMD lane.
+    VertexBuf verts = VertexBuf(scene.attributes);
+    vec2 uv0_a = verts.v[tri.x].uv0, uv0_b = verts.v[tri.y].uv0, uv0_c = verts.v[tri.z].uv0;
 
     Surface s;
     s.material = g.material;
@@ -81,17 +85,20 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
     s.ng_front = normalize(n2w * ng_obj);
     s.front_face = dot(s.ng_front, dir) < 0.0;
     s.ng = s.front_face ? s.ng_front : -s.ng_front;
-    vec3 n = n2w * (w.x * a.normal + w.y * b.normal + w.z * c.normal);
+    vec3 n = n2w * (w.x * verts.v[tri.x].normal + w.y * verts.v[tri.y].normal + w.z * verts.v[tri.z].normal);
     n = dot(n, n) > 0.0 ? normalize(n) : s.ng_front;
-    vec2 uv0 = w.x * a.uv0 + w.y * b.uv0 + w.z * c.uv0;
-    vec2 uv1 = w.x * a.uv1 + w.y * b.uv1 + w.z * c.uv1;
-    vec4 vcolor = w.x * a.color + w.y * b.color + w.z * c.color;
+    vec2 uv0 = w.x * uv0_a + w.y * uv0_b + w.z * uv0_c;
+    vec2 uv1 = w.x * verts.v[tri.x].uv1 + w.y * verts.v[tri.y].uv1 + w.z * verts.v[tri.z].uv1;
+    vec4 vcolor = vec4(1.0);
+    if ((g.flags & GEOMETRY_HAS_COLORS) != 0u) {
+        vcolor = w.x * verts.v[tri.x].color + w.y * verts.v[tri.y].color + w.z * verts.v[tri.z].color;
+    }
 
     float lod_base = -100.0;
     if (cone_width > 0.0) {
         mat3 o2w = mat3(inst.object_to_world);
         float world_area = length(cross(o2w * (p1 - p0), o2w * (p2 - p0)));
-        float uv_area = abs((b.uv0.x - a.uv0.x) * (c.uv0.y - a.uv0.y) - (c.uv0.x - a.uv0.x) * (b.uv0.y - a.uv0.y));
+        float uv_area = abs((uv0_b.x - uv0_a.x) * (uv0_c.y - uv0_a.y) - (uv0_c.x - uv0_a.x) * (uv0_b.y - uv0_a.y));
         float cos_theta = max(abs(dot(s.ng, dir)), 1e-3);
         if (world_area > 0.0 && uv_area > 0.0) {
             lod_base = 0.5 * log2(uv_area / world_area) + log2(cone_width / cos_theta);
@@ -126,7 +133,7 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
     s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
 
     if (m.textures[TEX_NORMAL].texture >= 0 && (g.flags & GEOMETRY_HAS_TANGENTS) != 0u) {
-        vec4 t4 = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;
+        vec4 t4 = w.x * verts.v[tri.x].tangent + w.y * verts.v[tri.y].tangent + w.z * verts.v[tri.z].tangent;
         vec3 t = mat3(inst.object_to_world) * t4.xyz;
         t = normalize(t - n * dot(n, t));
         vec3 bt = cross(n, t) * (t4.w < 0.0 ? -1.0 : 1.0);
