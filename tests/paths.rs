@@ -105,68 +105,16 @@ fn hybrid_matches_ray_traced_on_the_cornell_room() {
     assert_hybrid_matches_rt("procedural Cornell", &cornell(), 160);
 }
 
-/// The built-in room with its glass made opaque: the strict invariant.
+/// The built-in room, glass and mirror included: reflection and refraction rays start from
+/// hybrid hit points that equal the ray-traced ones to float noise, so the strict invariant
+/// holds through every bounce. (Until the glass block was lifted 2 mm off the floor, rays
+/// inside it met two coplanar faces and picked one at random, and this scene only agreed to
+/// PSNR ≈ 34 dB.)
 #[test]
 fn hybrid_matches_ray_traced_on_the_builtin_scene() {
-    let mut scene = rqr::scene::load_default().unwrap();
-    for m in &mut scene.materials {
-        m.transmission = 0.0;
-    }
-    assert_hybrid_matches_rt("built-in (opaque)", &scene, 160);
-}
-
-/// With its glass, the built-in room agrees perceptually but not to 40 dB: inside the glass
-/// block, paths near the critical angle switch between refraction and total internal reflection
-/// on float noise (raster vs ray hit positions differ in the last bits), so a few dozen pixels
-/// show a different — equally correct — path. Measured: FLIP 0.004, PSNR ≈ 34 dB at 160².
-#[test]
-fn hybrid_agrees_perceptually_on_the_builtin_scene_with_glass() {
-    let ctx = common::gpu();
     let scene = rqr::scene::load_default().unwrap();
-    let renderer = Renderer::new(
-        &ctx,
-        &scene,
-        BackendChoice::Auto.resolve(ctx.info()).unwrap().0,
-    )
-    .unwrap();
-    let s = settings(160);
-    let rt = renderer
-        .render_rt(&ctx, &s, &scene.cameras[0], true)
-        .unwrap();
-    let hy = renderer
-        .render_hybrid(&ctx, &gbuffer::draws(&scene), &s, &scene.cameras[0], true)
-        .unwrap();
-    let d = diff(&rt, &hy);
-    assert!(
-        d.flip_mean <= 0.01 && d.psnr_db >= 30.0,
-        "FLIP {:.4}, PSNR {:.1} dB",
-        d.flip_mean,
-        d.psnr_db
-    );
-    // Visible differences sit on the glass; elsewhere only isolated shadow-boundary pixels
-    // (a shadow ray grazing an edge from a hit point that differs in the last bits).
-    let glass: Vec<bool> = scene
-        .instances
-        .iter()
-        .map(|i| {
-            scene.materials[scene.geometries[i.geometry as usize].material as usize].transmission
-                > 0.0
-        })
-        .collect();
-    let (mut on_glass, mut elsewhere) = (0, 0);
-    for (i, (a, b)) in rt.rgba8.chunks(4).zip(hy.rgba8.chunks(4)).enumerate() {
-        if a.iter().zip(b).take(3).any(|(x, y)| x.abs_diff(*y) > 24) {
-            match rt.aov[i].instance() {
-                inst if inst >= 0 && glass[inst as usize] => on_glass += 1,
-                _ => elsewhere += 1,
-            }
-        }
-    }
-    assert!(
-        elsewhere * 2000 <= rt.aov.len(),
-        "{elsewhere} differing pixels off the glass ({on_glass} on it)"
-    );
-    common::assert_validation_clean(&ctx);
+    assert!(scene.materials.iter().any(|m| m.transmission > 0.0));
+    assert_hybrid_matches_rt("built-in", &scene, 160);
 }
 
 #[test]
