@@ -7,6 +7,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "frame.glsl"
+#include "counters.glsl"
 #include "reproject.glsl"
 
 layout(local_size_x = 64) in;
@@ -379,15 +380,15 @@ void interpolate(uint q) {
 void stats(uint q) {
     uint st = state[q];
     uint kind = st & PX_KIND_MASK;
-    if (kind == PX_REUSE) atomicAdd(counters[C_REUSED], 1u);
-    if (kind == PX_TRACED) atomicAdd(counters[C_TRACED], 1u);
-    if (kind == PX_INTERP) atomicAdd(counters[C_INTERP], 1u);
-    if ((st & PX_HOLE) != 0u) atomicAdd(counters[C_HOLES], 1u);
-    if ((st & PX_REJECTED) != 0u) atomicAdd(counters[C_REJECTED], 1u);
-    if ((st & PX_VIEW_DEPENDENT) != 0u) atomicAdd(counters[C_VIEW_DEPENDENT], 1u);
-    if ((st & PX_EXPIRED) != 0u) atomicAdd(counters[C_EXPIRED], 1u);
-    if ((st & PX_FRAMELESS) != 0u) atomicAdd(counters[C_FRAMELESS], 1u);
-    if ((st & PX_FILLED) != 0u && kind == PX_REUSE) atomicAdd(counters[C_FILLED], 1u);
+    COUNTER_ADD(counters[C_REUSED], kind == PX_REUSE ? 1u : 0u);
+    COUNTER_ADD(counters[C_TRACED], kind == PX_TRACED ? 1u : 0u);
+    COUNTER_ADD(counters[C_INTERP], kind == PX_INTERP ? 1u : 0u);
+    COUNTER_ADD(counters[C_HOLES], (st & PX_HOLE) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_REJECTED], (st & PX_REJECTED) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_VIEW_DEPENDENT], (st & PX_VIEW_DEPENDENT) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_EXPIRED], (st & PX_EXPIRED) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_FRAMELESS], (st & PX_FRAMELESS) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_FILLED], (st & PX_FILLED) != 0u && kind == PX_REUSE ? 1u : 0u);
 }
 
 void main() {

@@ -10,6 +10,7 @@
 #include "trace.glsl"
 #include "frame.glsl"
 #include "surface.glsl"
+#include "counters.glsl"
 #include "reproject.glsl"
 
 layout(local_size_x = 64) in;
@@ -23,8 +24,8 @@ void main() {
     ivec2 pix = ivec2(pixel_of(q));
     Ray r = camera_ray(vec2(pix) + 0.5);
     Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
-    atomicAdd(counters[0], 1u);
-    atomicAdd(counters[C_VERIFY_RAYS], 1u);
+    COUNTER_ADD(counters[0], 1u);
+    COUNTER_ADD(counters[C_VERIFY_RAYS], 1u);
     uint w = winner[q];
     CacheEntry e = cache_prev[w == NO_SAMPLE ? 0u : w];
     uint st = state[q];
