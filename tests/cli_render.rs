@@ -157,7 +157,9 @@ fn compare_writes_every_file_with_a_consistent_report() {
     }
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
-        stdout.contains("| backend |") && stdout.contains("PSNR"),
+        stdout.contains("| backend |")
+            && stdout.contains("PSNR")
+            && stdout.contains("reflections/refractions"),
         "{stdout}"
     );
     let report: serde_json::Value =
@@ -182,6 +184,16 @@ fn compare_writes_every_file_with_a_consistent_report() {
                 assert!(ms.is_finite() && ms >= 0.0, "{pass}: {ms}");
             }
             assert!(p["total_ms"].as_f64().unwrap().is_finite());
+            // Default depth 5: the shading pass's time is split by a depth-1 run.
+            let split = &p["shading_split"];
+            let shading_pass = if path == "rt" { "rt" } else { "hybrid shading" };
+            assert_eq!(split["shading_ms"], p["gpu_ms"][shading_pass]);
+            let (direct, secondary) = (
+                split["direct_and_shadows_ms"].as_f64().unwrap(),
+                split["reflections_refractions_ms"].as_f64().unwrap(),
+            );
+            assert!(direct > 0.0 && direct.is_finite(), "{split}");
+            assert!(secondary >= 0.0 && secondary.is_finite(), "{split}");
         }
         assert_eq!(b["hybrid"]["rays"]["primary"], 0);
         let flip = &b["flip"];

@@ -130,13 +130,23 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         }
     }
     let draws = gbuffer::draws(&scene);
-    let frames_per_backend = 2 * (u64::from(args.repeat) + 1);
+    // Shading is one dispatch per path (primary hit, shadow rays and the reflection/refraction
+    // loop share one whitted() call), so its split is derived: the same frame at depth 1 (direct
+    // light and shadow rays only) is timed too, and the rest of the depth-N frame is the
+    // secondary rays' share.
+    let depth1 = (settings.max_depth > 1).then(|| rqr::render::RenderSettings {
+        max_depth: 1,
+        ..settings.clone()
+    });
+    let paths_per_round = if depth1.is_some() { 4 } else { 2 };
+    let frames_per_backend = paths_per_round * (u64::from(args.repeat) + 1);
     let bar = ProgressBar::new(frames_per_backend * backends.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut table = String::new();
+    let mut split_table = String::new();
     let mut report_backends = Vec::new();
     let mut rt_images: Vec<(Backend, RenderOutput)> = Vec::new();
     for backend in &backends {
@@ -146,6 +156,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         // CPUs) slows both alike. Frame 0 of each warms up pipelines (lavapipe JIT-compiles
         // shaders on first use) and is not timed.
         let (mut rt_frames, mut hybrid_frames) = (Vec::new(), Vec::new());
+        let (mut rt_d1, mut hybrid_d1) = (Vec::new(), Vec::new());
         for i in 0..=args.repeat {
             let rt = renderer.render_rt(&ctx, &settings, &camera, true)?;
             bar.inc(1);
@@ -155,7 +166,36 @@ pub fn run(args: &CompareArgs) -> Result<()> {
                 rt_frames.push(rt);
                 hybrid_frames.push(hybrid);
             }
+            if let Some(d1) = &depth1 {
+                let rt = renderer.render_rt(&ctx, d1, &camera, false)?;
+                bar.inc(1);
+                let hybrid = renderer.render_hybrid(&ctx, &draws, d1, &camera, false)?;
+                bar.inc(1);
+                if i > 0 {
+                    rt_d1.push(rt);
+                    hybrid_d1.push(hybrid);
+                }
+            }
         }
+        let split = |shading: &str, full: &[RenderOutput], direct: &[RenderOutput]| {
+            let ms = |frames: &[RenderOutput]| {
+                median_passes(frames)
+                    .into_iter()
+                    .find(|p| p.0 == shading)
+                    .map_or(0.0, |p| p.1)
+            };
+            let (total, first) = (ms(full), ms(direct));
+            (!direct.is_empty()).then(|| {
+                json!({
+                    "shading_ms": total,
+                    "direct_and_shadows_ms": first,
+                    "reflections_refractions_ms": (total - first).max(0.0),
+                    "method": "shading pass at depth 1 (primary hit, direct light, shadow rays) vs at the requested depth; medians of the same alternating frames",
+                })
+            })
+        };
+        let rt_split = split("rt", &rt_frames, &rt_d1);
+        let hybrid_split = split("hybrid shading", &hybrid_frames, &hybrid_d1);
         let finish = |mut frames: Vec<RenderOutput>| -> Result<PathResult> {
             let passes = median_passes(&frames);
             let last = frames.pop().context("no frames")?;
@@ -233,10 +273,27 @@ pub fn run(args: &CompareArgs) -> Result<()> {
                 mrays_per_s(&RenderOutput { gpu_ms: r.passes.clone(), ..clone_stats(&r.last) }),
             )?;
         }
+        for (name, sp) in [("rt", &rt_split), ("hybrid", &hybrid_split)] {
+            if let Some(sp) = sp {
+                writeln!(
+                    split_table,
+                    "| {:<7} | {:<6} | {:>9.2} | {:>29.2} | {:>23.2} |",
+                    backend.as_str(),
+                    name,
+                    sp["shading_ms"].as_f64().unwrap_or(0.0),
+                    sp["direct_and_shadows_ms"].as_f64().unwrap_or(0.0),
+                    sp["reflections_refractions_ms"].as_f64().unwrap_or(0.0),
+                )?;
+            }
+        }
+        let mut rt_json = rt.json();
+        rt_json["shading_split"] = rt_split.unwrap_or(serde_json::Value::Null);
+        let mut hybrid_json = hybrid.json();
+        hybrid_json["shading_split"] = hybrid_split.unwrap_or(serde_json::Value::Null);
         report_backends.push(json!({
             "backend": backend.as_str(),
-            "rt": rt.json(),
-            "hybrid": hybrid.json(),
+            "rt": rt_json,
+            "hybrid": hybrid_json,
             "hybrid_over_rt_time": hybrid.total() / rt.total().max(1e-9),
             "flip": diff,
             "files": {
@@ -292,6 +349,12 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         settings.gbuffer,
         args.repeat
     );
+    if !split_table.is_empty() {
+        write!(
+            md,
+            "Where the shading pass's time goes (derived: the same frames at depth 1 give direct light and shadow rays; the rest is reflection and refraction rays):\n\n| backend | path   | shading   | depth 1: hit, direct, shadows | reflections/refractions |\n|---------|--------|-----------|-------------------------------|-------------------------|\n{split_table}\n"
+        )?;
+    }
     for b in &report_backends {
         let f = &b["flip"];
         writeln!(
