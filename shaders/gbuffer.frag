@@ -31,23 +31,11 @@ void main() {
     }
     // The primary ray through this fragment's sample position (pixel centre + jitter).
     vec2 film = gl_FragCoord.xy + frame.jitter;
-    GpuInstance inst = scene_instance(pc.instance);
-    GpuGeometry g = scene_geometry(inst.geometry);
-    uvec3 tri = scene_triangle(g, in_prim);
     Ray cam = camera_ray(film);
-    bary = ray_triangle_hit(pc.instance, in_prim, cam.origin, cam.dir, bary).xy;
-    vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
-    vec3 p = (inst.object_to_world * vec4(w.x * scene_position(tri.x) + w.y * scene_position(tri.y) + w.z * scene_position(tri.z), 1.0)).xyz;
-    vec3 dir;
-    float t;
-    if (frame.ortho != 0u) {
-        dir = normalize(mat3(frame.camera_to_world) * vec3(0.0, 0.0, -1.0));
-        t = dot(p - frame.camera_pos, dir);
-    } else {
-        dir = normalize(p - frame.camera_pos);
-        t = length(p - frame.camera_pos);
-    }
-    Surface s = surface_at(pc.instance, in_prim, bary, dir, frame.pixel_spread * t);
+    vec3 hit = ray_triangle_hit(pc.instance, in_prim, cam.origin, cam.dir, bary);
+    bary = hit.xy;
+    float t = hit.z;
+    Surface s = surface_at(pc.instance, in_prim, bary, cam.dir, frame.pixel_spread * t);
     g_position = vec4(s.position, t);
     g_normal = vec4(s.n, s.roughness);
     g_geometric = vec4(s.ng_front, s.metallic);

@@ -153,13 +153,5 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             )?;
         }
     }
-    let errors = ctx.validation_errors();
-    if !errors.is_empty() {
-        anyhow::bail!(
-            "{} Vulkan validation error(s); first: {}",
-            errors.len(),
-            errors[0]
-        );
-    }
-    Ok(())
+    super::common::check_validation(&ctx)
 }

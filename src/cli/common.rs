@@ -248,6 +248,19 @@ impl ImageArgs {
     }
 }
 
+/// Fails the command when the validation layer (`RQR_VALIDATION=1`) reported errors.
+pub fn check_validation(ctx: &Context) -> Result<()> {
+    let errors = ctx.validation_errors();
+    if !errors.is_empty() {
+        bail!(
+            "{} Vulkan validation error(s); first: {}",
+            errors.len(),
+            errors[0]
+        );
+    }
+    Ok(())
+}
+
 /// Fails early when `path` cannot be written: missing directory, a directory, read-only.
 pub fn check_output_file(path: &Path) -> Result<()> {
     let dir = match path.parent() {

@@ -382,13 +382,5 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     std::fs::write(args.output.join("report.md"), &md)?;
     out!("{md}")?;
     outln!("wrote {}", args.output.display())?;
-    let errors = ctx.validation_errors();
-    if !errors.is_empty() {
-        anyhow::bail!(
-            "{} Vulkan validation error(s); first: {}",
-            errors.len(),
-            errors[0]
-        );
-    }
-    Ok(())
+    super::common::check_validation(&ctx)
 }

@@ -290,15 +290,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             outln!("  AOV {}", p.display())?;
         }
     }
-    let errors = ctx.validation_errors();
-    if !errors.is_empty() {
-        bail!(
-            "{} Vulkan validation error(s); first: {}",
-            errors.len(),
-            errors[0]
-        );
-    }
-    Ok(())
+    super::common::check_validation(&ctx)
 }
 
 fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
@@ -495,15 +487,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         )
         .with_context(|| format!("cannot write '{}'", p.display()))?;
     }
-    let errors = ctx.validation_errors();
-    if !errors.is_empty() {
-        bail!(
-            "{} Vulkan validation error(s); first: {}",
-            errors.len(),
-            errors[0]
-        );
-    }
-    Ok(())
+    super::common::check_validation(&ctx)
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {
