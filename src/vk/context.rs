@@ -1,6 +1,6 @@
 use std::ffi::{c_void, CStr, CString};
 use std::mem::ManuallyDrop;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -131,6 +131,9 @@ pub(crate) struct Shared {
     graveyard: Mutex<Vec<Destructor>>,
     /// Abandoned work never finished: destroying anything could free memory it still uses.
     leak: AtomicBool,
+    /// Memory allocations made through the allocator since the device was opened (buffers,
+    /// images, staging): what a steady frame loop must stop adding to.
+    pub(crate) allocations: AtomicU64,
     // Dropped by hand after the device (or never, when leaking).
     pub(crate) owner: ManuallyDrop<InstanceOwner>,
 }
@@ -475,6 +478,7 @@ impl Context {
             abandoned: AtomicBool::new(false),
             graveyard: Mutex::new(Vec::new()),
             leak: AtomicBool::new(false),
+            allocations: AtomicU64::new(0),
             owner: ManuallyDrop::new(owner),
         });
         let device = &shared.device;
@@ -714,6 +718,13 @@ impl Context {
             .ok()
             .and_then(|a| a.as_ref().map(Allocator::capacity))
             .unwrap_or(0)
+    }
+
+    /// How many device-memory allocations (buffers, images, staging buffers) were made since
+    /// the device was opened. A frame loop that reuses its resources leaves it unchanged from
+    /// one frame to the next.
+    pub fn allocation_count(&self) -> u64 {
+        self.shared.allocations.load(Ordering::Relaxed)
     }
 
     /// Refuses to allocate `bytes` more for `what` when they, plus what is allocated now,

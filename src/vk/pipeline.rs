@@ -231,6 +231,32 @@ impl ComputePipeline {
         push: &[u8],
         groups: [u32; 3],
     ) {
+        self.bind(cmd, set, push);
+        // SAFETY: recording command buffer with this pipeline bound.
+        unsafe {
+            self.shared
+                .device
+                .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
+        };
+    }
+
+    /// Records a dispatch whose workgroup counts the GPU reads from the first three words of
+    /// `args` (an `INDIRECT_BUFFER` buffer), so a pass can be sized by work an earlier pass
+    /// found (a job list's length).
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: Option<&DescriptorSet>,
+        push: &[u8],
+        args: &super::Buffer,
+    ) {
+        self.bind(cmd, set, push);
+        // SAFETY: recording command buffer with this pipeline bound; `args` has
+        // INDIRECT_BUFFER usage (the caller's) and holds three u32 at offset 0.
+        unsafe { self.shared.device.cmd_dispatch_indirect(cmd, args.raw(), 0) };
+    }
+
+    fn bind(&self, cmd: vk::CommandBuffer, set: Option<&DescriptorSet>, push: &[u8]) {
         let device = &self.shared.device;
         debug_assert_eq!(
             push.len() as u32,
@@ -254,7 +280,6 @@ impl ComputePipeline {
             if !push.is_empty() {
                 device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
-            device.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
         }
     }
 }
