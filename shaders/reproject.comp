@@ -74,14 +74,13 @@ bool near_edge(ivec2 pix, CacheEntry e) {
             if ((dx == 0 && dy == 0) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
                 continue;
             }
-            uint w = resolved_winner(uint(n.y) * frame.width + uint(n.x));
-            if (w == NO_SAMPLE) {
+            Shown o = shown[uint(n.y) * frame.width + uint(n.x)];
+            if (o.meta.x == 0u) {
                 // An empty neighbour is traced this frame anyway. Counting it as an edge
                 // would verify the neighbourhood of every pixel a stretched surface leaves
                 // empty: on an orbit, most of the rays this mode saves.
                 continue;
             }
-            CacheEntry o = cache_prev[w];
             bool other_miss = (o.meta.x & CACHE_MISS) != 0u;
             if (other_miss != miss) {
                 return true;
@@ -144,6 +143,24 @@ void fill(uint q) {
     }
 }
 
+// The fill stage's second half: records the sample pixel q shows (its winner, or the fill's
+// choice) in pixel order for the stages after it.
+void record_shown(uint q) {
+    uint w = resolved_winner(q);
+    Shown sh;
+    if (w == NO_SAMPLE) {
+        sh.position = vec4(0.0);
+        sh.normal = vec4(0.0);
+        sh.meta = uvec4(0u);
+    } else {
+        CacheEntry e = cache_prev[w];
+        sh.position = e.position;
+        sh.normal = e.normal;
+        sh.meta = e.meta;
+    }
+    shown[q] = sh;
+}
+
 bool is_filled(uint q) {
     uint k = depth_key[q];
     return k != NO_SAMPLE && k >= FILLED_KEY;
@@ -160,7 +177,7 @@ void classify(uint q) {
     } else if (w == NO_SAMPLE) {
         st = PX_TRACE | PX_HOLE;
     } else {
-        e = cache_prev[w];
+        e = shown_entry(q);
         if ((e.meta.x & CACHE_VIEW_DEPENDENT) != 0u) {
             st = PX_TRACE | PX_VIEW_DEPENDENT;
         } else if (e.meta.w >= params.max_age) {
@@ -239,7 +256,7 @@ void select_frameless(uint q) {
         return;
     }
     float rank = refresh_rank(pixel_of(q));
-    uint bin = refresh_bin(cache_prev[resolved_winner(q)].meta.w, rank);
+    uint bin = refresh_bin(shown[q].meta.w, rank);
     // Within the last bin, the rank's finer digits decide.
     float within = fract(rank * float(RANK_LEVELS));
     if (bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]))) {
@@ -416,18 +433,35 @@ void interpolate(uint q) {
     }
 }
 
-void stats(uint q) {
-    uint st = state[q];
-    uint kind = st & PX_KIND_MASK;
-    COUNTER_ADD(counters[C_REUSED], kind == PX_REUSE ? 1u : 0u);
-    COUNTER_ADD(counters[C_TRACED], kind == PX_TRACED ? 1u : 0u);
-    COUNTER_ADD(counters[C_INTERP], kind == PX_INTERP ? 1u : 0u);
-    COUNTER_ADD(counters[C_HOLES], (st & PX_HOLE) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_REJECTED], (st & PX_REJECTED) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_VIEW_DEPENDENT], (st & PX_VIEW_DEPENDENT) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_EXPIRED], (st & PX_EXPIRED) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_FRAMELESS], (st & PX_FRAMELESS) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_FILLED], (st & PX_FILLED) != 0u && kind == PX_REUSE ? 1u : 0u);
+// Statistics of the frame's final pixel states, summed per workgroup in shared memory and
+// added to the counters with one atomic per counter per workgroup (per-invocation atomics on
+// the same counters are what made this pass slow on a CPU device).
+const uint STAT_COUNTERS[9] = uint[9](C_REUSED, C_TRACED, C_INTERP, C_HOLES, C_REJECTED, C_VIEW_DEPENDENT,
+                                      C_EXPIRED, C_FRAMELESS, C_FILLED);
+shared uint stat_sums[9];
+
+void stats(uint q, bool inside) {
+    if (gl_LocalInvocationIndex < 9u) {
+        stat_sums[gl_LocalInvocationIndex] = 0u;
+    }
+    barrier();
+    if (inside) {
+        uint st = state[q];
+        uint kind = st & PX_KIND_MASK;
+        bool counted[9] = bool[9](kind == PX_REUSE, kind == PX_TRACED, kind == PX_INTERP, (st & PX_HOLE) != 0u,
+                                  (st & PX_REJECTED) != 0u, (st & PX_VIEW_DEPENDENT) != 0u, (st & PX_EXPIRED) != 0u,
+                                  (st & PX_FRAMELESS) != 0u, (st & PX_FILLED) != 0u && kind == PX_REUSE);
+        for (uint k = 0u; k < 9u; ++k) {
+            uint sum = subgroupAdd(counted[k] ? 1u : 0u);
+            if (subgroupElect() && sum != 0u) {
+                atomicAdd(stat_sums[k], sum);
+            }
+        }
+    }
+    barrier();
+    if (gl_LocalInvocationIndex < 9u && stat_sums[gl_LocalInvocationIndex] != 0u) {
+        atomicAdd(counters[STAT_COUNTERS[gl_LocalInvocationIndex]], stat_sums[gl_LocalInvocationIndex]);
+    }
 }
 
 void main() {
@@ -463,14 +497,19 @@ void main() {
             }
             break;
         }
-        case STAGE_FILL: fill(q); break;
+        case STAGE_FILL:
+            fill(q);
+            record_shown(q);
+            break;
         case STAGE_CLASSIFY: classify(q); break;
         case STAGE_SELECT: select_frameless(q); break;
         case STAGE_COMMIT: commit(q); break;
         case STAGE_INTERPOLATE: interpolate(q); break;
-        case STAGE_STATS: stats(q); break;
         default: break;
         }
+    }
+    if (pc.stage == STAGE_STATS) {
+        stats(q, inside);
     }
     if (pc.gather != GATHER_NONE) {
         append_job(inside && wanted(q, pc.gather), q);

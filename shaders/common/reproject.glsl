@@ -4,7 +4,8 @@
 //
 // Bindings (one numbering for the three pipelines): 4 params, 5 previous cache, 6 next cache,
 // 7 scatter depth keys, 8 scatter winners, 9 pixel states, 10 colour, 11 job list,
-// 12 counters, 13-19 G-buffer images (gbuffer.frag's layout), 20 indirect dispatch arguments.
+// 12 counters, 13-19 G-buffer images (gbuffer.frag's layout), 20 indirect dispatch arguments,
+// 21 the sample each pixel shows (without its colour).
 #ifndef RQR_REPROJECT_GLSL
 #define RQR_REPROJECT_GLSL
 
@@ -106,6 +107,22 @@ layout(set = 0, binding = 19, rgba32f) uniform image2D g_bary;       // barycent
 // The tracing passes' dispatch (x, y, z workgroups) and their job count, written by
 // reproject.comp's ARGS stage from the job list that the gather before it compacted.
 layout(set = 0, binding = 20, std430) buffer DispatchArgs { uint dispatch_args[4]; };
+
+// Per pixel, the cached sample it shows after the scatter and the fill (colour left out):
+// position, normal and meta of CacheEntry; meta.x = 0 where no sample landed. Written in
+// pixel order by the fill stage, so the stages that look at a pixel's neighbours read
+// neighbouring memory instead of gathering whole cache entries from wherever they came from.
+struct Shown {
+    vec4 position;
+    vec4 normal;
+    uvec4 meta;
+};
+layout(set = 0, binding = 21, scalar) buffer ShownSamples { Shown shown[]; };
+
+CacheEntry shown_entry(uint q) {
+    Shown s = shown[q];
+    return CacheEntry(vec4(0.0), s.position, s.normal, s.meta);
+}
 
 // Jobs of the current tracing pass (one per invocation, 64 per workgroup).
 uint job_count() { return dispatch_args[3]; }

@@ -236,6 +236,8 @@ struct GpuParams {
 
 /// `reproject.glsl`'s `CacheEntry`.
 const CACHE_ENTRY_BYTES: u64 = 64;
+/// `reproject.glsl`'s `Shown`: a cache entry without its colour.
+const SHOWN_BYTES: u64 = 48;
 
 const RP_REUSE: u32 = 1;
 const RP_GBUFFER: u32 = 2;
@@ -278,9 +280,10 @@ const COUNTER_SLOTS: u64 = 32 + 64 * 64;
 
 /// Side of the 8x8-pixel workgroups of `reproject.comp`.
 const TILE: u32 = 8;
-/// Timestamp scopes one reprojected frame records (raster, reproject, visibility, three trace
-/// levels, tonemap, and the frame itself), for sizing a burst's profiler.
-pub const SCOPES_PER_FRAME: u32 = 10;
+/// Timestamp scopes one reprojected frame records (raster, scatter, classify, visibility,
+/// commit, three trace levels, two interpolations, stats, tonemap, and the frame itself), for
+/// sizing a burst's profiler.
+pub const SCOPES_PER_FRAME: u32 = 16;
 
 fn primary_spirv(backend: Backend) -> &'static [u8] {
     match backend {
@@ -330,6 +333,7 @@ pub struct Reprojector<'r> {
     state: Buffer,
     color: Buffer,
     _jobs: Buffer,
+    _shown: Buffer,
     counters: Buffer,
     /// Indirect dispatch of the tracing passes, sized by their job lists.
     args: Buffer,
@@ -394,6 +398,7 @@ impl<'r> Reprojector<'r> {
         let winner = storage("reproject winners", pixels * 4)?;
         let state = storage("reproject states", pixels * 4)?;
         let color = storage("reproject colour", pixels * 16)?;
+        let shown = storage("reproject shown samples", pixels * SHOWN_BYTES)?;
         let jobs = storage("reproject jobs", pixels * 4)?;
         let counters = storage("reproject counters", COUNTER_SLOTS * 4)?;
         let args = Buffer::new(
@@ -446,6 +451,7 @@ impl<'r> Reprojector<'r> {
                 GBUFFER_FORMATS.len(),
             ));
             b.push(Binding::StorageBuffer);
+            b.push(Binding::StorageBuffer);
             b
         };
         let backend = pass.backend.kind();
@@ -493,7 +499,11 @@ impl<'r> Reprojector<'r> {
                 for (i, image) in visibility.images().iter().enumerate() {
                     set.storage_image(13 + i as u32, image.view());
                 }
-                set.buffer(20, &args, Binding::StorageBuffer);
+                set.buffer(20, &args, Binding::StorageBuffer).buffer(
+                    21,
+                    &shown,
+                    Binding::StorageBuffer,
+                );
                 Ok(set)
             };
             sets.push([
@@ -534,6 +544,7 @@ impl<'r> Reprojector<'r> {
             state,
             color,
             _jobs: jobs,
+            _shown: shown,
             counters,
             args,
             visibility,
@@ -558,7 +569,7 @@ impl<'r> Reprojector<'r> {
                 _ => 16,
             })
             .sum();
-        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + 4 * 4 + 16 + 4 + gbuffer)
+        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + SHOWN_BYTES + 4 * 4 + 16 + 4 + gbuffer)
     }
 
     /// The largest buffer the reprojection binds as one storage buffer (either sample cache:
@@ -702,11 +713,11 @@ impl<'r> Reprojector<'r> {
                       set: &DescriptorSet,
                       name: &str,
                       profiler: Option<&mut GpuProfiler>| {
-            stage(cmd, STAGE_ARGS, 0, GATHER_NONE);
             let mut profiler = profiler;
             if let Some(p) = profiler.as_deref_mut() {
                 p.begin(cmd, name);
             }
+            stage(cmd, STAGE_ARGS, 0, GATHER_NONE);
             pipeline.dispatch_indirect(cmd, Some(set), &[], &self.args);
             memory_barrier(device, cmd);
             if let Some(p) = profiler {
@@ -744,10 +755,15 @@ impl<'r> Reprojector<'r> {
                 }
             }
         }
-        if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, "reproject");
-        }
+        // Every stage is its own timestamp scope, so the JSON and the reports show where a
+        // reprojected frame's time goes.
+        let scope = |profiler: &mut Option<&mut GpuProfiler>, name: &str| {
+            if let Some(p) = profiler.as_deref_mut() {
+                p.begin(cmd, name);
+            }
+        };
         if reuse {
+            scope(&mut profiler, "scatter");
             stage(cmd, STAGE_SCATTER, 0, GATHER_NONE);
             stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
             stage(cmd, STAGE_FILL, 0, GATHER_NONE);
@@ -758,15 +774,13 @@ impl<'r> Reprojector<'r> {
         } else {
             GATHER_NONE
         };
+        scope(&mut profiler, "classify");
         if frameless {
             stage(cmd, STAGE_CLASSIFY, 0, GATHER_NONE);
             stage(cmd, STAGE_THRESHOLD, 0, GATHER_NONE);
             stage(cmd, STAGE_SELECT, 0, verify_list);
         } else {
             stage(cmd, STAGE_CLASSIFY, 0, verify_list);
-        }
-        if let Some(p) = profiler.as_deref_mut() {
-            p.end(cmd);
         }
         if rt_verify {
             traced(
@@ -779,6 +793,7 @@ impl<'r> Reprojector<'r> {
         }
         // Commit the reused pixels and list the first level's pixels to trace; each
         // interpolation lists the next level's.
+        scope(&mut profiler, "commit");
         stage(cmd, STAGE_COMMIT, 0, levels[0]);
         for (i, &level) in levels.iter().enumerate() {
             traced(
@@ -789,10 +804,15 @@ impl<'r> Reprojector<'r> {
                 profiler.as_deref_mut(),
             );
             if let Some(&next) = levels.get(i + 1) {
+                scope(&mut profiler, "interpolate");
                 stage(cmd, STAGE_INTERPOLATE, level, next);
             }
         }
+        scope(&mut profiler, "stats");
         stage(cmd, STAGE_STATS, 0, GATHER_NONE);
+        if let Some(p) = profiler.as_deref_mut() {
+            p.end(cmd);
+        }
         self.tonemap
             .record(cmd, profiler.as_deref_mut(), s.tonemap, s.exposure);
         if let Some((ring, slot)) = out {
