@@ -679,6 +679,14 @@ pub struct Sequence<'r> {
     next: Option<u32>,
 }
 
+/// What the full render of a frame keeps for its comparison and for callers.
+const REFERENCE_CONTENTS: RingContents = RingContents {
+    rgba8: true,
+    color: true,
+    aov: false,
+    states: false,
+};
+
 /// What a burst's frames copy their outputs into, and its timestamps.
 struct BurstResources {
     frames: FrameRing,
@@ -698,11 +706,7 @@ impl BurstResources {
         let ring = FrameRing::new(ctx, "sequence frames", frames, pixels, contents)?;
         let references = reference
             .then(|| {
-                let contents = RingContents {
-                    rgba8: true,
-                    ..Default::default()
-                };
-                FrameRing::new(ctx, "sequence references", frames, pixels, contents)
+                FrameRing::new(ctx, "sequence references", frames, pixels, REFERENCE_CONTENTS)
             })
             .transpose()?;
         // Each frame (and its reference) is one profiler frame plus its scopes.
@@ -809,7 +813,7 @@ impl<'r> Sequence<'r> {
     ) -> crate::Result<u32> {
         let slot = FrameRing::slot_bytes(self.settings.pixels(), contents)
             + if self.options.reference {
-                self.settings.pixels() * 4 + 128
+                FrameRing::slot_bytes(self.settings.pixels(), REFERENCE_CONTENTS)
             } else {
                 0
             };
