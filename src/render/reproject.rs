@@ -813,8 +813,7 @@ impl<'r> Reprojector<'r> {
         if let Some(p) = profiler.as_deref_mut() {
             p.end(cmd);
         }
-        self.tonemap
-            .record(cmd, profiler.as_deref_mut(), s.tonemap, s.exposure);
+        self.tonemap.record(cmd, profiler, s.tonemap, s.exposure);
         if let Some((ring, slot)) = out {
             memory_barrier(device, cmd);
             ring.record_copy(

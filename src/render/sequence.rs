@@ -706,7 +706,13 @@ impl BurstResources {
         let ring = FrameRing::new(ctx, "sequence frames", frames, pixels, contents)?;
         let references = reference
             .then(|| {
-                FrameRing::new(ctx, "sequence references", frames, pixels, REFERENCE_CONTENTS)
+                FrameRing::new(
+                    ctx,
+                    "sequence references",
+                    frames,
+                    pixels,
+                    REFERENCE_CONTENTS,
+                )
             })
             .transpose()?;
         // Each frame (and its reference) is one profiler frame plus its scopes.

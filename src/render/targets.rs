@@ -233,6 +233,7 @@ struct HybridSample {
 }
 
 /// What a path's frame writes and where (beyond the passes' own resources).
+#[allow(clippy::large_enum_variant)] // one per FrameTargets, never moved in a hot loop
 enum PathPasses {
     RayTraced(Box<RaytracedPass>),
     Hybrid {
@@ -481,8 +482,7 @@ impl FrameTargets {
             }
         }
         let s = &self.settings;
-        self.tonemap
-            .record(cmd, profiler.as_deref_mut(), s.tonemap, s.exposure);
+        self.tonemap.record(cmd, profiler, s.tonemap, s.exposure);
         if let Some((ring, slot)) = out {
             memory_barrier(device, cmd);
             self.record_copy(device, cmd, ring, slot);
