@@ -29,7 +29,6 @@ layout(push_constant) uniform Push { uint stage; uint level; uint gather; } pc;
 #define STAGE_INTERPOLATE 7u
 #define STAGE_STATS 8u
 #define STAGE_FILL 9u
-#define STAGE_ARGS 11u
 
 // Job list selector (pc.gather): 0 = pixels to verify; 1, 2, 4 = pixels to trace at that level.
 #define GATHER_VERIFY 0u
@@ -276,7 +275,9 @@ bool wanted(uint q, uint list) {
 
 // Stream compaction of the job list, in tile order: every workgroup (an 8x8 tile) writes its
 // jobs contiguously in invocation order, after one atomic per workgroup, so neighbouring
-// lanes of a tracing pass trace neighbouring pixels. Called by every invocation of the
+// lanes of a tracing pass trace neighbouring pixels. The last workgroup to finish turns the
+// list's length into the tracing pass's indirect dispatch (and starts the next list at zero),
+// so no separate pass and barrier is needed for that. Called by every invocation of the
 // workgroup (it has barriers).
 shared uint subgroup_offsets[gl_WorkGroupSize.x * gl_WorkGroupSize.y];
 shared uint tile_base;
@@ -297,22 +298,22 @@ void append_job(bool take, uint q) {
             sum += c;
         }
         tile_base = sum > 0u ? atomicAdd(counters[C_JOBS], sum) : 0u;
+        // Every workgroup's share of the count is added before it counts itself done.
+        memoryBarrierBuffer();
+        uint tiles = gl_NumWorkGroups.x * gl_NumWorkGroups.y;
+        if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == tiles) {
+            uint n = atomicExchange(counters[C_JOBS], 0u);
+            dispatch_args[0] = (n + 63u) / 64u;
+            dispatch_args[1] = 1u;
+            dispatch_args[2] = 1u;
+            dispatch_args[3] = n;
+            counters[C_TILES_DONE] = 0u;
+        }
     }
     barrier();
     if (take) {
         jobs[tile_base + subgroup_offsets[gl_SubgroupID] + within] = q;
     }
-}
-
-// The tracing pass's indirect dispatch from the job count; the count starts again at zero for
-// the next list.
-void dispatch_arguments() {
-    uint n = counters[C_JOBS];
-    dispatch_args[0] = (n + 63u) / 64u;
-    dispatch_args[1] = 1u;
-    dispatch_args[2] = 1u;
-    dispatch_args[3] = n;
-    counters[C_JOBS] = 0u;
 }
 
 // Reused pixels take their sample's colour (a miss: the background seen along this pixel's
@@ -465,13 +466,9 @@ void stats(uint q, bool inside) {
 }
 
 void main() {
-    if (pc.stage == STAGE_THRESHOLD || pc.stage == STAGE_ARGS) {
+    if (pc.stage == STAGE_THRESHOLD) {
         if (gl_GlobalInvocationID.x == 0u && gl_GlobalInvocationID.y == 0u) {
-            if (pc.stage == STAGE_THRESHOLD) {
-                threshold();
-            } else {
-                dispatch_arguments();
-            }
+            threshold();
         }
         return;
     }

@@ -62,6 +62,7 @@ uint with_hops(uint flags, uint hops) { return (flags & ~(255u << CACHE_HOPS_SHI
 #define C_THRESHOLD_BIN 17u
 #define C_THRESHOLD_FRACTION 18u
 #define C_FILLED 19u
+#define C_TILES_DONE 20u  // workgroups that finished appending to the current job list
 #define C_HISTOGRAM 32u
 #define AGE_LEVELS 64u
 #define RANK_LEVELS 64u

@@ -254,7 +254,6 @@ const STAGE_COMMIT: u32 = 6;
 const STAGE_INTERPOLATE: u32 = 7;
 const STAGE_STATS: u32 = 8;
 const STAGE_FILL: u32 = 9;
-const STAGE_ARGS: u32 = 11;
 /// Job list a stage appends to: pixels to verify with a primary ray (rt path).
 const GATHER_VERIFY: u32 = 0;
 /// The stage appends to no job list.
@@ -698,7 +697,7 @@ impl<'r> Reprojector<'r> {
             push[..4].copy_from_slice(&stage.to_le_bytes());
             push[4..8].copy_from_slice(&level.to_le_bytes());
             push[8..].copy_from_slice(&gather.to_le_bytes());
-            let groups = if stage == STAGE_THRESHOLD || stage == STAGE_ARGS {
+            let groups = if stage == STAGE_THRESHOLD {
                 [1, 1, 1]
             } else {
                 tiles
@@ -706,8 +705,8 @@ impl<'r> Reprojector<'r> {
             self.stages.dispatch(cmd, Some(stages_set), &push, groups);
             memory_barrier(device, cmd);
         };
-        // A tracing pass over the job list the stage before it compacted: the ARGS stage turns
-        // the list's length into the dispatch size, so its cost follows its jobs.
+        // A tracing pass over the job list the stage before it compacted, sized by the list's
+        // length (written by that stage's last workgroup), so its cost follows its jobs.
         let traced = |cmd: vk::CommandBuffer,
                       pipeline: &ComputePipeline,
                       set: &DescriptorSet,
@@ -717,7 +716,6 @@ impl<'r> Reprojector<'r> {
             if let Some(p) = profiler.as_deref_mut() {
                 p.begin(cmd, name);
             }
-            stage(cmd, STAGE_ARGS, 0, GATHER_NONE);
             pipeline.dispatch_indirect(cmd, Some(set), &[], &self.args);
             memory_barrier(device, cmd);
             if let Some(p) = profiler {
