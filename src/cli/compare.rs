@@ -112,7 +112,7 @@ fn write_rgb(path: &Path, w: u32, h: u32, rgb: Vec<u8>) -> Result<()> {
 
 /// Runs `rqr compare`.
 pub fn run(args: &CompareArgs) -> Result<()> {
-    let settings = args.image.settings()?;
+    let mut settings = args.image.settings()?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("cannot create output directory '{}'", args.output.display()))?;
     let scene = args.scene.load()?;
@@ -121,6 +121,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
     let ctx = args.device.open()?;
     let (first, _) = args.device.backend(&ctx)?;
+    settings.raster = args.device.raster(&ctx).0;
     let mut backends = vec![first];
     if args.backends == Backends::All {
         for b in [Backend::Hw, Backend::Bvh] {
@@ -337,7 +338,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
 
     let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | total ms  | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(
-        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}. GPU ms are medians of {} frames, the two paths alternating (first frame excluded: pipeline JIT on lavapipe).\n\n{header}{table}\n",
+        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}, visibility pass: {}. GPU ms are medians of {} frames, the two paths alternating (first frame excluded: pipeline JIT on lavapipe).\n\n{header}{table}\n",
         args.scene.name(),
         ctx.info().name,
         ctx.info().device_type,
@@ -347,6 +348,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         settings.sampler,
         settings.max_depth,
         settings.gbuffer,
+        settings.raster.as_str(),
         args.repeat
     );
     if !split_table.is_empty() {

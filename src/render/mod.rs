@@ -7,6 +7,7 @@ pub mod hybrid;
 pub mod label;
 pub mod optics;
 pub mod output;
+pub mod raster_compute;
 pub mod raybench;
 pub mod raytraced;
 pub mod reproject;
@@ -323,7 +324,15 @@ impl Renderer {
             f.jitter = jitter;
             let mut buf = buf;
             buf.write(bytemuck::bytes_of(&f))?;
-            let g = gbuffer::GbufferPass::new(ctx, &pass_ctx, &buf, extent, settings.gbuffer)?;
+            let g = gbuffer::GbufferPass::with_raster(
+                ctx,
+                &pass_ctx,
+                &buf,
+                extent,
+                settings.gbuffer,
+                settings.raster,
+                scene_draws,
+            )?;
             let h = hybrid::HybridPass::new(ctx, &pass_ctx, &buf, &accum, &aov, &counters, &g)?;
             passes.push((buf, g, h));
             weights.push(weight);
