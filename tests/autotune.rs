@@ -41,8 +41,12 @@ fn decisions_follow_the_measured_numbers() {
     let d = autotune::decide(&bvh_and_compute_win(), &device);
     assert_eq!(d.backend, Backend::Bvh);
     assert_eq!(d.raster, RasterMode::Compute);
-    assert!(d.backend_reason.contains("30.000 ms on hw vs 10.000 ms on bvh"));
-    assert!(d.raster_reason.contains("4.000 ms graphics vs 3.000 ms compute"));
+    assert!(d
+        .backend_reason
+        .contains("30.000 ms on hw vs 10.000 ms on bvh"));
+    assert!(d
+        .raster_reason
+        .contains("4.000 ms graphics vs 3.000 ms compute"));
     let m = Measurement {
         rt_hw_ms: Some(5.0),
         rt_bvh_ms: 10.0,

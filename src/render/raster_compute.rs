@@ -308,7 +308,11 @@ impl ComputeRaster {
             cmd,
             Some(&self.sets[2]),
             &push,
-            [self.extent.width.div_ceil(8), self.extent.height.div_ceil(8), 1],
+            [
+                self.extent.width.div_ceil(8),
+                self.extent.height.div_ceil(8),
+                1,
+            ],
         );
     }
 }
