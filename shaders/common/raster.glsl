@@ -280,7 +280,10 @@ void depth_write(Poly poly, uint gid, ivec2 pix, float depth, vec3 persp) {
     uint bits = floatBitsToUint(depth);
 #ifdef RAY_BACKEND_ATOMIC64
     uint64_t value = (uint64_t(bits) << 32) | uint64_t(gid);
-    if (value >= depth_id[index]) {
+    // Early out on the depth half only: a plain 64-bit load racing with another invocation's
+    // atomicMin may tear, but either half-word it returns for the depth is one that was stored,
+    // hence >= the current minimum's, so skipping a strictly farther depth is always safe.
+    if (bits > uint(depth_id[index] >> 32)) {
         return;
     }
     if ((poly.flags & DRAW_ALPHA_TEST) != 0u && !alpha_accepts(poly.instance, poly.prim, persp.yz)) {
