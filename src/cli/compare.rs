@@ -160,7 +160,7 @@ struct BackendRun {
 /// Runs `rqr compare`.
 pub fn run(args: &CompareArgs) -> Result<()> {
     let started = Instant::now();
-    let settings = args.image.settings()?;
+    let mut settings = args.image.settings()?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("cannot create output directory '{}'", args.output.display()))?;
     let scene = args.scene.load()?;
@@ -169,6 +169,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
     let ctx = args.device.open()?;
     let (first, _) = args.device.backend(&ctx)?;
+    settings.raster = args.device.raster(&ctx).0;
     let mut backends = vec![first];
     if args.backends == Backends::All {
         for b in [Backend::Hw, Backend::Bvh] {
@@ -452,7 +453,7 @@ fn write_outputs(
 
     let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | frame ms  | frame min–max   | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(
-        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}. Timing: {timing}. Pass columns are medians; \"frame ms\" is the median whole frame (passes, barriers, everything between them).\n\n{header}{table}\n",
+        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}, visibility pass: {}. Timing: {timing}. Pass columns are medians; \"frame ms\" is the median whole frame (passes, barriers, everything between them).\n\n{header}{table}\n",
         args.scene.name(),
         ctx.info().name,
         ctx.info().device_type,
@@ -462,6 +463,7 @@ fn write_outputs(
         settings.sampler,
         settings.max_depth,
         settings.gbuffer,
+        settings.raster.as_str(),
     );
     if !split_table.is_empty() {
         write!(

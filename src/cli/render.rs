@@ -212,7 +212,7 @@ pub fn mrays_per_s(out: &RenderOutput) -> f64 {
 
 /// Runs `rqr render`.
 pub fn run(args: &RenderArgs) -> Result<()> {
-    let settings = args.image.settings()?;
+    let mut settings = args.image.settings()?;
     for name in &args.aov {
         if !output::AOV_NAMES.contains(&name.as_str()) {
             bail!(
@@ -244,6 +244,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let ctx = args.device.open()?;
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
+    let (raster, raster_reason) = args.device.raster(&ctx);
+    if matches!(args.mode, Mode::Hybrid) {
+        log::info!("visibility pass: {} ({raster_reason})", raster.as_str());
+    }
+    settings.raster = raster;
     let renderer = Renderer::new(&ctx, &scene, backend)?;
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
@@ -272,6 +277,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "mean_spp": out.mean_spp(),
             "max_depth": settings.max_depth,
             "gbuffer": matches!(args.mode, Mode::Hybrid).then_some(settings.gbuffer),
+            "raster": matches!(args.mode, Mode::Hybrid).then_some(settings.raster),
+            "raster_reason": matches!(args.mode, Mode::Hybrid).then_some(raster_reason),
             "gpu_ms": out.gpu_ms.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
             "total_gpu_ms": out.total_ms(),
             "rays": out.rays,

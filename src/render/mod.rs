@@ -8,6 +8,7 @@ pub mod hybrid;
 pub mod label;
 pub mod optics;
 pub mod output;
+pub mod raster_compute;
 pub mod raybench;
 pub mod raytraced;
 pub mod reproject;

@@ -339,7 +339,15 @@ impl FrameTargets {
                         }
                     };
                     let frame = frame_uniform("hybrid frame")?;
-                    let gbuffer = GbufferPass::new(ctx, &pass, &frame, extent, settings.gbuffer)?;
+                    let gbuffer = GbufferPass::with_raster(
+                        ctx,
+                        &pass,
+                        &frame,
+                        extent,
+                        settings.gbuffer,
+                        settings.raster,
+                        draws,
+                    )?;
                     let shading =
                         HybridPass::new(ctx, &pass, &frame, &accum, &aov, &counters, &gbuffer)?;
                     samples.push(HybridSample {

@@ -84,6 +84,9 @@ pub struct Features {
     pub ray_query: bool,
     /// Timestamps usable on the chosen queue.
     pub timestamps: bool,
+    /// `shaderBufferInt64Atomics` enabled: the compute rasterizer's one-pass 64-bit
+    /// atomic-min (depth | triangle) path.
+    pub buffer_int64_atomics: bool,
 }
 
 /// Validation messages collected by the debug messenger.
@@ -630,7 +633,8 @@ impl Context {
             .host_query_reset(f12.host_query_reset == vk::TRUE)
             .shader_float16(f12.shader_float16 == vk::TRUE)
             .storage_buffer8_bit_access(f12.storage_buffer8_bit_access == vk::TRUE)
-            .shader_int8(f12.shader_int8 == vk::TRUE);
+            .shader_int8(f12.shader_int8 == vk::TRUE)
+            .shader_buffer_int64_atomics(f12.shader_buffer_int64_atomics == vk::TRUE);
         let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true)
@@ -664,6 +668,7 @@ impl Context {
                 acceleration_structure,
                 ray_query,
                 timestamps,
+                buffer_int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
             },
         ))
     }
