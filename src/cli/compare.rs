@@ -334,6 +334,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         args.output.join("report.json"),
         serde_json::to_string_pretty(&report)?,
     )?;
+    super::report_html::write(&args.output, &report)?;
 
     let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | total ms  | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(
