@@ -18,7 +18,11 @@ fn compile_build_script(dir: &Path) -> PathBuf {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let exe = dir.join("build-script");
     let out = Command::new(std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into()))
-        .args(["--edition=2021", "--crate-type=bin", "--crate-name=build_script"])
+        .args([
+            "--edition=2021",
+            "--crate-type=bin",
+            "--crate-name=build_script",
+        ])
         .arg(root.join("build.rs"))
         .arg("-o")
         .arg(&exe)
@@ -67,7 +71,12 @@ fn build_script_needs_only_path_and_embeds_what_it_compiles() {
     assert_eq!(generated.matches("pub const ").count(), spv.len());
     for p in &spv {
         let bytes = std::fs::read(p).unwrap();
-        assert_eq!(&bytes[..4], &0x0723_0203u32.to_le_bytes(), "{}", p.display());
+        assert_eq!(
+            &bytes[..4],
+            &0x0723_0203u32.to_le_bytes(),
+            "{}",
+            p.display()
+        );
     }
     // The same compiler and flags as the build that produced this test binary's crate.
     for (embedded, file) in [

@@ -42,7 +42,8 @@ impl Spinner {
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             );
             bar.enable_steady_tick(Duration::from_millis(120));
-            let _ = cvar.wait_while(guard, |done| !*done);
+            // Released before clearing, so that `drop` is not kept waiting on the lock.
+            drop(cvar.wait_while(guard, |done| !*done));
             bar.finish_and_clear();
         });
         Self {

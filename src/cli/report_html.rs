@@ -18,7 +18,14 @@ use serde_json::{Map, Value};
 const PATHS: [(&str, &str); 2] = [("rt", "ray traced"), ("hybrid", "hybrid")];
 
 /// Fields of `backends[i]` shown by their own widgets (everything else goes to "more fields").
-const BACKEND_FIELDS: [&str; 6] = ["backend", "rt", "hybrid", "flip", "files", "hybrid_over_rt_time"];
+const BACKEND_FIELDS: [&str; 6] = [
+    "backend",
+    "rt",
+    "hybrid",
+    "flip",
+    "files",
+    "hybrid_over_rt_time",
+];
 
 /// Fields of `backends[i].rt` / `.hybrid` shown by their own widgets.
 const PATH_FIELDS: [&str; 6] = [
@@ -31,7 +38,14 @@ const PATH_FIELDS: [&str; 6] = [
 ];
 
 /// Top-level fields shown in the header or the settings section.
-const TOP_FIELDS: [&str; 6] = ["schema", "scene", "device", "device_type", "settings", "backends"];
+const TOP_FIELDS: [&str; 6] = [
+    "schema",
+    "scene",
+    "device",
+    "device_type",
+    "settings",
+    "backends",
+];
 
 /// Colours of the per-pass bars, assigned to pass names in order of first appearance.
 const PALETTE: [&str; 8] = [
@@ -47,12 +61,10 @@ struct Png {
 
 impl Png {
     fn from_bytes(bytes: Vec<u8>, what: &str) -> Result<Self> {
-        let (width, height) = image::ImageReader::with_format(
-            Cursor::new(&bytes),
-            image::ImageFormat::Png,
-        )
-        .into_dimensions()
-        .with_context(|| format!("{what} is not a readable PNG"))?;
+        let (width, height) =
+            image::ImageReader::with_format(Cursor::new(&bytes), image::ImageFormat::Png)
+                .into_dimensions()
+                .with_context(|| format!("{what} is not a readable PNG"))?;
         Ok(Self {
             bytes,
             width,
@@ -246,7 +258,7 @@ fn magma_legend_png() -> Result<Png> {
 /// factors (pixelated), large ones shrink to the column.
 fn display_width(width: u32) -> u32 {
     const COLUMN: u32 = 640;
-    if width == 0 || width >= COLUMN / 2 {
+    if width == 0 || width >= COLUMN {
         width.min(COLUMN)
     } else {
         width * (COLUMN / width).min(8)
@@ -278,7 +290,7 @@ fn render(report: &Value, images: &[BackendImages]) -> Result<String> {
     }
     h.push_str("<section><h2>GPU time per pass</h2>");
     h.push_str(&pass_chart(backends));
-    h.push_str("<p class=\"note\">Stacked: each bar is one frame's passes, as reported in <code>gpu_ms</code>; hover a segment for its value.</p></section>");
+    h.push_str("<p class=\"note\">One bar per backend and path: its passes' GPU ms as the report gives them (<code>gpu_ms</code>; how they were measured is in the line under the title), stacked in the report's order; hover a segment for its value.</p></section>");
     h.push_str("<section><h2>Rays by kind</h2>");
     rays_table(backends, &mut h);
     h.push_str("</section>");
@@ -292,7 +304,7 @@ fn render(report: &Value, images: &[BackendImages]) -> Result<String> {
     value_html(&report["settings"], &mut h);
     more_fields(report, &TOP_FIELDS, "More fields of the report", &mut h);
     h.push_str("</section>");
-    let _ = write!(h, "<script>{SCRIPT}</script></body></html>\n");
+    let _ = writeln!(h, "<script>{SCRIPT}</script></body></html>");
     Ok(h)
 }
 
@@ -319,7 +331,13 @@ fn settings_summary(settings: &Value) -> String {
 }
 
 /// Images, wipe slider, FLIP map with legend and statistics of one backend.
-fn backend_section(index: usize, backend: &Value, img: &BackendImages, legend: &Png, h: &mut String) {
+fn backend_section(
+    index: usize,
+    backend: &Value,
+    img: &BackendImages,
+    legend: &Png,
+    h: &mut String,
+) {
     let name = scalar(&backend["backend"]);
     let width = display_width(img.rt.width);
     let ratio = format!("{} / {}", img.rt.width, img.rt.height.max(1));
@@ -351,18 +369,32 @@ fn backend_section(index: usize, backend: &Value, img: &BackendImages, legend: &
         heat = img.flip.data_uri(),
         lut = legend.data_uri(),
     );
-    for (key, label) in [("flip_mean", "mean"), ("flip_p95", "p95"), ("flip_p99", "p99")] {
+    h.push_str("<div class=\"ticks\"><span>0</span><span>0.25</span><span>0.5</span><span>0.75</span><span>1</span></div>");
+    // One row per statistic, each a line from the colour bar down to its label, so that
+    // values close together (usually all near 0) stay readable.
+    for (row, (key, label)) in [
+        ("flip_mean", "mean"),
+        ("flip_p95", "p95"),
+        ("flip_p99", "p99"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
         if let Some(v) = flip[key].as_f64() {
+            let at = v.clamp(0.0, 1.0);
             let _ = write!(
                 h,
-                "<span class=\"mark\" style=\"left:{:.2}%\" title=\"{label} {}\">{label}</span>",
-                100.0 * v.clamp(0.0, 1.0),
+                "<span class=\"mark{}\" style=\"left:{:.2}%;height:{}px\" title=\"{label} {}\">{label} {}</span>",
+                if at > 0.8 { " to-left" } else { "" },
+                100.0 * at,
+                42 + 13 * row,
+                num(v),
                 num(v)
             );
         }
     }
     h.push_str(
-        "</div><div class=\"ticks\"><span>0</span><span>0.25</span><span>0.5</span><span>0.75</span><span>1</span></div>\
+        "</div>\
          <figcaption>FLIP error, hybrid against ray traced (0: no visible difference).</figcaption><table class=\"stats\">",
     );
     for (key, label) in [
@@ -385,10 +417,19 @@ fn backend_section(index: usize, backend: &Value, img: &BackendImages, legend: &
         }
     }
     if let Some(r) = backend["hybrid_over_rt_time"].as_f64() {
-        let _ = write!(h, "<tr><th>hybrid / ray traced time</th><td>{}</td></tr>", num(r));
+        let _ = write!(
+            h,
+            "<tr><th>hybrid / ray traced time</th><td>{}</td></tr>",
+            num(r)
+        );
     }
     h.push_str("</table></figure></div>");
-    more_fields(backend, &BACKEND_FIELDS, &format!("More fields of the {name} backend"), h);
+    more_fields(
+        backend,
+        &BACKEND_FIELDS,
+        &format!("More fields of the {name} backend"),
+        h,
+    );
     for (key, label) in PATHS {
         more_fields(
             &backend[key],
@@ -505,7 +546,10 @@ fn pass_chart(backends: &[Value]) -> String {
         );
     }
     for (i, pass) in order.iter().enumerate() {
-        let (lx, ly) = (label_w + 160.0 * (i % 4) as f64, legend_y + 22.0 * (i / 4) as f64);
+        let (lx, ly) = (
+            label_w + 160.0 * (i % 4) as f64,
+            legend_y + 22.0 * (i / 4) as f64,
+        );
         let _ = write!(
             s,
             "<rect x=\"{lx:.1}\" y=\"{ly:.1}\" width=\"14\" height=\"14\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"legendtext\">{}</text>",
@@ -584,10 +628,11 @@ figure{margin:0;max-width:100%}figcaption{font-size:13px;color:#555;margin-top:4
 .tag.left{left:6px}.tag.right{right:6px}
 .wipe-slider{width:100%;margin:8px 0 4px}
 .buttons button{margin-right:6px;font:inherit;font-size:13px;padding:2px 10px}
-.legend{position:relative;height:34px;margin-top:10px}
+.legend{position:relative;height:74px;margin-top:10px}
 .legend .lut{width:100%;height:16px;display:block;image-rendering:auto}
-.mark{position:absolute;top:16px;transform:translateX(-50%);font-size:11px;border-top:2px solid #000;padding-top:1px;white-space:nowrap}
-.ticks{display:flex;justify-content:space-between;font-size:11px;color:#555}
+.ticks{position:absolute;top:17px;left:0;right:0;display:flex;justify-content:space-between;font-size:11px;color:#555}
+.mark{position:absolute;top:0;display:flex;align-items:flex-end;font-size:11px;line-height:12px;white-space:nowrap;border-left:2px solid #111;padding-left:3px;margin-left:-1px}
+.mark.to-left{border-left:none;border-right:2px solid #111;padding-left:0;padding-right:3px;margin-left:1px;transform:translateX(-100%)}
 table{border-collapse:collapse;margin:8px 0}th,td{padding:3px 10px;border-bottom:1px solid #e4e4e4;text-align:left;vertical-align:top}
 .rays td,.stats td{text-align:right;font-variant-numeric:tabular-nums}
 .kv .kv{margin:0}.kv th{font-weight:600;color:#333}
@@ -709,8 +754,8 @@ mod tests {
         assert!(!html.contains("<room>"));
         assert!(html.contains("∞ (identical)"));
         // The FLIP legend marks mean, p95 and p99 where their values are on the 0..1 scale.
-        assert!(html.contains("left:5.00%\" title=\"p95 0.05000\""));
-        assert!(html.contains("left:20.00%\" title=\"p99 0.2000\""));
+        assert!(html.contains("left:5.00%;height:55px\" title=\"p95 0.05000\""));
+        assert!(html.contains("left:20.00%;height:68px\" title=\"p99 0.2000\""));
     }
 
     #[test]
