@@ -36,7 +36,9 @@ impl Spinner {
             if *guard {
                 return;
             }
-            let bar = ProgressBar::new_spinner().with_message(message);
+            let bar = ProgressBar::new_spinner()
+                .with_message(message)
+                .with_elapsed(DELAY);
             bar.set_style(
                 ProgressStyle::with_template("{spinner} {msg} {elapsed}")
                     .unwrap_or_else(|_| ProgressStyle::default_spinner()),
