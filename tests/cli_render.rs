@@ -154,6 +154,7 @@ fn compare_writes_every_file_with_a_consistent_report() {
         "side_by_side.png",
         "report.json",
         "report.md",
+        "report.html",
     ] {
         assert!(dir.join(f).is_file(), "missing {f}");
     }
@@ -168,6 +169,18 @@ fn compare_writes_every_file_with_a_consistent_report() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     let backends = report["backends"].as_array().unwrap();
     assert!(!backends.is_empty());
+    // report.html: one self-contained viewer per backend (scripts/test-report-html.sh checks it
+    // in a browser).
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert_eq!(
+        html.matches("class=\"wipe-slider\"").count(),
+        backends.len()
+    );
+    assert_eq!(
+        html.matches("src=\"data:image/png;base64,").count(),
+        4 * backends.len(),
+        "rt, hybrid, FLIP and the FLIP legend of every backend, embedded"
+    );
     for b in backends {
         for path in ["rt", "hybrid"] {
             let p = &b[path];

@@ -450,6 +450,7 @@ fn write_outputs(
         args.output.join("report.json"),
         serde_json::to_string_pretty(&report)?,
     )?;
+    super::report_html::write(&args.output, &report)?;
 
     let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | frame ms  | frame min–max   | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(

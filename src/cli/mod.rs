@@ -16,7 +16,9 @@ mod common;
 mod compare;
 mod info;
 mod probe;
+mod progress;
 mod render;
+mod report_html;
 
 /// Exit code for "no Vulkan loader or no device".
 const EXIT_NO_VULKAN: u8 = 2;

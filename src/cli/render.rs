@@ -249,7 +249,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         log::info!("visibility pass: {} ({raster_reason})", raster.as_str());
     }
     settings.raster = raster;
-    let renderer = Renderer::new(&ctx, &scene, backend)?;
+    let renderer = {
+        let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
+        Renderer::new(&ctx, &scene, backend)?
+    };
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
         Mode::Rt => renderer.render_rt(&ctx, &settings, &camera, write_aov)?,
@@ -370,7 +373,10 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let ctx = args.device.open()?;
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
-    let renderer = Renderer::new(&ctx, &scene, backend)?;
+    let renderer = {
+        let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
+        Renderer::new(&ctx, &scene, backend)?
+    };
     let render_path = match args.mode {
         Mode::Rt => RenderPath::RayTraced,
         Mode::Hybrid => RenderPath::Hybrid,

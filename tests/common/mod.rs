@@ -4,7 +4,7 @@
 use rqr::vk::{Context, ContextOptions, VkError};
 
 pub const INSTALL_HINT: &str =
-    "Vulkan is required for the test suite: run `scripts/setup-vulkan.sh` (Debian 12: Mesa lavapipe from bookworm-backports, validation layers, shaderc), then export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.json";
+    "Vulkan is required for the test suite: run `scripts/setup-vulkan.sh` (Debian 12: Mesa lavapipe from bookworm-backports, validation layers, glslc), then export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.json";
 
 /// Opens the default device with the validation layer on. Panics with install instructions
 /// when Vulkan or the layer is missing: GPU tests are never skipped silently.
