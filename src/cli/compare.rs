@@ -151,7 +151,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let mut rt_images: Vec<(Backend, RenderOutput)> = Vec::new();
     for backend in &backends {
         bar.set_message(format!("{} backend", backend.as_str()));
-        let renderer = Renderer::new(&ctx, &scene, *backend)?;
+        let renderer =
+            Renderer::with_bvh_build(&ctx, &scene, *backend, args.device.bvh_build(&ctx))?;
         // The two paths alternate frame by frame, so a machine whose speed drifts (shared
         // CPUs) slows both alike. Frame 0 of each warms up pipelines (lavapipe JIT-compiles
         // shaders on first use) and is not timed.

@@ -259,6 +259,47 @@ impl ComputePipeline {
     }
 }
 
+impl ComputePipeline {
+    /// Records a dispatch whose workgroup counts the GPU reads from `args` at byte `offset`
+    /// (three `u32`s; the buffer needs `INDIRECT_BUFFER` usage): passes whose size an earlier
+    /// pass computed run without a host round trip.
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: Option<&DescriptorSet>,
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) {
+        let device = &self.shared.device;
+        debug_assert_eq!(
+            push.len() as u32,
+            self.push_size,
+            "push-constant size of {}",
+            self.name
+        );
+        // SAFETY: the pipeline, layout, set and argument buffer are alive; push fits the
+        // declared range; `offset + 12` lies within `args` (callers pass fixed slots).
+        unsafe {
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            if let Some(set) = set {
+                device.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.layout,
+                    0,
+                    &[set.raw],
+                    &[],
+                );
+            }
+            if !push.is_empty() {
+                device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            }
+            device.cmd_dispatch_indirect(cmd, args.raw(), offset);
+        }
+    }
+}
+
 /// Destroys a pipeline with its layouts once no submission can use them.
 fn retire_pipeline(
     shared: &Shared,
