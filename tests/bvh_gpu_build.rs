@@ -5,36 +5,17 @@
 
 mod common;
 
+use common::trace::{trace_with, TestHit};
+
 use std::path::Path;
 
-use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Quat, Vec3};
 use rqr::accel::bvh::cpu::Ray;
 use rqr::accel::bvh::layout::decode_link;
 use rqr::accel::bvh::testing::*;
 use rqr::accel::bvh::{sah, BvhBuild, BvhBuildOptions, BvhError, GpuBvh};
-use rqr::scene::gpu::GpuScene;
 use rqr::scene::{Instance, LoadOptions, Scene};
-use rqr::vk::{vk, Binding, Buffer, ComputePipeline, Context, MemoryLocation};
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct TestRay {
-    origin: [f32; 3],
-    tmin: f32,
-    dir: [f32; 3],
-    tmax: f32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct TestHit {
-    t: f32,
-    instance: i32,
-    primitive: i32,
-    barycentrics: [f32; 2],
-    any_hit: u32,
-}
+use rqr::vk::{Binding, Context};
 
 fn build(ctx: &Context, scene: &Scene, how: BvhBuild) -> GpuBvh {
     GpuBvh::build_with(ctx, scene, &BvhBuildOptions::default(), how)
@@ -43,56 +24,17 @@ fn build(ctx: &Context, scene: &Scene, how: BvhBuild) -> GpuBvh {
 
 /// Traces `rays` through `shaders/test/bvh_trace.comp` with `bvh`.
 fn trace(ctx: &Context, scene: &Scene, bvh: &GpuBvh, rays: &[Ray]) -> Vec<TestHit> {
-    let gpu_scene = GpuScene::upload(ctx, scene, 0).unwrap();
-    let input: Vec<TestRay> = rays
-        .iter()
-        .map(|r| TestRay {
-            origin: r.origin.to_array(),
-            tmin: r.tmin,
-            dir: r.dir.to_array(),
-            tmax: r.tmax,
-        })
-        .collect();
-    let ray_buf = Buffer::from_slice(ctx, "rays", &input, vk::BufferUsageFlags::empty()).unwrap();
-    let hit_buf = Buffer::new(
+    trace_with(
         ctx,
-        "hits",
-        (rays.len() * std::mem::size_of::<TestHit>()) as u64,
-        vk::BufferUsageFlags::empty(),
-        MemoryLocation::GpuOnly,
-    )
-    .unwrap();
-    let pipeline = ComputePipeline::new(
-        ctx,
-        "bvh trace",
+        scene,
+        rays,
         rqr::shaders::BVH_TRACE_COMP_BVH,
-        &[
-            Binding::UniformBuffer,
-            Binding::SampledImages(1),
-            Binding::UniformBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-        ],
-        4,
+        Binding::UniformBuffer,
+        |set, _| {
+            bvh.bind(set);
+            Box::new(())
+        },
     )
-    .unwrap();
-    let set = pipeline.allocate_set().unwrap();
-    gpu_scene.bind(&set);
-    bvh.bind(&set);
-    set.buffer(3, &ray_buf, Binding::StorageBuffer)
-        .buffer(4, &hit_buf, Binding::StorageBuffer);
-    let count = rays.len() as u32;
-    ctx.run("bvh trace", |cmd| {
-        pipeline.dispatch(
-            cmd,
-            Some(&set),
-            &count.to_le_bytes(),
-            [count.div_ceil(64), 1, 1],
-        );
-        Ok(())
-    })
-    .unwrap();
-    hit_buf.read(ctx).unwrap()
 }
 
 /// Every usable triangle stored exactly once and every leaf range inside the array.
@@ -121,12 +63,7 @@ fn check_structure(name: &str, ctx: &Context, scene: &Scene, bvh: &GpuBvh) {
 /// hit: same instance and primitive (or, at a shared edge, another triangle at the same t),
 /// t within 1e-5 relative, the same trace_any answer. Ties (another triangle at the same t,
 /// at a shared edge) must stay rare. Returns (hits, GPU SAH / host SAH).
-fn compare_builds(
-    ctx: &Context,
-    name: &str,
-    scene: &Scene,
-    rays: &[Ray],
-) -> (usize, f64) {
+fn compare_builds(ctx: &Context, name: &str, scene: &Scene, rays: &[Ray]) -> (usize, f64) {
     let host = build(ctx, scene, BvhBuild::Host);
     let gpu = build(ctx, scene, BvhBuild::Gpu);
     check_structure(name, ctx, scene, &gpu);
@@ -325,9 +262,15 @@ fn degenerate_inputs_build_on_the_gpu() {
         let p = rng.vec3(Vec3::splat(-2.0), Vec3::splat(2.0));
         let d = rng.unit() * 0.3;
         mixed.positions.extend([p, p + d, p + 2.0 * d]);
-        mixed.indices.extend([base, base + 1 + k % 2, base + 2 - k % 2]);
+        mixed
+            .indices
+            .extend([base, base + 1 + k % 2, base + 2 - k % 2]);
     }
-    let point = geometry(vec![Vec3::splat(0.5); 3], (0..300).map(|i| i % 3).collect(), 0);
+    let point = geometry(
+        vec![Vec3::splat(0.5); 3],
+        (0..300).map(|i| i % 3).collect(),
+        0,
+    );
     for (name, scene) in [
         ("one triangle", one),
         ("zero-area triangles", scene_of(vec![mixed], vec![])),
@@ -340,10 +283,18 @@ fn degenerate_inputs_build_on_the_gpu() {
     // 2000 copies of one triangle: every PLOC distance ties. (The host build cannot take
     // this one: obvhs makes a chain too deep for the traversal stack.) Every ray must see
     // exactly what it sees with a single copy.
-    let tri = vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::Y];
+    let tri = vec![
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::Y,
+    ];
     let single = scene_of(vec![geometry(tri.clone(), vec![0, 1, 2], 0)], vec![]);
     let copies = scene_of(
-        vec![geometry(tri, (0..2000).flat_map(|_| [0, 1, 2]).collect(), 0)],
+        vec![geometry(
+            tri,
+            (0..2000).flat_map(|_| [0, 1, 2]).collect(),
+            0,
+        )],
         vec![],
     );
     let bvh = build(&ctx, &copies, BvhBuild::Gpu);
@@ -383,7 +334,10 @@ fn over_limit_and_over_memory_builds_are_refused_before_allocating() {
     match GpuBvh::build_with(&ctx, &scene, &BvhBuildOptions::default(), BvhBuild::Gpu) {
         Err(e @ BvhError::GpuBuildLimit { .. }) => {
             let msg = e.to_string();
-            assert!(msg.contains("geometry 0") && msg.contains(&n.to_string()), "{msg}");
+            assert!(
+                msg.contains("geometry 0") && msg.contains(&n.to_string()),
+                "{msg}"
+            );
         }
         Err(e) => panic!("wrong error: {e}"),
         Ok(_) => panic!("a geometry over the limit was built"),

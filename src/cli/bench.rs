@@ -5,7 +5,7 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rqr::accel::bvh::{sah, BvhBuild};
+use rqr::accel::bvh::{sah, testing, BvhBuild, BvhBuildOptions, GpuBvh};
 use rqr::accel::{Backend, RayBackend};
 use rqr::render::raybench::{RayBatch, RayBench};
 use rqr::render::{CameraSetup, GpuFrame, RenderSettings, Renderer};
@@ -87,6 +87,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut results = Vec::new();
+    if runs.contains(&(Backend::Bvh, BvhBuild::Gpu)) {
+        // lavapipe JIT-compiles each pipeline inside its first dispatch: build a small
+        // scene once so the timed build measures the build, not the compiler.
+        let mut rng = testing::Rng::new(1);
+        let warm = testing::scene_of(
+            vec![testing::random_triangles(&mut rng, 4096, 1.0, 0.1)],
+            vec![],
+        );
+        GpuBvh::build_with(&ctx, &warm, &BvhBuildOptions::default(), BvhBuild::Gpu)?;
+    }
     for (backend, bvh_build) in &runs {
         bar.set_message(format!("{} backend", backend.as_str()));
         let start = Instant::now();

@@ -231,8 +231,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let ctx = args.device.open()?;
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
-    let renderer =
-        Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?;
+    let renderer = Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?;
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
         Mode::Rt => renderer.render_rt(&ctx, &settings, &camera, write_aov)?,
@@ -351,8 +350,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let ctx = args.device.open()?;
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
-    let renderer =
-        Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?;
+    let renderer = Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?;
     let render_path = match args.mode {
         Mode::Rt => RenderPath::RayTraced,
         Mode::Hybrid => RenderPath::Hybrid,

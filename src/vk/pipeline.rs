@@ -231,6 +231,17 @@ impl ComputePipeline {
         push: &[u8],
         groups: [u32; 3],
     ) {
+        self.bind(cmd, set, push);
+        // SAFETY: recording command buffer with this pipeline bound.
+        unsafe {
+            self.shared
+                .device
+                .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
+        };
+    }
+
+    /// Binds the pipeline, `set` and `push` for a dispatch.
+    fn bind(&self, cmd: vk::CommandBuffer, set: Option<&DescriptorSet>, push: &[u8]) {
         let device = &self.shared.device;
         debug_assert_eq!(
             push.len() as u32,
@@ -254,12 +265,9 @@ impl ComputePipeline {
             if !push.is_empty() {
                 device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
-            device.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
         }
     }
-}
 
-impl ComputePipeline {
     /// Records a dispatch whose workgroup counts the GPU reads from `args` at byte `offset`
     /// (three `u32`s; the buffer needs `INDIRECT_BUFFER` usage): passes whose size an earlier
     /// pass computed run without a host round trip.
@@ -271,32 +279,14 @@ impl ComputePipeline {
         args: &Buffer,
         offset: u64,
     ) {
-        let device = &self.shared.device;
-        debug_assert_eq!(
-            push.len() as u32,
-            self.push_size,
-            "push-constant size of {}",
-            self.name
-        );
-        // SAFETY: the pipeline, layout, set and argument buffer are alive; push fits the
-        // declared range; `offset + 12` lies within `args` (callers pass fixed slots).
+        self.bind(cmd, set, push);
+        // SAFETY: recording command buffer with this pipeline bound; `args` is alive and
+        // `offset + 12` lies within it (callers pass fixed slots).
         unsafe {
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-            if let Some(set) = set {
-                device.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    self.layout,
-                    0,
-                    &[set.raw],
-                    &[],
-                );
-            }
-            if !push.is_empty() {
-                device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
-            }
-            device.cmd_dispatch_indirect(cmd, args.raw(), offset);
-        }
+            self.shared
+                .device
+                .cmd_dispatch_indirect(cmd, args.raw(), offset)
+        };
     }
 }
 

@@ -142,15 +142,31 @@ impl Pipelines {
         Ok(Self {
             morton: p("bvh build morton", s::BVH_BUILD_MORTON_COMP, push)?,
             hist: p("bvh build radix hist", s::BVH_BUILD_RADIX_HIST_COMP, push)?,
-            scatter: p("bvh build radix scatter", s::BVH_BUILD_RADIX_SCATTER_COMP, push)?,
+            scatter: p(
+                "bvh build radix scatter",
+                s::BVH_BUILD_RADIX_SCATTER_COMP,
+                push,
+            )?,
             scan_reduce: p("bvh build scan reduce", s::BVH_BUILD_SCAN_REDUCE_COMP, scan)?,
             scan_top: p("bvh build scan top", s::BVH_BUILD_SCAN_TOP_COMP, scan)?,
             scan_down: p("bvh build scan down", s::BVH_BUILD_SCAN_DOWN_COMP, scan)?,
             nn: p("bvh build ploc nn", s::BVH_BUILD_PLOC_NN_COMP, push)?,
             merge: p("bvh build ploc merge", s::BVH_BUILD_PLOC_MERGE_COMP, push)?,
-            compact: p("bvh build ploc compact", s::BVH_BUILD_PLOC_COMPACT_COMP, push)?,
-            ploc_prepare: p("bvh build ploc prepare", s::BVH_BUILD_PLOC_PREPARE_COMP, push)?,
-            collapse_init: p("bvh build collapse init", s::BVH_BUILD_COLLAPSE_INIT_COMP, push)?,
+            compact: p(
+                "bvh build ploc compact",
+                s::BVH_BUILD_PLOC_COMPACT_COMP,
+                push,
+            )?,
+            ploc_prepare: p(
+                "bvh build ploc prepare",
+                s::BVH_BUILD_PLOC_PREPARE_COMP,
+                push,
+            )?,
+            collapse_init: p(
+                "bvh build collapse init",
+                s::BVH_BUILD_COLLAPSE_INIT_COMP,
+                push,
+            )?,
             collapse: p("bvh build collapse", s::BVH_BUILD_COLLAPSE_COMP, push)?,
             collapse_prepare: p(
                 "bvh build collapse prepare",
@@ -388,26 +404,29 @@ impl<'a> Builder<'a> {
         let state = &self.scratch.state;
         match blocks {
             Some(b) => self.p.scan_reduce.dispatch(cmd, None, bytes, [b, 1, 1]),
-            None => self
-                .p
-                .scan_reduce
-                .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_BLOCKS * 4),
+            None => {
+                self.p
+                    .scan_reduce
+                    .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_BLOCKS * 4)
+            }
         }
         self.barrier(cmd);
         match blocks {
             Some(_) => self.p.scan_top.dispatch(cmd, None, bytes, [1, 1, 1]),
-            None => self
-                .p
-                .scan_top
-                .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_SINGLE * 4),
+            None => {
+                self.p
+                    .scan_top
+                    .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_SINGLE * 4)
+            }
         }
         self.barrier(cmd);
         match blocks {
             Some(b) => self.p.scan_down.dispatch(cmd, None, bytes, [b, 1, 1]),
-            None => self
-                .p
-                .scan_down
-                .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_BLOCKS * 4),
+            None => {
+                self.p
+                    .scan_down
+                    .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_BLOCKS * 4)
+            }
         }
         self.barrier(cmd);
     }
@@ -570,7 +589,10 @@ impl<'a> Builder<'a> {
         ctx.run("bvh build: copy nodes", |cmd| {
             let region = vk::BufferCopy::default().size(bytes);
             // SAFETY: both buffers are alive and hold at least `bytes`.
-            unsafe { ctx.device().cmd_copy_buffer(cmd, src, nodes.raw(), &[region]) };
+            unsafe {
+                ctx.device()
+                    .cmd_copy_buffer(cmd, src, nodes.raw(), &[region])
+            };
             Ok(())
         })?;
         Ok(BuiltBlas {
@@ -758,5 +780,7 @@ pub(super) fn build(
     stats.gpu_phases = Some(builder.phases.clone());
     stats.bytes = nodes.size() + triangles.size() + (instances.len() * 64) as u64;
     stats.build_ms = t_start.elapsed().as_secs_f64() * 1e3;
-    GpuBvh::from_buffers(ctx, nodes, node_count, triangles, tri_count, &instances, stats)
+    GpuBvh::from_buffers(
+        ctx, nodes, node_count, triangles, tri_count, &instances, stats,
+    )
 }

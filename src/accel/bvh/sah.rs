@@ -73,10 +73,7 @@ pub fn blas_cost(data: &BvhData) -> f64 {
         .collect();
     roots.sort_unstable();
     roots.dedup();
-    roots
-        .iter()
-        .map(|&r| subtree_cost(&data.nodes, r))
-        .sum()
+    roots.iter().map(|&r| subtree_cost(&data.nodes, r)).sum()
 }
 
 #[cfg(test)]
@@ -98,7 +95,11 @@ mod tests {
         );
         let data = BvhData::build(&scene, &BvhBuildOptions::default()).unwrap();
         // Root node (area ratio 1) plus one triangle in a leaf whose box is the root's.
-        assert!((blas_cost(&data) - 2.0).abs() < 1e-9, "{}", blas_cost(&data));
+        assert!(
+            (blas_cost(&data) - 2.0).abs() < 1e-9,
+            "{}",
+            blas_cost(&data)
+        );
     }
 
     #[test]
