@@ -361,3 +361,56 @@ fn over_limit_and_over_memory_builds_are_refused_before_allocating() {
     assert_eq!(ctx.allocated_bytes(), before, "allocated before refusing");
     common::assert_validation_clean(&ctx);
 }
+
+/// The renderer with `--bvh-build gpu` sees the same primary hits as with the host build, and
+/// `auto` picks the host build on a CPU device (lavapipe).
+#[test]
+fn renderer_with_gpu_built_bvh_matches_host_built() {
+    use rqr::accel::bvh::BvhBuildChoice;
+    use rqr::accel::Backend;
+    use rqr::render::{RenderSettings, Renderer};
+    let ctx = common::gpu();
+    let (auto, reason) = BvhBuildChoice::Auto.resolve(ctx.info());
+    if ctx.info().device_type == "cpu" {
+        assert_eq!(auto, BvhBuild::Host, "{reason}");
+    }
+    let scene = rqr::scene::load_default().unwrap();
+    let settings = RenderSettings {
+        width: 96,
+        height: 96,
+        max_depth: 2,
+        ..Default::default()
+    };
+    let camera = rqr::scene::auto_camera(&scene.bounds, 1.0);
+    let images: Vec<_> = [BvhBuild::Host, BvhBuild::Gpu]
+        .iter()
+        .map(|&how| {
+            let r = Renderer::with_bvh_build(&ctx, &scene, Backend::Bvh, how).unwrap();
+            if let rqr::accel::RayBackend::Bvh(b) = &r.backend {
+                assert_eq!(b.stats().builder, how.as_str());
+            }
+            r.render_rt(&ctx, &settings, &camera, true).unwrap()
+        })
+        .collect();
+    let (a, b) = (&images[0], &images[1]);
+    let mut hits = 0;
+    let mut ties = 0;
+    for (x, y) in a.aov.iter().zip(&b.aov) {
+        assert_eq!(x.instance() >= 0, y.instance() >= 0);
+        if x.instance() >= 0 {
+            hits += 1;
+            assert!((x.depth() - y.depth()).abs() <= 1e-5 * x.depth().max(1e-6));
+            // Another triangle at the same depth: a pixel centre on a shared edge.
+            if (x.instance(), x.primitive()) != (y.instance(), y.primitive()) {
+                ties += 1;
+            }
+        }
+    }
+    assert!(hits > a.aov.len() / 4, "only {hits} hits");
+    assert!(
+        ties <= a.aov.len() / 1000,
+        "{ties} pixels hit another triangle"
+    );
+    assert_eq!(a.rays.shadow, b.rays.shadow, "shadow rays");
+    common::assert_validation_clean(&ctx);
+}
