@@ -369,6 +369,8 @@ impl<'a> Builder<'a> {
     ) -> Result<(), BvhError> {
         let ctx = self.ctx;
         ctx.run(pass, |cmd| {
+            // Earlier submissions wrote or read the same scratch arrays.
+            memory_barrier(ctx.device(), cmd);
             if let Some(p) = &mut self.profiler {
                 p.reset(cmd);
             }
@@ -587,6 +589,7 @@ impl<'a> Builder<'a> {
         )?;
         let src = self.scratch.arrays[11].raw();
         ctx.run("bvh build: copy nodes", |cmd| {
+            memory_barrier(ctx.device(), cmd);
             let region = vk::BufferCopy::default().size(bytes);
             // SAFETY: both buffers are alive and hold at least `bytes`.
             unsafe {
