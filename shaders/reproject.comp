@@ -3,30 +3,36 @@
 // scatter/resolve of the previous frame's samples into this camera, per-pixel decisions,
 // the frameless selection, job lists for the tracing passes, adaptive sub-sampling's
 // interpolation, and statistics. One thread per pixel (per cached sample for the scatter),
-// 64 per workgroup; the push constant picks the stage.
+// 8x8-pixel workgroups; the push constant picks the stage and, for the stages that decide
+// what the next tracing pass does, which job list they append to (fused, so that deciding
+// and listing cost one pass over the image, not two).
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "frame.glsl"
 #include "counters.glsl"
 #include "reproject.glsl"
 
-layout(local_size_x = 64) in;
-layout(push_constant) uniform Push { uint stage; uint level; } pc;
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+
+layout(local_size_x = 8, local_size_y = 8) in;
+// stage: what runs; level: the adaptive level it works at (interpolate); gather: the job list
+// it appends to afterwards (GATHER_NONE, GATHER_VERIFY, or a trace level 1, 2, 4).
+layout(push_constant) uniform Push { uint stage; uint level; uint gather; } pc;
 
 #define STAGE_SCATTER 0u
 #define STAGE_RESOLVE 1u
 #define STAGE_CLASSIFY 2u
 #define STAGE_THRESHOLD 3u
 #define STAGE_SELECT 4u
-#define STAGE_GATHER 5u
 #define STAGE_COMMIT 6u
 #define STAGE_INTERPOLATE 7u
 #define STAGE_STATS 8u
 #define STAGE_FILL 9u
-#define STAGE_FILL_COMMIT 10u
 
-// Gather selector (pc.level): 0 = pixels to verify; 1, 2, 4 = pixels to trace at that level.
+// Job list selector (pc.gather): 0 = pixels to verify; 1, 2, 4 = pixels to trace at that level.
 #define GATHER_VERIFY 0u
+#define GATHER_NONE 0xFFFFFFFFu
 
 CacheEntry empty_entry() {
     return CacheEntry(vec4(0.0), vec4(0.0), vec4(0.0), uvec4(0u));
@@ -67,14 +73,13 @@ bool near_edge(ivec2 pix, CacheEntry e) {
             if ((dx == 0 && dy == 0) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
                 continue;
             }
-            uint w = winner[uint(n.y) * frame.width + uint(n.x)];
-            if (w == NO_SAMPLE) {
+            Shown o = shown[uint(n.y) * frame.width + uint(n.x)];
+            if (o.meta.x == 0u) {
                 // An empty neighbour is traced this frame anyway. Counting it as an edge
                 // would verify the neighbourhood of every pixel a stretched surface leaves
                 // empty: on an orbit, most of the rays this mode saves.
                 continue;
             }
-            CacheEntry o = cache_prev[w];
             bool other_miss = (o.meta.x & CACHE_MISS) != 0u;
             if (other_miss != miss) {
                 return true;
@@ -132,16 +137,27 @@ void fill(uint q) {
     }
     if (best != NO_SAMPLE) {
         // The fill pass reads neighbours' winners, so its choice waits in the depth key
-        // (free on empty pixels) until the next pass.
+        // (free on empty pixels); later stages read it through resolved_winner().
         depth_key[q] = FILLED_KEY | best;
     }
 }
 
-void fill_commit(uint q) {
-    uint k = depth_key[q];
-    if (winner[q] == NO_SAMPLE && k != NO_SAMPLE && k >= FILLED_KEY) {
-        winner[q] = k & ~FILLED_KEY;
+// The fill stage's second half: records the sample pixel q shows (its winner, or the fill's
+// choice) in pixel order for the stages after it.
+void record_shown(uint q) {
+    uint w = resolved_winner(q);
+    Shown sh;
+    if (w == NO_SAMPLE) {
+        sh.position = vec4(0.0);
+        sh.normal = vec4(0.0);
+        sh.meta = uvec4(0u);
+    } else {
+        CacheEntry e = cache_prev[w];
+        sh.position = e.position;
+        sh.normal = e.normal;
+        sh.meta = e.meta;
     }
+    shown[q] = sh;
 }
 
 bool is_filled(uint q) {
@@ -152,7 +168,7 @@ bool is_filled(uint q) {
 void count_candidate(uint q, uint age);
 
 void classify(uint q) {
-    uint w = winner[q];
+    uint w = resolved_winner(q);
     uint st;
     CacheEntry e = empty_entry();
     if ((params.flags & RP_REUSE) == 0u) {
@@ -160,7 +176,7 @@ void classify(uint q) {
     } else if (w == NO_SAMPLE) {
         st = PX_TRACE | PX_HOLE;
     } else {
-        e = cache_prev[w];
+        e = shown_entry(q);
         if ((e.meta.x & CACHE_VIEW_DEPENDENT) != 0u) {
             st = PX_TRACE | PX_VIEW_DEPENDENT;
         } else if (e.meta.w >= params.max_age) {
@@ -239,7 +255,7 @@ void select_frameless(uint q) {
         return;
     }
     float rank = refresh_rank(pixel_of(q));
-    uint bin = refresh_bin(cache_prev[winner[q]].meta.w, rank);
+    uint bin = refresh_bin(shown[q].meta.w, rank);
     // Within the last bin, the rank's finer digits decide.
     float within = fract(rank * float(RANK_LEVELS));
     if (bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]))) {
@@ -247,15 +263,56 @@ void select_frameless(uint q) {
     }
 }
 
-void gather(uint q) {
+// Whether pixel q belongs on job list `list` (pc.gather).
+bool wanted(uint q, uint list) {
     uint kind = state[q] & PX_KIND_MASK;
     // With adaptive sub-sampling on the rt path, pixels to trace get their primary ray in the
     // visibility pass too, so interpolated pixels know their hit and can be cached.
-    bool take = pc.level == GATHER_VERIFY
+    return list == GATHER_VERIFY
         ? kind == PX_VERIFY || (kind == PX_TRACE && (params.flags & (RP_ADAPTIVE | RP_GBUFFER)) == RP_ADAPTIVE)
-        : kind == PX_TRACE && (pc.level == 1u || is_block_sample(pixel_of(q), pc.level));
+        : kind == PX_TRACE && (list == 1u || is_block_sample(pixel_of(q), list));
+}
+
+// Stream compaction of the job list, in tile order: every workgroup (an 8x8 tile) writes its
+// jobs contiguously in invocation order, after one atomic per workgroup, so neighbouring
+// lanes of a tracing pass trace neighbouring pixels. The last workgroup to finish turns the
+// list's length into the tracing pass's indirect dispatch (and starts the next list at zero),
+// so no separate pass and barrier is needed for that. Called by every invocation of the
+// workgroup (it has barriers).
+shared uint subgroup_offsets[gl_WorkGroupSize.x * gl_WorkGroupSize.y];
+shared uint tile_base;
+
+void append_job(bool take, uint q) {
+    uint t = take ? 1u : 0u;
+    uint within = subgroupExclusiveAdd(t);
+    uint total = subgroupAdd(t);
+    if (subgroupElect()) {
+        subgroup_offsets[gl_SubgroupID] = total;
+    }
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) {
+        uint sum = 0u;
+        for (uint s = 0u; s < gl_NumSubgroups; ++s) {
+            uint c = subgroup_offsets[s];
+            subgroup_offsets[s] = sum;
+            sum += c;
+        }
+        tile_base = sum > 0u ? atomicAdd(counters[C_JOBS], sum) : 0u;
+        // Every workgroup's share of the count is added before it counts itself done.
+        memoryBarrierBuffer();
+        uint tiles = gl_NumWorkGroups.x * gl_NumWorkGroups.y;
+        if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == tiles) {
+            uint n = atomicExchange(counters[C_JOBS], 0u);
+            dispatch_args[0] = (n + 63u) / 64u;
+            dispatch_args[1] = 1u;
+            dispatch_args[2] = 1u;
+            dispatch_args[3] = n;
+            counters[C_TILES_DONE] = 0u;
+        }
+    }
+    barrier();
     if (take) {
-        jobs[atomicAdd(counters[C_JOBS], 1u)] = q;
+        jobs[tile_base + subgroup_offsets[gl_SubgroupID] + within] = q;
     }
 }
 
@@ -268,7 +325,7 @@ void commit(uint q) {
         cache_next[q] = empty_entry();
         return;
     }
-    CacheEntry e = cache_prev[winner[q]];
+    CacheEntry e = cache_prev[resolved_winner(q)];
     vec3 c = e.color.rgb;
     if ((e.meta.x & CACHE_MISS) != 0u) {
         c = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
@@ -377,56 +434,81 @@ void interpolate(uint q) {
     }
 }
 
-void stats(uint q) {
-    uint st = state[q];
-    uint kind = st & PX_KIND_MASK;
-    COUNTER_ADD(counters[C_REUSED], kind == PX_REUSE ? 1u : 0u);
-    COUNTER_ADD(counters[C_TRACED], kind == PX_TRACED ? 1u : 0u);
-    COUNTER_ADD(counters[C_INTERP], kind == PX_INTERP ? 1u : 0u);
-    COUNTER_ADD(counters[C_HOLES], (st & PX_HOLE) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_REJECTED], (st & PX_REJECTED) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_VIEW_DEPENDENT], (st & PX_VIEW_DEPENDENT) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_EXPIRED], (st & PX_EXPIRED) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_FRAMELESS], (st & PX_FRAMELESS) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_FILLED], (st & PX_FILLED) != 0u && kind == PX_REUSE ? 1u : 0u);
+// Statistics of the frame's final pixel states, summed per workgroup in shared memory and
+// added to the counters with one atomic per counter per workgroup (per-invocation atomics on
+// the same counters are what made this pass slow on a CPU device).
+const uint STAT_COUNTERS[9] = uint[9](C_REUSED, C_TRACED, C_INTERP, C_HOLES, C_REJECTED, C_VIEW_DEPENDENT,
+                                      C_EXPIRED, C_FRAMELESS, C_FILLED);
+shared uint stat_sums[9];
+
+void stats(uint q, bool inside) {
+    if (gl_LocalInvocationIndex < 9u) {
+        stat_sums[gl_LocalInvocationIndex] = 0u;
+    }
+    barrier();
+    if (inside) {
+        uint st = state[q];
+        uint kind = st & PX_KIND_MASK;
+        bool counted[9] = bool[9](kind == PX_REUSE, kind == PX_TRACED, kind == PX_INTERP, (st & PX_HOLE) != 0u,
+                                  (st & PX_REJECTED) != 0u, (st & PX_VIEW_DEPENDENT) != 0u, (st & PX_EXPIRED) != 0u,
+                                  (st & PX_FRAMELESS) != 0u, (st & PX_FILLED) != 0u && kind == PX_REUSE);
+        for (uint k = 0u; k < 9u; ++k) {
+            uint sum = subgroupAdd(counted[k] ? 1u : 0u);
+            if (subgroupElect() && sum != 0u) {
+                atomicAdd(stat_sums[k], sum);
+            }
+        }
+    }
+    barrier();
+    if (gl_LocalInvocationIndex < 9u && stat_sums[gl_LocalInvocationIndex] != 0u) {
+        atomicAdd(counters[STAT_COUNTERS[gl_LocalInvocationIndex]], stat_sums[gl_LocalInvocationIndex]);
+    }
 }
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
     if (pc.stage == STAGE_THRESHOLD) {
-        if (i == 0u) threshold();
+        if (gl_GlobalInvocationID.x == 0u && gl_GlobalInvocationID.y == 0u) {
+            threshold();
+        }
         return;
     }
-    if (i >= pixel_count()) {
-        return;
-    }
-    switch (pc.stage) {
-    case STAGE_SCATTER:
-    case STAGE_RESOLVE: {
-        // Thread i reprojects the sample cached at pixel i of the previous frame. Nearest
-        // depth wins; equal depths go to the lowest source index, so the result is
-        // deterministic.
-        CacheEntry e = cache_prev[i];
-        uint target, key;
-        vec2 film;
-        if ((e.meta.x & CACHE_VALID) == 0u || !project_sample(e, target, key, film)) {
-            return;
+    uvec2 pix = gl_GlobalInvocationID.xy;
+    bool inside = pix.x < frame.width && pix.y < frame.height;
+    uint q = pix.y * frame.width + pix.x;
+    if (inside) {
+        switch (pc.stage) {
+        case STAGE_SCATTER:
+        case STAGE_RESOLVE: {
+            // Thread q reprojects the sample cached at pixel q of the previous frame. Nearest
+            // depth wins; equal depths go to the lowest source index, so the result is
+            // deterministic.
+            CacheEntry e = cache_prev[q];
+            uint target, key;
+            vec2 film;
+            if ((e.meta.x & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
+                if (pc.stage == STAGE_SCATTER) {
+                    atomicMin(depth_key[target], key);
+                } else if (depth_key[target] == key) {
+                    atomicMin(winner[target], q);
+                }
+            }
+            break;
         }
-        if (pc.stage == STAGE_SCATTER) {
-            atomicMin(depth_key[target], key);
-        } else if (depth_key[target] == key) {
-            atomicMin(winner[target], i);
+        case STAGE_FILL:
+            fill(q);
+            record_shown(q);
+            break;
+        case STAGE_CLASSIFY: classify(q); break;
+        case STAGE_SELECT: select_frameless(q); break;
+        case STAGE_COMMIT: commit(q); break;
+        case STAGE_INTERPOLATE: interpolate(q); break;
+        default: break;
         }
-        break;
     }
-    case STAGE_FILL: fill(i); break;
-    case STAGE_FILL_COMMIT: fill_commit(i); break;
-    case STAGE_CLASSIFY: classify(i); break;
-    case STAGE_SELECT: select_frameless(i); break;
-    case STAGE_GATHER: gather(i); break;
-    case STAGE_COMMIT: commit(i); break;
-    case STAGE_INTERPOLATE: interpolate(i); break;
-    case STAGE_STATS: stats(i); break;
-    default: break;
+    if (pc.stage == STAGE_STATS) {
+        stats(q, inside);
+    }
+    if (pc.gather != GATHER_NONE) {
+        append_job(inside && wanted(q, pc.gather), q);
     }
 }

@@ -17,7 +17,7 @@ layout(local_size_x = 64) in;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= counters[C_JOBS]) {
+    if (i >= job_count()) {
         return;
     }
     uint q = jobs[i];
@@ -26,7 +26,7 @@ void main() {
     Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
     COUNTER_ADD(counters[0], 1u);
     COUNTER_ADD(counters[C_VERIFY_RAYS], 1u);
-    uint w = winner[q];
+    uint w = resolved_winner(q);
     CacheEntry e = cache_prev[w == NO_SAMPLE ? 0u : w];
     uint st = state[q];
     // Pixels already bound for tracing (adaptive sub-sampling on the rt path) only record

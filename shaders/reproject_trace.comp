@@ -23,7 +23,7 @@ Surface unused_surface;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= counters[C_JOBS]) {
+    if (i >= job_count()) {
         return;
     }
     uint q = jobs[i];

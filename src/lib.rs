@@ -4,9 +4,10 @@
 //! compute shaders.
 //!
 //! Modules: [`vk`] (Vulkan plumbing), [`accel`] (ray backends), [`scene`] (glTF loading and
-//! texture upload), [`shaders`] (embedded SPIR-V).
+//! texture upload), [`shaders`] (embedded SPIR-V), [`autotune`] (what `auto` picks, measured).
 
 pub mod accel;
+pub mod autotune;
 pub mod render;
 pub mod scene;
 pub mod vk;

@@ -127,6 +127,11 @@ fn bad_settings_fail_before_any_gpu_work() {
             "invalid value 'warp' for '--backend",
         ),
         (
+            vec!["--raster", "tiles"],
+            2,
+            "invalid value 'tiles' for '--raster",
+        ),
+        (
             vec!["--timeout-ms", "0"],
             2,
             "invalid value '0' for '--timeout-ms",

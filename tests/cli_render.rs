@@ -8,6 +8,8 @@ use std::process::Command;
 fn rqr() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_rqr"));
     c.env("RQR_VALIDATION", "1");
+    // `auto` by the feature rule: no timing-dependent choices, no writes to the user cache.
+    c.env("RQR_NO_AUTOTUNE", "1");
     c
 }
 

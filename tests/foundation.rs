@@ -13,7 +13,10 @@ use rqr::vk::{
 };
 
 fn rqr_bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_rqr"))
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rqr"));
+    // `auto` by the feature rule: no timing-dependent choices, no writes to the user cache.
+    c.env("RQR_NO_AUTOTUNE", "1");
+    c
 }
 
 #[test]

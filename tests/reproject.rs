@@ -718,6 +718,7 @@ fn rqr(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_rqr"))
         .args(args)
         .env("VK_LOADER_DEBUG", "none")
+        .env("RQR_NO_AUTOTUNE", "1")
         .output()
         .unwrap()
 }

@@ -9,6 +9,7 @@ use serde_json::Value;
 fn rqr(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_rqr"))
         .args(args)
+        .env("RQR_NO_AUTOTUNE", "1")
         .output()
         .expect("running rqr")
 }

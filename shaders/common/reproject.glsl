@@ -4,7 +4,8 @@
 //
 // Bindings (one numbering for the three pipelines): 4 params, 5 previous cache, 6 next cache,
 // 7 scatter depth keys, 8 scatter winners, 9 pixel states, 10 colour, 11 job list,
-// 12 counters, 13-19 G-buffer images (gbuffer.frag's layout).
+// 12 counters, 13-19 G-buffer images (gbuffer.frag's layout), 20 indirect dispatch arguments,
+// 21 the sample each pixel shows (without its colour).
 #ifndef RQR_REPROJECT_GLSL
 #define RQR_REPROJECT_GLSL
 
@@ -61,6 +62,7 @@ uint with_hops(uint flags, uint hops) { return (flags & ~(255u << CACHE_HOPS_SHI
 #define C_THRESHOLD_BIN 17u
 #define C_THRESHOLD_FRACTION 18u
 #define C_FILLED 19u
+#define C_TILES_DONE 20u  // workgroups that finished appending to the current job list
 #define C_HISTOGRAM 32u
 #define AGE_LEVELS 64u
 #define RANK_LEVELS 64u
@@ -103,8 +105,42 @@ layout(set = 0, binding = 16, rgba16f) uniform image2D g_base;       // base col
 layout(set = 0, binding = 17, rgba16f) uniform image2D g_emissive;   // emissive, occlusion
 layout(set = 0, binding = 18, rgba32ui) uniform uimage2D g_ids;      // instance, primitive, material | front << 31, transmission bits
 layout(set = 0, binding = 19, rgba32f) uniform image2D g_bary;       // barycentrics, motion
+// The tracing passes' dispatch (x, y, z workgroups) and their job count, written by
+// reproject.comp's ARGS stage from the job list that the gather before it compacted.
+layout(set = 0, binding = 20, std430) buffer DispatchArgs { uint dispatch_args[4]; };
+
+// Per pixel, the cached sample it shows after the scatter and the fill (colour left out):
+// position, normal and meta of CacheEntry; meta.x = 0 where no sample landed. Written in
+// pixel order by the fill stage, so the stages that look at a pixel's neighbours read
+// neighbouring memory instead of gathering whole cache entries from wherever they came from.
+struct Shown {
+    vec4 position;
+    vec4 normal;
+    uvec4 meta;
+};
+layout(set = 0, binding = 21, scalar) buffer ShownSamples { Shown shown[]; };
+
+CacheEntry shown_entry(uint q) {
+    Shown s = shown[q];
+    return CacheEntry(vec4(0.0), s.position, s.normal, s.meta);
+}
+
+// Jobs of the current tracing pass (one per invocation, 64 per workgroup).
+uint job_count() { return dispatch_args[3]; }
 
 uint pixel_count() { return frame.width * frame.height; }
+
+// The sample shown at pixel q: the one the scatter chose, or, for a pixel no sample landed on,
+// the neighbour's sample the fill chose (kept in the depth key, whose own use ended with the
+// scatter). NO_SAMPLE when neither.
+uint resolved_winner(uint q) {
+    uint w = winner[q];
+    if (w != NO_SAMPLE) {
+        return w;
+    }
+    uint k = depth_key[q];
+    return (k != NO_SAMPLE && k >= FILLED_KEY) ? (k & ~FILLED_KEY) : NO_SAMPLE;
+}
 uvec2 pixel_of(uint index) { return uvec2(index % frame.width, index / frame.width); }
 
 vec3 camera_forward() { return normalize(-frame.camera_to_world[2].xyz); }

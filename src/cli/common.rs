@@ -10,6 +10,7 @@ use glam::Vec3;
 use rqr::accel::bvh::{BvhBuild, BvhBuildChoice};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::render::gbuffer::GbufferLayout;
+use rqr::render::raster_compute::{RasterChoice, RasterMode};
 use rqr::render::{FilterKind, RenderSettings, SamplerKind, Tonemap};
 use rqr::scene::{Camera, LoadOptions, Scene};
 use rqr::vk::{Context, ContextOptions, DeviceSelector};
@@ -69,6 +70,10 @@ pub struct DeviceArgs {
     /// auto (GPU build on discrete/integrated GPUs, host build on CPU devices like lavapipe).
     #[arg(long, value_enum, default_value_t = BvhBuildChoice::Auto)]
     pub bvh_build: BvhBuildChoice,
+    /// Hybrid path: what rasterizes primary visibility (`graphics` pipeline, `compute`
+    /// rasterizer, or `auto`: the faster one as measured on first use of the device).
+    #[arg(long, value_enum, default_value_t = RasterChoice::Auto)]
+    pub raster: RasterChoice,
     /// GPU fence timeout per submission, in milliseconds.
     #[arg(long, default_value_t = 120_000, value_parser = clap::value_parser!(u64).range(1..))]
     pub timeout_ms: u64,
@@ -92,9 +97,24 @@ impl DeviceArgs {
         build
     }
 
-    /// Resolves `--backend` on the opened device.
+    /// Resolves `--backend` on the opened device: `auto` by measurement ([`rqr::autotune`]).
     pub fn backend(&self, ctx: &Context) -> Result<(Backend, String)> {
+        if self.backend == BackendChoice::Auto {
+            let d = rqr::autotune::decision(ctx);
+            return Ok((d.backend, d.backend_reason));
+        }
         Ok(self.backend.resolve(ctx.info())?)
+    }
+
+    /// Resolves `--raster` on the opened device: `auto` by measurement.
+    pub fn raster(&self, ctx: &Context) -> (RasterMode, String) {
+        match self.raster.forced() {
+            Some(mode) => (mode, format!("forced by --raster {}", mode.as_str())),
+            None => {
+                let d = rqr::autotune::decision(ctx);
+                (d.raster, d.raster_reason)
+            }
+        }
     }
 }
 
@@ -254,6 +274,8 @@ impl ImageArgs {
             tonemap: self.tonemap,
             exposure: self.exposure,
             gbuffer: self.gbuffer,
+            // Resolved on the opened device (DeviceArgs::raster).
+            raster: Default::default(),
         };
         s.validate(MAX_SIDE)?;
         Ok(s)

@@ -3,12 +3,19 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use rqr::accel::Backend;
-use rqr::render::{compare, gbuffer, label, output, RenderOutput, Renderer};
+use rqr::render::burst::{self, BurstReport};
+use rqr::render::sequence::{pass_spreads, Spread};
+use rqr::render::{
+    compare, gbuffer, label, merge_scopes, output, FrameTargets, RenderOutput, RenderPath,
+    RenderSettings, Renderer,
+};
+use rqr::vk::FrameTiming;
 use serde_json::json;
 
 use super::common::{CameraArgs, DeviceArgs, ImageArgs, SceneArgs};
@@ -42,50 +49,80 @@ pub struct CompareArgs {
     /// Backends to run.
     #[arg(long, value_enum, default_value_t = Backends::One)]
     backends: Backends,
-    /// Timed repetitions per path (the report gives medians); one extra warm-up frame first.
+    /// Timed frames per path (the report gives medians, min and max), recorded back to back
+    /// after warm-up bursts that run until two consecutive ones agree within 3 %.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeat: u32,
 }
 
-/// Median GPU ms per pass over repeated frames (pass order of the first frame).
-fn median_passes(frames: &[RenderOutput]) -> Vec<(String, f64)> {
-    let Some(first) = frames.first() else {
-        return Vec::new();
-    };
-    first
-        .gpu_ms
-        .iter()
-        .map(|(name, _)| {
-            let mut v: Vec<f64> = frames
-                .iter()
-                .filter_map(|f| f.gpu_ms.iter().find(|(n, _)| n == name).map(|p| p.1))
-                .collect();
-            v.sort_by(f64::total_cmp);
-            (name.clone(), v[v.len() / 2])
-        })
-        .collect()
+/// Median, smallest and largest GPU ms per pass over the timed frames (pass order of the first
+/// frame; scopes of one name within a frame, one per sample, summed), and of the whole frame.
+struct PathTiming {
+    passes: Vec<(String, Spread)>,
+    frame: Spread,
+}
+
+impl PathTiming {
+    fn new(frames: &[FrameTiming]) -> Self {
+        let merged: Vec<Vec<(String, f64)>> = frames
+            .iter()
+            .map(|f| merge_scopes(f.passes.clone()))
+            .collect();
+        let passes = pass_spreads(merged.iter().map(Vec::as_slice))
+            .into_iter()
+            .map(|p| (p.name, p.ms))
+            .collect();
+        let totals: Vec<f64> = frames.iter().map(|f| f.total_ms).collect();
+        Self {
+            passes,
+            frame: Spread::of(&totals),
+        }
+    }
+
+    fn median(&self, pass: &str) -> Option<f64> {
+        self.passes.iter().find(|p| p.0 == pass).map(|p| p.1.median)
+    }
 }
 
 struct PathResult {
-    passes: Vec<(String, f64)>,
+    timing: PathTiming,
     last: RenderOutput,
 }
 
 impl PathResult {
     fn total(&self) -> f64 {
-        self.passes.iter().map(|p| p.1).sum()
+        self.timing.frame.median
+    }
+    /// The last frame's counts with the median pass times (for Mrays/s).
+    fn with_medians(&self) -> RenderOutput {
+        RenderOutput {
+            gpu_ms: self
+                .timing
+                .passes
+                .iter()
+                .map(|(n, s)| (n.clone(), s.median))
+                .collect(),
+            ..clone_stats(&self.last)
+        }
     }
     fn json(&self) -> serde_json::Value {
-        let with_medians = RenderOutput {
-            gpu_ms: self.passes.clone(),
-            ..clone_stats(&self.last)
+        let t = &self.timing;
+        let map = |f: fn(&Spread) -> f64| {
+            t.passes
+                .iter()
+                .map(|(k, v)| (k.clone(), json!(f(v))))
+                .collect::<serde_json::Map<_, _>>()
         };
         json!({
-            "gpu_ms": self.passes.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
-            "total_ms": self.total(),
+            "gpu_ms": map(|s| s.median),
+            "gpu_ms_min": map(|s| s.min),
+            "gpu_ms_max": map(|s| s.max),
+            "total_ms": t.frame.median,
+            "total_ms_min": t.frame.min,
+            "total_ms_max": t.frame.max,
             "rays": self.last.rays,
             "rays_total": self.last.rays.total(),
-            "mrays_per_s": mrays_per_s(&with_medians),
+            "mrays_per_s": mrays_per_s(&self.with_medians()),
             "mean_spp": self.last.mean_spp(),
         })
     }
@@ -110,9 +147,20 @@ fn write_rgb(path: &Path, w: u32, h: u32, rgb: Vec<u8>) -> Result<()> {
         .with_context(|| format!("cannot write '{}'", path.display()))
 }
 
+/// Everything timed for one backend, kept until the files are written after all timing.
+struct BackendRun {
+    backend: Backend,
+    rt: PathResult,
+    hybrid: PathResult,
+    /// The same frames at depth 1 (when the requested depth is larger).
+    depth1: Option<(PathTiming, PathTiming)>,
+    burst: BurstReport,
+}
+
 /// Runs `rqr compare`.
 pub fn run(args: &CompareArgs) -> Result<()> {
-    let settings = args.image.settings()?;
+    let started = Instant::now();
+    let mut settings = args.image.settings()?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("cannot create output directory '{}'", args.output.display()))?;
     let scene = args.scene.load()?;
@@ -121,6 +169,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
     let ctx = args.device.open()?;
     let (first, _) = args.device.backend(&ctx)?;
+    settings.raster = args.device.raster(&ctx).0;
     let mut backends = vec![first];
     if args.backends == Backends::All {
         for b in [Backend::Hw, Backend::Bvh] {
@@ -130,87 +179,133 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         }
     }
     let draws = gbuffer::draws(&scene);
-    // Shading is one dispatch per path (primary hit, shadow rays and the reflection/refraction
-    // loop share one whitted() call), so its split is derived: the same frame at depth 1 (direct
-    // light and shadow rays only) is timed too, and the rest of the depth-N frame is the
-    // secondary rays' share.
-    let depth1 = (settings.max_depth > 1).then(|| rqr::render::RenderSettings {
-        max_depth: 1,
-        ..settings.clone()
-    });
-    let paths_per_round = if depth1.is_some() { 4 } else { 2 };
-    let frames_per_backend = paths_per_round * (u64::from(args.repeat) + 1);
-    let bar = ProgressBar::new(frames_per_backend * backends.len() as u64);
+    let bar = ProgressBar::new(backends.len() as u64);
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} frames {msg}")
+        ProgressStyle::with_template("{bar:40} {pos}/{len} backends {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let mut startup = started.elapsed();
+    let mut runs = Vec::new();
+    for backend in &backends {
+        bar.set_message(format!(
+            "{} backend: warm-up and timed bursts",
+            backend.as_str()
+        ));
+        let (run, setup) = time_backend(args, &ctx, &scene, &draws, &settings, &camera, *backend)?;
+        startup += setup;
+        runs.push(run);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    // Everything below is host work after the timing: images, FLIP, reports.
+    write_outputs(args, &ctx, &settings, &runs, started, startup)
+}
+
+/// Builds `backend`'s renderer and frame targets (returned as setup time), then times the
+/// ray-traced and hybrid frames (and their depth-1 twins) in alternating bursts.
+fn time_backend(
+    args: &CompareArgs,
+    ctx: &rqr::vk::Context,
+    scene: &rqr::scene::Scene,
+    draws: &[gbuffer::Draw],
+    settings: &RenderSettings,
+    camera: &rqr::scene::Camera,
+    backend: Backend,
+) -> Result<(BackendRun, Duration)> {
+    let setup = Instant::now();
+    let renderer = Renderer::with_bvh_build(ctx, scene, backend, args.device.bvh_build(ctx))?;
+    // AOVs (primary ids) only where the backends are compared with each other.
+    let aov = args.backends == Backends::All;
+    let targets = |path: RenderPath, s: &RenderSettings, aov: bool| {
+        FrameTargets::new(ctx, &renderer, path, s, draws, aov)
+    };
+    let mut all = vec![
+        targets(RenderPath::RayTraced, settings, aov)?,
+        targets(RenderPath::Hybrid, settings, aov)?,
+    ];
+    // Shading is one dispatch per path (primary hit, shadow rays and the reflection/refraction
+    // loop share one whitted() call), so its split is derived: the same frame at depth 1
+    // (direct light and shadow rays only) is timed too, and the rest of the depth-N frame is
+    // the secondary rays' share.
+    if settings.max_depth > 1 {
+        let d1 = RenderSettings {
+            max_depth: 1,
+            ..settings.clone()
+        };
+        all.push(targets(RenderPath::RayTraced, &d1, false)?);
+        all.push(targets(RenderPath::Hybrid, &d1, false)?);
+    }
+    let setup = setup.elapsed();
+    let refs: Vec<&FrameTargets> = all.iter().collect();
+    // A submission may take a quarter of the fence timeout.
+    let max_submission_ms = ctx.fence_timeout().as_secs_f64() * 1e3 / 4.0;
+    let timed = burst::time_alternating(ctx, &refs, camera, args.repeat, max_submission_ms)?;
+    let mut outputs = timed.outputs.into_iter();
+    let mut frames = timed.frames.into_iter();
+    let mut result = || -> Result<PathResult> {
+        Ok(PathResult {
+            timing: PathTiming::new(&frames.next().context("missing frames")?),
+            last: outputs.next().context("missing output")?,
+        })
+    };
+    let rt = result()?;
+    let hybrid = result()?;
+    let depth1 = if all.len() > 2 {
+        Some((result()?.timing, result()?.timing))
+    } else {
+        None
+    };
+    Ok((
+        BackendRun {
+            backend,
+            rt,
+            hybrid,
+            depth1,
+            burst: timed.report,
+        },
+        setup,
+    ))
+}
+
+/// The shading pass split of `full` (requested depth) by `direct` (depth 1).
+fn shading_split(full: &PathTiming, direct: &PathTiming, shading: &str) -> serde_json::Value {
+    let (total, first) = (
+        full.median(shading).unwrap_or(0.0),
+        direct.median(shading).unwrap_or(0.0),
+    );
+    json!({
+        "shading_ms": total,
+        "direct_and_shadows_ms": first,
+        "reflections_refractions_ms": (total - first).max(0.0),
+        "method": "shading pass at depth 1 (primary hit, direct light, shadow rays) vs at the requested depth; medians of the same alternating bursts",
+    })
+}
+
+/// Writes every backend's images, FLIP map, side-by-side, report.json and report.md (after
+/// all timing), prints the table and checks the validation log.
+fn write_outputs(
+    args: &CompareArgs,
+    ctx: &rqr::vk::Context,
+    settings: &RenderSettings,
+    runs: &[BackendRun],
+    started: Instant,
+    startup: Duration,
+) -> Result<()> {
+    let first = runs.first().context("no backend ran")?.backend;
     let mut table = String::new();
     let mut split_table = String::new();
     let mut report_backends = Vec::new();
-    let mut rt_images: Vec<(Backend, RenderOutput)> = Vec::new();
-    for backend in &backends {
-        bar.set_message(format!("{} backend", backend.as_str()));
-        let renderer =
-            Renderer::with_bvh_build(&ctx, &scene, *backend, args.device.bvh_build(&ctx))?;
-        // The two paths alternate frame by frame, so a machine whose speed drifts (shared
-        // CPUs) slows both alike. Frame 0 of each warms up pipelines (lavapipe JIT-compiles
-        // shaders on first use) and is not timed.
-        let (mut rt_frames, mut hybrid_frames) = (Vec::new(), Vec::new());
-        let (mut rt_d1, mut hybrid_d1) = (Vec::new(), Vec::new());
-        for i in 0..=args.repeat {
-            let rt = renderer.render_rt(&ctx, &settings, &camera, true)?;
-            bar.inc(1);
-            let hybrid = renderer.render_hybrid(&ctx, &draws, &settings, &camera, true)?;
-            bar.inc(1);
-            if i > 0 {
-                rt_frames.push(rt);
-                hybrid_frames.push(hybrid);
-            }
-            if let Some(d1) = &depth1 {
-                let rt = renderer.render_rt(&ctx, d1, &camera, false)?;
-                bar.inc(1);
-                let hybrid = renderer.render_hybrid(&ctx, &draws, d1, &camera, false)?;
-                bar.inc(1);
-                if i > 0 {
-                    rt_d1.push(rt);
-                    hybrid_d1.push(hybrid);
-                }
-            }
-        }
-        let split = |shading: &str, full: &[RenderOutput], direct: &[RenderOutput]| {
-            let ms = |frames: &[RenderOutput]| {
-                median_passes(frames)
-                    .into_iter()
-                    .find(|p| p.0 == shading)
-                    .map_or(0.0, |p| p.1)
-            };
-            let (total, first) = (ms(full), ms(direct));
-            (!direct.is_empty()).then(|| {
-                json!({
-                    "shading_ms": total,
-                    "direct_and_shadows_ms": first,
-                    "reflections_refractions_ms": (total - first).max(0.0),
-                    "method": "shading pass at depth 1 (primary hit, direct light, shadow rays) vs at the requested depth; medians of the same alternating frames",
-                })
-            })
-        };
-        let rt_split = split("rt", &rt_frames, &rt_d1);
-        let hybrid_split = split("hybrid shading", &hybrid_frames, &hybrid_d1);
-        let finish = |mut frames: Vec<RenderOutput>| -> Result<PathResult> {
-            let passes = median_passes(&frames);
-            let last = frames.pop().context("no frames")?;
-            Ok(PathResult { passes, last })
-        };
-        let rt = finish(rt_frames)?;
-        let hybrid = finish(hybrid_frames)?;
+    let mut gpu_frames_ms = 0.0;
+    for run in runs {
+        let (rt, hybrid, backend) = (&run.rt, &run.hybrid, run.backend);
+        gpu_frames_ms += run.burst.gpu_ms_all_frames;
         let diff = compare::compare(
             settings.width,
             settings.height,
             &rt.last.rgba8,
             &hybrid.last.rgba8,
         );
-        let dir = if *backend == first {
+        let dir = if backend == first {
             args.output.clone()
         } else {
             let d = args.output.join(backend.as_str());
@@ -244,38 +339,38 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             sbs.height,
             sbs.rgb,
         )?;
-
-        for (name, r) in [("rt", &rt), ("hybrid", &hybrid)] {
+        for (name, r, shading) in [("rt", rt, "rt"), ("hybrid", hybrid, "hybrid shading")] {
             let get = |k: &str| {
-                r.passes
-                    .iter()
-                    .find(|p| p.0 == k)
-                    .map_or("-".to_string(), |p| format!("{:.2}", p.1))
-            };
-            let shading = if name == "rt" {
-                get("rt")
-            } else {
-                get("hybrid shading")
+                r.timing
+                    .median(k)
+                    .map_or("-".to_string(), |v| format!("{v:.2}"))
             };
             let rays = r.last.rays;
             writeln!(
                 table,
-                "| {:<7} | {:<6} | {:>8} | {:>9} | {:>7} | {:>9.2} | {:>9} | {:>8} | {:>8} | {:>8} | {:>8.2} |",
+                "| {:<7} | {:<6} | {:>8} | {:>9} | {:>7} | {:>9.2} | {:>15} | {:>9} | {:>8} | {:>8} | {:>8} | {:>8.2} |",
                 backend.as_str(),
                 name,
                 get("gbuffer"),
-                shading,
+                get(shading),
                 get("tonemap"),
                 r.total(),
+                format!("{:.2}–{:.2}", r.timing.frame.min, r.timing.frame.max),
                 rays.primary,
                 rays.shadow,
                 rays.reflection,
                 rays.refraction,
-                mrays_per_s(&RenderOutput { gpu_ms: r.passes.clone(), ..clone_stats(&r.last) }),
+                mrays_per_s(&r.with_medians()),
             )?;
         }
-        for (name, sp) in [("rt", &rt_split), ("hybrid", &hybrid_split)] {
-            if let Some(sp) = sp {
+        let splits = run.depth1.as_ref().map(|(rt_d1, hybrid_d1)| {
+            (
+                shading_split(&rt.timing, rt_d1, "rt"),
+                shading_split(&hybrid.timing, hybrid_d1, "hybrid shading"),
+            )
+        });
+        if let Some((rs, hs)) = &splits {
+            for (name, sp) in [("rt", rs), ("hybrid", hs)] {
                 writeln!(
                     split_table,
                     "| {:<7} | {:<6} | {:>9.2} | {:>29.2} | {:>23.2} |",
@@ -288,46 +383,66 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             }
         }
         let mut rt_json = rt.json();
-        rt_json["shading_split"] = rt_split.unwrap_or(serde_json::Value::Null);
         let mut hybrid_json = hybrid.json();
-        hybrid_json["shading_split"] = hybrid_split.unwrap_or(serde_json::Value::Null);
+        if let Some((rs, hs)) = splits {
+            rt_json["shading_split"] = rs;
+            hybrid_json["shading_split"] = hs;
+        }
         report_backends.push(json!({
             "backend": backend.as_str(),
             "rt": rt_json,
             "hybrid": hybrid_json,
             "hybrid_over_rt_time": hybrid.total() / rt.total().max(1e-9),
             "flip": diff,
+            "burst": run.burst,
             "files": {
                 "rt": dir.join("rt.png"), "hybrid": dir.join("hybrid.png"),
                 "flip": dir.join("flip.png"), "side_by_side": dir.join("side_by_side.png"),
             },
         }));
-        rt_images.push((*backend, rt.last));
     }
-    bar.finish_and_clear();
-    let cross_backend = if rt_images.len() > 1 {
-        let (a, b) = (&rt_images[0].1, &rt_images[1].1);
-        let d = compare::compare(settings.width, settings.height, &a.rgba8, &b.rgba8);
-        let ids = a
-            .aov
-            .iter()
-            .zip(&b.aov)
-            .filter(|(x, y)| x.instance() == y.instance() && x.primitive() == y.primitive())
-            .count() as f64
-            / a.aov.len().max(1) as f64;
-        Some(
-            json!({"backends": [rt_images[0].0.as_str(), rt_images[1].0.as_str()], "flip": d, "primary_ids_agree": ids}),
-        )
-    } else {
-        None
+    let cross_backend = match runs {
+        [a, b, ..] => {
+            let (a_out, b_out) = (&a.rt.last, &b.rt.last);
+            let d = compare::compare(settings.width, settings.height, &a_out.rgba8, &b_out.rgba8);
+            let ids = a_out
+                .aov
+                .iter()
+                .zip(&b_out.aov)
+                .filter(|(x, y)| x.instance() == y.instance() && x.primitive() == y.primitive())
+                .count() as f64
+                / a_out.aov.len().max(1) as f64;
+            Some(
+                json!({"backends": [a.backend.as_str(), b.backend.as_str()], "flip": d, "primary_ids_agree": ids}),
+            )
+        }
+        _ => None,
     };
+    let timing = format!(
+        "GPU timestamps per frame; the paths' frames alternate, recorded back to back with no host work between them, after warm-up bursts of {} frames per path until two consecutive bursts agree within {:.0} %; median (and min–max) of {} timed frames per path",
+        args.repeat.min(3),
+        burst::WARM_UP_TOLERANCE * 100.0,
+        args.repeat
+    );
+    let wall_ms = started.elapsed().as_secs_f64() * 1e3;
+    let startup_ms = startup.as_secs_f64() * 1e3;
+    let host_overhead_ms = wall_ms - startup_ms - gpu_frames_ms;
+    let host = json!({
+        "wall_ms": wall_ms,
+        "startup_ms": startup_ms,
+        "gpu_frames_ms": gpu_frames_ms,
+        "host_overhead_ms": host_overhead_ms,
+        "host_overhead_share": host_overhead_ms / gpu_frames_ms.max(1e-9),
+        "method": "wall time of the command (until its reports are written) minus start-up (scene load, device, renderers, frame targets) minus the GPU time of every frame run, warm-up included",
+    });
     let report = json!({
         "schema": 1,
         "device": ctx.info().name,
         "device_type": ctx.info().device_type,
         "scene": args.scene.name(),
         "settings": settings,
-        "timing": format!("GPU timestamps, median of {} frames after one untimed warm-up frame; ray-traced and hybrid frames alternate", args.repeat),
+        "timing": timing,
+        "host": host,
         "backends": report_backends,
         "rt_across_backends": cross_backend,
     });
@@ -336,9 +451,9 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         serde_json::to_string_pretty(&report)?,
     )?;
 
-    let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | total ms  | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------|----------|----------|----------|----------|\n";
+    let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | frame ms  | frame min–max   | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(
-        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}. GPU ms are medians of {} frames, the two paths alternating (first frame excluded: pipeline JIT on lavapipe).\n\n{header}{table}\n",
+        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}, visibility pass: {}. Timing: {timing}. Pass columns are medians; \"frame ms\" is the median whole frame (passes, barriers, everything between them).\n\n{header}{table}\n",
         args.scene.name(),
         ctx.info().name,
         ctx.info().device_type,
@@ -348,7 +463,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         settings.sampler,
         settings.max_depth,
         settings.gbuffer,
-        args.repeat
+        settings.raster.as_str(),
     );
     if !split_table.is_empty() {
         write!(
@@ -380,8 +495,17 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             100.0 * c["primary_ids_agree"].as_f64().unwrap_or(0.0)
         )?;
     }
+    writeln!(
+        md,
+        "\nWall time {:.0} ms: start-up {:.0} ms, GPU frames {:.0} ms (warm-up included), host overhead {:.0} ms ({:.1} % of the GPU time).",
+        wall_ms,
+        startup_ms,
+        gpu_frames_ms,
+        host_overhead_ms,
+        100.0 * host_overhead_ms / gpu_frames_ms.max(1e-9)
+    )?;
     std::fs::write(args.output.join("report.md"), &md)?;
     out!("{md}")?;
     outln!("wrote {}", args.output.display())?;
-    super::common::check_validation(&ctx)
+    super::common::check_validation(ctx)
 }

@@ -141,5 +141,17 @@ pub(crate) fn probe_report(
     device: &DeviceSelector,
     backend: BackendChoice,
 ) -> Result<ProbeReport, VkError> {
-    probe_devices(device, backend)
+    let mut report = probe_devices(device, backend)?;
+    // `auto` as the autotune cache decided it (probe opens no device, so it never measures).
+    for d in &mut report.devices {
+        let decision = rqr::autotune::cached_decision(d);
+        if backend == BackendChoice::Auto {
+            d.backend = Some(decision.backend.as_str().to_string());
+            d.backend_reason = decision.backend_reason;
+        }
+        d.raster = decision.raster.as_str().to_string();
+        d.raster_reason = decision.raster_reason;
+        d.autotune = decision.measured;
+    }
+    Ok(report)
 }

@@ -107,6 +107,12 @@ fn print_device(d: &DeviceInfo, selected: bool) -> Result<(), StdoutError> {
                 d.backend_reason
             ),
         ),
+        (
+            "visibility pass",
+            format!("{} ({})", d.raster, d.raster_reason),
+        ),
+        ("64-bit buffer atomics", yes(d.buffer_int64_atomics).into()),
+        ("device UUID", d.device_uuid.clone()),
     ];
     for (k, v) in rows {
         outln!("    {k:<26} {v}")?;

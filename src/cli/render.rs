@@ -10,11 +10,13 @@ use clap::{Args, ValueEnum};
 use rqr::render::reproject::{
     PixelSource, RenderPath, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
 };
+use rqr::render::sequence::SequenceFrame;
 use rqr::render::sequence::{
     self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
     SequenceSummary,
 };
-use rqr::render::{gbuffer, output, RenderOutput, Renderer};
+use rqr::render::targets::RingContents;
+use rqr::render::{gbuffer, output, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
 
 use super::common::{check_output_file, CameraArgs, DeviceArgs, ImageArgs, SceneArgs};
@@ -114,6 +116,16 @@ pub struct SequenceArgs {
     /// interpolated green.
     #[arg(long)]
     sources: bool,
+    /// Time the sequence the way a GPU runs it: warm up until two consecutive bursts agree
+    /// within 3 %, then record up to --burst frames back to back per submission, with no
+    /// readback, file writing or FLIP between them (images, statistics and FLIP are produced
+    /// after each burst). Images are identical to a run without --benchmark.
+    #[arg(long)]
+    benchmark: bool,
+    /// Frames per submission with --benchmark (fewer when their readback slots would exceed
+    /// 1 GiB).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    burst: u32,
 }
 
 impl SequenceArgs {
@@ -126,6 +138,7 @@ impl SequenceArgs {
             || self.reference
             || self.report.is_some()
             || self.plot.is_some()
+            || self.benchmark
             || self.camera_path != CameraPathSpec::Static
     }
 
@@ -199,7 +212,7 @@ pub fn mrays_per_s(out: &RenderOutput) -> f64 {
 
 /// Runs `rqr render`.
 pub fn run(args: &RenderArgs) -> Result<()> {
-    let settings = args.image.settings()?;
+    let mut settings = args.image.settings()?;
     for name in &args.aov {
         if !output::AOV_NAMES.contains(&name.as_str()) {
             bail!(
@@ -231,6 +244,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let ctx = args.device.open()?;
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
+    let (raster, raster_reason) = args.device.raster(&ctx);
+    if matches!(args.mode, Mode::Hybrid) {
+        log::info!("visibility pass: {} ({raster_reason})", raster.as_str());
+    }
+    settings.raster = raster;
     let renderer = Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?;
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
@@ -259,6 +277,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "mean_spp": out.mean_spp(),
             "max_depth": settings.max_depth,
             "gbuffer": matches!(args.mode, Mode::Hybrid).then_some(settings.gbuffer),
+            "raster": matches!(args.mode, Mode::Hybrid).then_some(settings.raster),
+            "raster_reason": matches!(args.mode, Mode::Hybrid).then_some(raster_reason),
             "gpu_ms": out.gpu_ms.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
             "total_gpu_ms": out.total_ms(),
             "rays": out.rays,
@@ -373,66 +393,39 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {elapsed} {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
+    // Frames per submission: one (and every frame read back before the next) without
+    // --benchmark; bursts after a warm-up with it.
+    let (burst, warm_up) = if seq.benchmark {
+        let contents = RingContents {
+            rgba8: true,
+            color: ext == "exr",
+            aov: false,
+            states: seq.sources,
+        };
+        let burst = sequence.prepare_bursts(&ctx, seq.burst, contents, 1 << 30)?;
+        bar.set_message("warming up");
+        let warm = sequence.warm_up(&ctx, range.start, burst.min(4))?;
+        if !warm.settled {
+            log::warn!(
+                "GPU times did not settle within {} warm-up bursts ({:?} ms per frame)",
+                warm.bursts,
+                warm.burst_mean_ms
+            );
+        }
+        (burst, Some(warm))
+    } else {
+        (1, None)
+    };
     let mut summaries: Vec<FrameSummary> = Vec::new();
-    for k in range.clone() {
-        let frame = sequence.render_frame(&ctx, k)?;
-        let file = frame_path(&args.output, k);
-        if ext == "exr" {
-            output::write_exr(&file, &frame.output)?;
-        } else {
-            output::write_png(&file, &frame.output)?;
+    let mut start = range.start;
+    while start < range.end {
+        let end = range.end.min(start.saturating_add(burst));
+        let frames = sequence.render_burst(&ctx, start..end)?;
+        start = end;
+        for frame in frames {
+            let summary = write_frame(args, ext, &settings, &frame, &bar)?;
+            summaries.push(summary);
         }
-        if seq.sources {
-            let rgb: Vec<u8> = frame
-                .sources
-                .iter()
-                .flat_map(|s| match s {
-                    PixelSource::Reused => [96, 96, 96],
-                    PixelSource::Traced => [230, 40, 30],
-                    PixelSource::Interpolated => [40, 200, 60],
-                })
-                .collect();
-            let path = file.with_extension("sources.png");
-            image::save_buffer(
-                &path,
-                &rgb,
-                settings.width,
-                settings.height,
-                image::ColorType::Rgb8,
-            )
-            .with_context(|| format!("cannot write '{}'", path.display()))?;
-        }
-        let summary = frame.summary();
-        if args.json {
-            let mut line = serde_json::to_value(&summary)?;
-            if let Some(o) = line.as_object_mut() {
-                o.insert("type".into(), json!("frame"));
-                o.insert("output".into(), json!(file));
-                o.insert(
-                    "gpu_ms".into(),
-                    json!(summary
-                        .gpu_ms
-                        .iter()
-                        .map(|(k, v)| (k.clone(), json!(v)))
-                        .collect::<serde_json::Map<_, _>>()),
-                );
-            }
-            bar.suspend(|| outln!("{line}"))?;
-        }
-        bar.set_message(match &summary.reference {
-            Some(r) => format!(
-                "rays {:.1} % of full, FLIP {:.4}",
-                r.ray_fraction * 100.0,
-                r.flip_mean
-            ),
-            None => format!(
-                "reused {:.1} %, traced {:.1} %",
-                summary.reused_fraction * 100.0,
-                summary.traced_fraction * 100.0
-            ),
-        });
-        bar.inc(1);
-        summaries.push(summary);
     }
     bar.finish_and_clear();
     let total = SequenceSummary::new(&summaries);
@@ -446,6 +439,18 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         "frames": [range.start, range.end],
         "camera_path": seq.camera_path.to_string(),
         "reuse": reuse,
+        "timing": match &warm_up {
+            Some(w) => json!({
+                "method": "burst",
+                "description": format!("GPU timestamps per frame; up to {burst} frames (with --reference each followed by its full render) recorded back to back per submission, no host work between them; warm-up bursts of {} frames until two consecutive ones agreed within 3 %", w.frames_per_burst),
+                "burst_frames": burst,
+                "warm_up": w,
+            }),
+            None => json!({
+                "method": "per-frame",
+                "description": "GPU timestamps per frame; every frame is its own submission, read back (and its files written) before the next, so the GPU may idle and drop its clock between frames: use --benchmark for burst timing",
+            }),
+        },
     });
     if args.json {
         outln!(
@@ -488,6 +493,75 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         .with_context(|| format!("cannot write '{}'", p.display()))?;
     }
     super::common::check_validation(&ctx)
+}
+
+/// Writes a frame's image (and sources map), prints its JSON line and returns its summary.
+fn write_frame(
+    args: &RenderArgs,
+    ext: &str,
+    settings: &RenderSettings,
+    frame: &SequenceFrame,
+    bar: &indicatif::ProgressBar,
+) -> Result<FrameSummary> {
+    let seq = &args.sequence;
+    let k = frame.index;
+    let file = frame_path(&args.output, k);
+    if ext == "exr" {
+        output::write_exr(&file, &frame.output)?;
+    } else {
+        output::write_png(&file, &frame.output)?;
+    }
+    if seq.sources {
+        let rgb: Vec<u8> = frame
+            .sources
+            .iter()
+            .flat_map(|s| match s {
+                PixelSource::Reused => [96, 96, 96],
+                PixelSource::Traced => [230, 40, 30],
+                PixelSource::Interpolated => [40, 200, 60],
+            })
+            .collect();
+        let path = file.with_extension("sources.png");
+        image::save_buffer(
+            &path,
+            &rgb,
+            settings.width,
+            settings.height,
+            image::ColorType::Rgb8,
+        )
+        .with_context(|| format!("cannot write '{}'", path.display()))?;
+    }
+    let summary = frame.summary();
+    if args.json {
+        let mut line = serde_json::to_value(&summary)?;
+        if let Some(o) = line.as_object_mut() {
+            o.insert("type".into(), json!("frame"));
+            o.insert("output".into(), json!(file));
+            o.insert(
+                "gpu_ms".into(),
+                json!(summary
+                    .gpu_ms
+                    .iter()
+                    .map(|(k, v)| (k.clone(), json!(v)))
+                    .collect::<serde_json::Map<_, _>>()),
+            );
+        }
+        bar.suspend(|| outln!("{line}"))?;
+    }
+    bar.set_message(match &summary.reference {
+        Some(r) => format!(
+            "rays {:.1} % of full, FLIP {:.4}",
+            r.ray_fraction * 100.0,
+            r.flip_mean
+        ),
+        None => format!(
+            "reused {:.1} %, traced {:.1} %",
+            summary.reused_fraction * 100.0,
+            summary.traced_fraction * 100.0
+        ),
+    });
+    bar.inc(1);
+    Ok(summary)
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {

@@ -95,6 +95,8 @@ pub struct RenderSettings {
     pub exposure: f32,
     /// What the hybrid path's raster pass writes.
     pub gbuffer: super::gbuffer::GbufferLayout,
+    /// What runs the hybrid path's visibility pass.
+    pub raster: super::raster_compute::RasterMode,
 }
 
 impl Default for RenderSettings {
@@ -118,6 +120,7 @@ impl Default for RenderSettings {
             tonemap: Tonemap::default(),
             exposure: 0.0,
             gbuffer: Default::default(),
+            raster: Default::default(),
         }
     }
 }

@@ -7,11 +7,12 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::raster_compute::{ComputeRaster, DepthAtomics, RasterMode};
 use super::PassContext;
 use crate::scene::Scene;
 use crate::vk::{
     Binding, Buffer, Context, DescriptorSet, GpuProfiler, GraphicsPipeline, GraphicsTargets, Image,
-    VkResult,
+    VkError, VkResult,
 };
 
 /// What the hybrid path's raster pass writes.
@@ -107,6 +108,9 @@ pub struct GbufferPass {
     depth: Image,
     extent: vk::Extent2D,
     layout: GbufferLayout,
+    /// `Some`: `record` runs the compute rasterizer instead of drawing (`--raster compute`).
+    compute: Option<ComputeRaster>,
+    raster: RasterMode,
 }
 
 impl GbufferPass {
@@ -119,6 +123,26 @@ impl GbufferPass {
         extent: vk::Extent2D,
         layout: GbufferLayout,
     ) -> VkResult<Self> {
+        Self::with_raster(ctx, pass, frame, extent, layout, RasterMode::Graphics, &[])
+    }
+
+    /// Like [`Self::new`], with the visibility pass run by `raster`. The compute rasterizer
+    /// writes only the visibility layout and needs the scene's `draws` up front.
+    pub fn with_raster(
+        ctx: &Context,
+        pass: &PassContext<'_>,
+        frame: &Buffer,
+        extent: vk::Extent2D,
+        layout: GbufferLayout,
+        raster: RasterMode,
+        draws: &[Draw],
+    ) -> VkResult<Self> {
+        if raster != RasterMode::Graphics && layout != GbufferLayout::Visibility {
+            return Err(VkError::Limit(
+                "--raster compute writes the visibility buffer only; use --gbuffer visibility"
+                    .into(),
+            ));
+        }
         let bindings = [
             Binding::UniformBuffer,
             Binding::SampledImages(pass.texture_capacity()),
@@ -169,6 +193,17 @@ impl GbufferPass {
             vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             1,
         )?;
+        let atomics = match raster {
+            RasterMode::Graphics => None,
+            RasterMode::Compute => Some(DepthAtomics::best(ctx)),
+            RasterMode::ComputeAtomic32 => Some(DepthAtomics::Int32),
+        };
+        let compute = match atomics {
+            None => None,
+            Some(atomics) => Some(ComputeRaster::new(
+                ctx, pass, frame, extent, draws, &images[0], atomics,
+            )?),
+        };
         Ok(Self {
             pipeline,
             masked_pipeline,
@@ -178,7 +213,14 @@ impl GbufferPass {
             depth,
             extent,
             layout,
+            compute,
+            raster,
         })
+    }
+
+    /// What runs this pass.
+    pub fn raster(&self) -> RasterMode {
+        self.raster
     }
 
     /// What this pass writes.
@@ -202,6 +244,14 @@ impl GbufferPass {
         }
         for image in &self.images {
             image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
+        }
+        if let Some(compute) = &self.compute {
+            compute.record(ctx, cmd);
+            crate::vk::memory_barrier(device, cmd);
+            if let Some(p) = profiler {
+                p.end(cmd);
+            }
+            return;
         }
         self.depth.transition(
             cmd,

@@ -1,5 +1,6 @@
 //! Render passes (one module each) and the [`Renderer`] that runs them on an uploaded scene.
 
+pub mod burst;
 pub mod compare;
 pub mod frame;
 pub mod gbuffer;
@@ -7,11 +8,13 @@ pub mod hybrid;
 pub mod label;
 pub mod optics;
 pub mod output;
+pub mod raster_compute;
 pub mod raybench;
 pub mod raytraced;
 pub mod reproject;
 pub mod sampling;
 pub mod sequence;
+pub mod targets;
 pub mod tonemap;
 
 use ash::vk;
@@ -20,9 +23,10 @@ use bytemuck::{Pod, Zeroable};
 use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
-use crate::vk::{memory_barrier, Context, DescriptorSet, GpuProfiler};
+use crate::vk::{Context, DescriptorSet};
 pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
 pub use reproject::RenderPath;
+pub use targets::FrameTargets;
 
 /// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
 #[repr(C)]
@@ -183,6 +187,8 @@ impl Renderer {
     /// Renders one image with the pure ray-traced path. With `write_aov` it also fills
     /// [`RenderOutput::aov`], which takes a 48-byte-per-pixel buffer (checked against the
     /// device's `maxStorageBufferRange` and heap first); without, no such buffer is allocated.
+    /// Allocates the frame's resources for this one image: frame loops keep a
+    /// [`FrameTargets`] instead.
     pub fn render_rt(
         &self,
         ctx: &Context,
@@ -190,60 +196,10 @@ impl Renderer {
         camera: &Camera,
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
-        settings
-            .check_device(
-                ctx.info(),
-                RenderPath::RayTraced,
-                write_aov,
-                ctx.allocated_bytes(),
-            )
-            .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
-        let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
-        let frame = GpuFrame::new(settings, &setup, self.scene_scale);
-        let pass = raytraced::RaytracedPass::new(ctx, &self.pass_context(), frame, write_aov)?;
-        let pixels = settings.width * settings.height;
-        let tonemap = tonemap::TonemapPass::new(ctx, &pass.color, pixels)?;
-        let mut profiler = GpuProfiler::new(ctx, 8).ok();
-        ctx.run("ray-traced frame", |cmd| {
-            if let Some(p) = profiler.as_mut() {
-                p.reset(cmd);
-            }
-            pass.record(ctx, cmd, profiler.as_mut());
-            memory_barrier(ctx.device(), cmd);
-            tonemap.record(cmd, profiler.as_mut(), settings.tonemap, settings.exposure);
-            Ok(())
-        })?;
-        let gpu_ms = match &profiler {
-            Some(p) => p.results()?,
-            None => Vec::new(),
-        };
-        let counters: Vec<u32> = pass.counters.read(ctx)?;
-        let color: Vec<[f32; 4]> = pass.color.read(ctx)?;
-        let rgba8: Vec<u8> = tonemap.output.read(ctx)?;
-        let aov = if write_aov {
-            pass.aov.read(ctx)?
-        } else {
-            Vec::new()
-        };
-        Ok(RenderOutput {
-            width: settings.width,
-            height: settings.height,
-            color: color[..pixels as usize].to_vec(),
-            rgba8: rgba8[..pixels as usize * 4].to_vec(),
-            aov: aov.into_iter().take(pixels as usize).collect(),
-            rays: RayCounts {
-                primary: u64::from(counters[0]),
-                shadow: u64::from(counters[1]),
-                reflection: u64::from(counters[2]),
-                refraction: u64::from(counters[3]),
-            },
-            samples: u64::from(counters[4]),
-            gpu_ms,
-        })
+        FrameTargets::new(ctx, self, RenderPath::RayTraced, settings, &[], write_aov)?
+            .render(ctx, camera)
     }
-}
 
-impl Renderer {
     /// Renders one image with the hybrid path: per sample, a raster G-buffer pass jittered to
     /// the sample position, then the shading pass (shadow, reflection, refraction rays).
     /// `write_aov` as in [`Self::render_rt`].
@@ -255,166 +211,20 @@ impl Renderer {
         camera: &Camera,
         write_aov: bool,
     ) -> crate::Result<RenderOutput> {
-        settings
-            .check_device(
-                ctx.info(),
-                RenderPath::Hybrid,
-                write_aov,
-                ctx.allocated_bytes(),
-            )
-            .map_err(|e| crate::vk::VkError::Limit(e.to_string()))?;
-        let positions: Vec<[f32; 2]> = (0..settings.spp)
-            .map(|s| sampling::pixel_independent_sample(settings.sampler, s, settings.spp, settings.seed))
-            .collect::<Option<_>>()
-            .ok_or_else(|| {
-                crate::vk::VkError::Limit(format!(
-                    "--sampler {:?} varies per pixel (or is adaptive); the hybrid path rasterizes one jittered pass per sample and supports center, grid, halton and sobol",
-                    settings.sampler
-                ).to_lowercase())
-            })?;
-        let setup = CameraSetup::new(camera, settings.width, settings.height, self.scene_scale);
-        let frame = GpuFrame::new(settings, &setup, self.scene_scale);
-        let extent = vk::Extent2D {
-            width: settings.width,
-            height: settings.height,
-        };
-        let pixels = u64::from(settings.width) * u64::from(settings.height);
-        let none = vk::BufferUsageFlags::empty();
-        use crate::vk::{Buffer, MemoryLocation};
-        let frames: Vec<Buffer> = positions
-            .iter()
-            .map(|_| {
-                Buffer::new(
-                    ctx,
-                    "hybrid frame",
-                    std::mem::size_of::<GpuFrame>() as u64,
-                    vk::BufferUsageFlags::UNIFORM_BUFFER,
-                    MemoryLocation::CpuToGpu,
-                )
-            })
-            .collect::<Result<_, _>>()?;
-        let accum = Buffer::new(
+        FrameTargets::new(
             ctx,
-            "hybrid accumulation",
-            pixels * 16,
-            none,
-            MemoryLocation::GpuOnly,
-        )?;
-        // Per-pixel AOVs only when asked for; else a placeholder (hybrid.comp writes AOVs
-        // only under HYBRID_WRITE_AOV).
-        let aov = Buffer::new(
-            ctx,
-            if write_aov {
-                "hybrid aov"
-            } else {
-                "hybrid aov placeholder"
-            },
-            if write_aov { pixels } else { 1 } * std::mem::size_of::<Aov>() as u64,
-            none,
-            MemoryLocation::GpuOnly,
-        )?;
-        let counters = Buffer::new(
-            ctx,
-            "hybrid counters",
-            raytraced::COUNTER_SLOTS as u64 * 4,
-            none,
-            MemoryLocation::GpuOnly,
-        )?;
-        let pass_ctx = self.pass_context();
-        let mut passes = Vec::with_capacity(positions.len());
-        let mut weights = Vec::with_capacity(positions.len());
-        for (buf, u) in frames.into_iter().zip(&positions) {
-            let (jitter, weight) = match settings.filter {
-                FilterKind::Box => ([u[0] - 0.5, u[1] - 0.5], 1.0),
-                FilterKind::Tent => {
-                    let o = [u[0] * 2.0 - 1.0, u[1] * 2.0 - 1.0];
-                    (o, sampling::tent_weight(o[0], o[1]))
-                }
-            };
-            let mut f = frame;
-            f.jitter = jitter;
-            let mut buf = buf;
-            buf.write(bytemuck::bytes_of(&f))?;
-            let g = gbuffer::GbufferPass::new(ctx, &pass_ctx, &buf, extent, settings.gbuffer)?;
-            let h = hybrid::HybridPass::new(ctx, &pass_ctx, &buf, &accum, &aov, &counters, &g)?;
-            passes.push((buf, g, h));
-            weights.push(weight);
-        }
-        let tonemap = tonemap::TonemapPass::new(ctx, &accum, pixels as u32)?;
-        let mut profiler = GpuProfiler::new(ctx, 4 * positions.len() as u32 + 4).ok();
-        ctx.run("hybrid frame", |cmd| {
-            if let Some(p) = profiler.as_mut() {
-                p.reset(cmd);
-            }
-            // SAFETY: recording command buffer; the counters buffer is ours.
-            unsafe {
-                ctx.device()
-                    .cmd_fill_buffer(cmd, counters.raw(), 0, vk::WHOLE_SIZE, 0)
-            };
-            memory_barrier(ctx.device(), cmd);
-            for (i, ((_, g, h), w)) in passes.iter().zip(&weights).enumerate() {
-                g.record(
-                    ctx,
-                    cmd,
-                    scene_draws,
-                    setup.camera_to_world.w_axis.truncate(),
-                    profiler.as_mut(),
-                );
-                let mut flags = 0;
-                if i == 0 {
-                    flags |= hybrid::HYBRID_FIRST_SAMPLE;
-                    if write_aov {
-                        flags |= hybrid::HYBRID_WRITE_AOV;
-                    }
-                }
-                h.record(cmd, extent, flags, *w, profiler.as_mut());
-                memory_barrier(ctx.device(), cmd);
-            }
-            tonemap.record(cmd, profiler.as_mut(), settings.tonemap, settings.exposure);
-            Ok(())
-        })?;
-        let gpu_ms = match &profiler {
-            Some(p) => merge_scopes(p.results()?),
-            None => Vec::new(),
-        };
-        let c: Vec<u32> = counters.read(ctx)?;
-        let color: Vec<[f32; 4]> = accum.read(ctx)?;
-        let rgba8: Vec<u8> = tonemap.output.read(ctx)?;
-        let aov = if write_aov {
-            aov.read(ctx)?
-        } else {
-            Vec::new()
-        };
-        let n = pixels as usize;
-        Ok(RenderOutput {
-            width: settings.width,
-            height: settings.height,
-            color: color[..n]
-                .iter()
-                .map(|v| {
-                    if v[3] > 0.0 {
-                        [v[0] / v[3], v[1] / v[3], v[2] / v[3], 1.0]
-                    } else {
-                        [v[0], v[1], v[2], 1.0]
-                    }
-                })
-                .collect(),
-            rgba8: rgba8[..n * 4].to_vec(),
-            aov: aov.into_iter().take(n).collect(),
-            rays: RayCounts {
-                primary: u64::from(c[0]),
-                shadow: u64::from(c[1]),
-                reflection: u64::from(c[2]),
-                refraction: u64::from(c[3]),
-            },
-            samples: u64::from(c[4]),
-            gpu_ms,
-        })
+            self,
+            RenderPath::Hybrid,
+            settings,
+            scene_draws,
+            write_aov,
+        )?
+        .render(ctx, camera)
     }
 }
 
 /// Sums scopes of the same name (one per sample) keeping first-seen order.
-fn merge_scopes(scopes: Vec<(String, f64)>) -> Vec<(String, f64)> {
+pub fn merge_scopes(scopes: Vec<(String, f64)>) -> Vec<(String, f64)> {
     let mut out: Vec<(String, f64)> = Vec::new();
     for (name, ms) in scopes {
         match out.iter_mut().find(|(n, _)| *n == name) {

@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::frame::{GpuFrame, SamplerKind, FLAG_ADAPTIVE_CORNERS, FLAG_WRITE_AOV};
+use super::frame::{GpuFrame, RenderSettings, SamplerKind, FLAG_ADAPTIVE_CORNERS, FLAG_WRITE_AOV};
 use super::{Aov, PassContext};
 use crate::accel::Backend;
 use crate::vk::{
@@ -28,7 +28,6 @@ pub struct RaytracedPass {
     pub counters: Buffer,
     _corners: Buffer,
     frame: Buffer,
-    frame_data: GpuFrame,
     write_aov: bool,
 }
 
@@ -40,13 +39,15 @@ fn spirv(backend: Backend) -> &'static [u8] {
 }
 
 impl RaytracedPass {
-    /// Creates the pipeline and buffers for `frame`'s resolution; the per-pixel AOV buffer
+    /// Creates the pipeline and buffers for `settings`' resolution; the per-pixel AOV buffer
     /// only when `write_aov` (48 bytes per pixel: at full size it alone limits the resolution
-    /// on devices with a small `maxStorageBufferRange`).
+    /// on devices with a small `maxStorageBufferRange`). `frame_buf` is the Frame uniform
+    /// buffer, written by [`Self::record`].
     pub fn new(
         ctx: &Context,
         pass: &PassContext<'_>,
-        frame: GpuFrame,
+        settings: &RenderSettings,
+        frame_buf: Buffer,
         write_aov: bool,
     ) -> VkResult<Self> {
         let bindings = [
@@ -61,7 +62,7 @@ impl RaytracedPass {
         ];
         let pipeline =
             ComputePipeline::cached(ctx, "raytrace", spirv(pass.backend.kind()), &bindings, 4)?;
-        let pixels = u64::from(frame.width) * u64::from(frame.height);
+        let pixels = settings.pixels();
         let none = vk::BufferUsageFlags::empty();
         let color = Buffer::new(ctx, "rt colour", pixels * 16, none, MemoryLocation::GpuOnly)?;
         let aov_len = if write_aov { pixels } else { 1 };
@@ -83,20 +84,13 @@ impl RaytracedPass {
             none,
             MemoryLocation::GpuOnly,
         )?;
-        let corner_count = (u64::from(frame.width) + 1) * (u64::from(frame.height) + 1);
+        let corner_count = (u64::from(settings.width) + 1) * (u64::from(settings.height) + 1);
         let corners = Buffer::new(
             ctx,
             "rt adaptive corners",
             corner_count * 16,
             none,
             MemoryLocation::GpuOnly,
-        )?;
-        let frame_buf = Buffer::new(
-            ctx,
-            "rt frame",
-            std::mem::size_of::<GpuFrame>() as u64,
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            MemoryLocation::CpuToGpu,
         )?;
         let set = pipeline.allocate_set()?;
         pass.bind_scene(&set);
@@ -105,7 +99,7 @@ impl RaytracedPass {
             .buffer(5, &aov, Binding::StorageBuffer)
             .buffer(6, &counters, Binding::StorageBuffer)
             .buffer(7, &corners, Binding::StorageBuffer);
-        let mut this = Self {
+        Ok(Self {
             pipeline,
             set,
             color,
@@ -113,17 +107,8 @@ impl RaytracedPass {
             counters,
             _corners: corners,
             frame: frame_buf,
-            frame_data: frame,
             write_aov,
-        };
-        this.set_frame(frame)?;
-        Ok(this)
-    }
-
-    /// Updates the frame uniform (camera, settings) for the next `record`.
-    pub fn set_frame(&mut self, frame: GpuFrame) -> VkResult<()> {
-        self.frame_data = frame;
-        self.frame.write(bytemuck::bytes_of(&frame))
+        })
     }
 
     /// Whether [`Self::record`] writes the AOVs (the pass was created with `write_aov`).
@@ -131,16 +116,21 @@ impl RaytracedPass {
         self.write_aov
     }
 
-    /// Records the pass: counter reset, the adaptive corner pass when that sampler is on,
-    /// then one thread per pixel (writing AOVs when the pass was created to).
+    /// Records the pass for `frame` (camera, settings; written into the uniform by the
+    /// commands themselves): counter reset, the adaptive corner pass when that sampler is on,
+    /// then one thread per pixel (writing AOVs when the pass was created to). The caller
+    /// orders it after earlier readers of the uniform and counters.
     pub fn record(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
+        frame: &GpuFrame,
         profiler: Option<&mut GpuProfiler>,
     ) {
         let device = ctx.device();
-        let f = self.frame_data;
+        let f = *frame;
+        self.frame
+            .record_update(device, cmd, bytemuck::bytes_of(&f));
         // SAFETY: recording command buffer; the counters buffer is ours.
         unsafe { device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0) };
         memory_barrier(device, cmd);

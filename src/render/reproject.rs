@@ -40,6 +40,7 @@ use serde::Serialize;
 pub use super::frame::RenderPath;
 use super::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind, SettingsError};
 use super::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
+use super::targets::{FrameRing, RingContents, RingSources};
 use super::tonemap::TonemapPass;
 use super::{merge_scopes, RayCounts, RenderOutput, Renderer};
 use crate::accel::Backend;
@@ -235,6 +236,8 @@ struct GpuParams {
 
 /// `reproject.glsl`'s `CacheEntry`.
 const CACHE_ENTRY_BYTES: u64 = 64;
+/// `reproject.glsl`'s `Shown`: a cache entry without its colour.
+const SHOWN_BYTES: u64 = 48;
 
 const RP_REUSE: u32 = 1;
 const RP_GBUFFER: u32 = 2;
@@ -247,13 +250,14 @@ const STAGE_RESOLVE: u32 = 1;
 const STAGE_CLASSIFY: u32 = 2;
 const STAGE_THRESHOLD: u32 = 3;
 const STAGE_SELECT: u32 = 4;
-const STAGE_GATHER: u32 = 5;
 const STAGE_COMMIT: u32 = 6;
 const STAGE_INTERPOLATE: u32 = 7;
 const STAGE_STATS: u32 = 8;
 const STAGE_FILL: u32 = 9;
-const STAGE_FILL_COMMIT: u32 = 10;
+/// Job list a stage appends to: pixels to verify with a primary ray (rt path).
 const GATHER_VERIFY: u32 = 0;
+/// The stage appends to no job list.
+const GATHER_NONE: u32 = u32::MAX;
 
 const PX_KIND_MASK: u32 = 15;
 const PX_REUSE: u32 = 1;
@@ -261,7 +265,6 @@ const PX_TRACED: u32 = 4;
 const PX_INTERP: u32 = 5;
 
 const C_SAMPLES: usize = 4;
-const C_JOBS: u64 = 5;
 const C_REUSED: usize = 6;
 const C_TRACED: usize = 7;
 const C_INTERP: usize = 8;
@@ -274,7 +277,12 @@ const C_VERIFY_RAYS: usize = 14;
 const C_FILLED: usize = 19;
 const COUNTER_SLOTS: u64 = 32 + 64 * 64;
 
-const GROUP: u32 = 64;
+/// Side of the 8x8-pixel workgroups of `reproject.comp`.
+const TILE: u32 = 8;
+/// Timestamp scopes one reprojected frame records (raster, scatter, classify, visibility,
+/// commit, three trace levels, two interpolations, stats, tonemap, and the frame itself), for
+/// sizing a burst's profiler.
+pub const SCOPES_PER_FRAME: u32 = 16;
 
 fn primary_spirv(backend: Backend) -> &'static [u8] {
     match backend {
@@ -324,9 +332,16 @@ pub struct Reprojector<'r> {
     state: Buffer,
     color: Buffer,
     _jobs: Buffer,
+    _shown: Buffer,
     counters: Buffer,
+    /// Indirect dispatch of the tracing passes, sized by their job lists.
+    args: Buffer,
     visibility: Visibility,
     tonemap: TonemapPass,
+    /// One slot: what [`Self::render`] reads back (taken while recording into it).
+    readback: Option<FrameRing>,
+    /// Timestamps of [`Self::render`]'s single frames.
+    profiler: Option<GpuProfiler>,
     parity: usize,
     has_history: bool,
     prev_view_proj: Option<[f32; 16]>,
@@ -359,13 +374,15 @@ impl<'r> Reprojector<'r> {
         };
         let pixels = u64::from(settings.width) * u64::from(settings.height);
         let none = vk::BufferUsageFlags::empty();
+        // Written by the frame's own commands (vkCmdUpdateBuffer), so frames can be recorded
+        // back to back.
         let uniform = |name: &str, size: usize| {
             Buffer::new(
                 ctx,
                 name,
                 size as u64,
                 vk::BufferUsageFlags::UNIFORM_BUFFER,
-                MemoryLocation::CpuToGpu,
+                MemoryLocation::GpuOnly,
             )
         };
         let storage =
@@ -380,8 +397,16 @@ impl<'r> Reprojector<'r> {
         let winner = storage("reproject winners", pixels * 4)?;
         let state = storage("reproject states", pixels * 4)?;
         let color = storage("reproject colour", pixels * 16)?;
+        let shown = storage("reproject shown samples", pixels * SHOWN_BYTES)?;
         let jobs = storage("reproject jobs", pixels * 4)?;
         let counters = storage("reproject counters", COUNTER_SLOTS * 4)?;
+        let args = Buffer::new(
+            ctx,
+            "reproject dispatch",
+            16,
+            vk::BufferUsageFlags::INDIRECT_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
         let visibility = match path {
             RenderPath::Hybrid => {
                 // The cache stores positions and motion, so reprojection rasterizes the full
@@ -424,6 +449,8 @@ impl<'r> Reprojector<'r> {
                 Binding::StorageImage,
                 GBUFFER_FORMATS.len(),
             ));
+            b.push(Binding::StorageBuffer);
+            b.push(Binding::StorageBuffer);
             b
         };
         let backend = pass.backend.kind();
@@ -432,7 +459,7 @@ impl<'r> Reprojector<'r> {
             "reproject",
             crate::shaders::REPROJECT_COMP,
             &layout(Binding::Unused),
-            8,
+            12,
         )?;
         let primary = ComputePipeline::cached(
             ctx,
@@ -471,6 +498,11 @@ impl<'r> Reprojector<'r> {
                 for (i, image) in visibility.images().iter().enumerate() {
                     set.storage_image(13 + i as u32, image.view());
                 }
+                set.buffer(20, &args, Binding::StorageBuffer).buffer(
+                    21,
+                    &shown,
+                    Binding::StorageBuffer,
+                );
                 Ok(set)
             };
             sets.push([
@@ -480,6 +512,20 @@ impl<'r> Reprojector<'r> {
             ]);
         }
         let tonemap = TonemapPass::new(ctx, &color, pixels as u32)?;
+        let readback = FrameRing::new(
+            ctx,
+            "reproject readback",
+            1,
+            pixels,
+            RingContents {
+                rgba8: true,
+                color: true,
+                aov: false,
+                states: true,
+            },
+        )?;
+        let readback = Some(readback);
+        let profiler = GpuProfiler::new(ctx, SCOPES_PER_FRAME).ok();
         Ok(Self {
             renderer,
             path,
@@ -497,9 +543,13 @@ impl<'r> Reprojector<'r> {
             state,
             color,
             _jobs: jobs,
+            _shown: shown,
             counters,
+            args,
             visibility,
             tonemap,
+            readback,
+            profiler,
             parity: 0,
             has_history: false,
             prev_view_proj: None,
@@ -518,7 +568,7 @@ impl<'r> Reprojector<'r> {
                 _ => 16,
             })
             .sum();
-        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + 4 * 4 + 16 + 4 + gbuffer)
+        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + SHOWN_BYTES + 4 * 4 + 16 + 4 + gbuffer)
     }
 
     /// The largest buffer the reprojection binds as one storage buffer (either sample cache:
@@ -580,15 +630,26 @@ impl<'r> Reprojector<'r> {
         &self.options
     }
 
-    /// Renders one frame through `camera`, reusing what the cache allows, and caches its
-    /// samples for the next call. `draws` are the scene's raster draws (hybrid path; ignored
-    /// by the rt path).
-    pub fn render(
+    /// Whether the next frame reuses cached samples (false at the start of a range).
+    pub fn has_history(&self) -> bool {
+        self.has_history
+    }
+
+    /// Records one frame through `camera` into `cmd`, reusing what the cache allows and
+    /// caching its samples for the next frame, then, with `out`, copies its counters, image and
+    /// pixel states into that ring slot. Frames recorded back to back into one command buffer
+    /// give the same images as frames submitted one by one: every per-frame input (camera,
+    /// parameters) is written by the frame's own commands. `draws` are the scene's raster
+    /// draws (hybrid path; ignored by the rt path). Timestamp scopes go to `profiler`.
+    pub fn record(
         &mut self,
         ctx: &Context,
+        cmd: vk::CommandBuffer,
         draws: &[gbuffer::Draw],
         camera: &Camera,
-    ) -> crate::Result<ReprojectedFrame> {
+        mut profiler: Option<&mut GpuProfiler>,
+        out: Option<(&FrameRing, u32)>,
+    ) {
         let s = &self.settings;
         let scale = self.renderer.scene_scale();
         let setup = CameraSetup::new(camera, s.width, s.height, scale);
@@ -596,7 +657,6 @@ impl<'r> Reprojector<'r> {
         if let Some(prev) = self.prev_view_proj {
             frame.prev_view_proj = prev;
         }
-        self.frame.write(bytemuck::bytes_of(&frame))?;
         let o = &self.options;
         let reuse = o.reuses() && self.has_history;
         let mut flags = 0;
@@ -628,111 +688,158 @@ impl<'r> Reprojector<'r> {
             fill_radius: FILL_RADIUS,
             max_hops: MAX_FILL_HOPS,
         };
-        self.params.write(bytemuck::bytes_of(&params))?;
-
-        let pixels = s.width * s.height;
-        let groups = [pixels.div_ceil(GROUP), 1, 1];
+        let tiles = [s.width.div_ceil(TILE), s.height.div_ceil(TILE), 1];
         let [stages_set, primary_set, trace_set] = &self.sets[self.parity];
         let device = ctx.device();
-        let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, groups: [u32; 3]| {
-            let mut push = [0u8; 8];
+        // One pass of reproject.comp; `gather` names the job list it appends to.
+        let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, gather: u32| {
+            let mut push = [0u8; 12];
             push[..4].copy_from_slice(&stage.to_le_bytes());
-            push[4..].copy_from_slice(&level.to_le_bytes());
+            push[4..8].copy_from_slice(&level.to_le_bytes());
+            push[8..].copy_from_slice(&gather.to_le_bytes());
+            let groups = if stage == STAGE_THRESHOLD {
+                [1, 1, 1]
+            } else {
+                tiles
+            };
             self.stages.dispatch(cmd, Some(stages_set), &push, groups);
             memory_barrier(device, cmd);
         };
-        let reset_jobs = |cmd: vk::CommandBuffer| {
-            // SAFETY: recording command buffer; the counters buffer is ours.
-            unsafe { device.cmd_fill_buffer(cmd, self.counters.raw(), C_JOBS * 4, 4, 0) };
+        // A tracing pass over the job list the stage before it compacted, sized by the list's
+        // length (written by that stage's last workgroup), so its cost follows its jobs.
+        let traced = |cmd: vk::CommandBuffer,
+                      pipeline: &ComputePipeline,
+                      set: &DescriptorSet,
+                      name: &str,
+                      profiler: Option<&mut GpuProfiler>| {
+            let mut profiler = profiler;
+            if let Some(p) = profiler.as_deref_mut() {
+                p.begin(cmd, name);
+            }
+            pipeline.dispatch_indirect(cmd, Some(set), &[], &self.args);
             memory_barrier(device, cmd);
+            if let Some(p) = profiler {
+                p.end(cmd);
+            }
         };
         let levels: &[u32] = if o.adaptive_subsample {
             &[4, 2, 1]
         } else {
             &[1]
         };
-        let mut profiler = GpuProfiler::new(ctx, 24).ok();
-        ctx.run("reprojected frame", |cmd| {
-            if let Some(p) = profiler.as_mut() {
-                p.reset(cmd);
+        let rt_verify = (reuse || o.adaptive_subsample) && self.path == RenderPath::RayTraced;
+        let frameless = flags & RP_FRAMELESS != 0;
+
+        // Write-after-read against the previous frame in the same command buffer.
+        memory_barrier(device, cmd);
+        self.frame
+            .record_update(device, cmd, bytemuck::bytes_of(&frame));
+        self.params
+            .record_update(device, cmd, bytemuck::bytes_of(&params));
+        // SAFETY: recording command buffer; the buffers are ours.
+        unsafe {
+            device.cmd_fill_buffer(cmd, self.depth_key.raw(), 0, vk::WHOLE_SIZE, !0);
+            device.cmd_fill_buffer(cmd, self.winner.raw(), 0, vk::WHOLE_SIZE, !0);
+            device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0);
+        }
+        memory_barrier(device, cmd);
+        match &self.visibility {
+            Visibility::Raster(g) => {
+                g.record(ctx, cmd, draws, camera.position(), profiler.as_deref_mut())
             }
-            match &self.visibility {
-                Visibility::Raster(g) => {
-                    g.record(ctx, cmd, draws, camera.position(), profiler.as_mut())
-                }
-                Visibility::Traced(images) => {
-                    for image in images {
-                        image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
-                    }
-                }
-            }
-            // SAFETY: recording command buffer; the buffers are ours.
-            unsafe {
-                device.cmd_fill_buffer(cmd, self.depth_key.raw(), 0, vk::WHOLE_SIZE, !0);
-                device.cmd_fill_buffer(cmd, self.winner.raw(), 0, vk::WHOLE_SIZE, !0);
-                device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0);
-            }
-            memory_barrier(device, cmd);
-            if let Some(p) = profiler.as_mut() {
-                p.begin(cmd, "reproject");
-            }
-            if reuse {
-                stage(cmd, STAGE_SCATTER, 0, groups);
-                stage(cmd, STAGE_RESOLVE, 0, groups);
-                stage(cmd, STAGE_FILL, 0, groups);
-                stage(cmd, STAGE_FILL_COMMIT, 0, groups);
-            }
-            stage(cmd, STAGE_CLASSIFY, 0, groups);
-            if flags & RP_FRAMELESS != 0 {
-                stage(cmd, STAGE_THRESHOLD, 0, [1, 1, 1]);
-                stage(cmd, STAGE_SELECT, 0, groups);
-            }
-            if let Some(p) = profiler.as_mut() {
-                p.end(cmd);
-            }
-            if (reuse || o.adaptive_subsample) && self.path == RenderPath::RayTraced {
-                reset_jobs(cmd);
-                stage(cmd, STAGE_GATHER, GATHER_VERIFY, groups);
-                if let Some(p) = profiler.as_mut() {
-                    p.begin(cmd, "visibility");
-                }
-                self.primary.dispatch(cmd, Some(primary_set), &[], groups);
-                memory_barrier(device, cmd);
-                if let Some(p) = profiler.as_mut() {
-                    p.end(cmd);
+            Visibility::Traced(images) => {
+                for image in images {
+                    image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
                 }
             }
-            stage(cmd, STAGE_COMMIT, 0, groups);
-            for &level in levels {
-                reset_jobs(cmd);
-                stage(cmd, STAGE_GATHER, level, groups);
-                if let Some(p) = profiler.as_mut() {
-                    p.begin(cmd, "trace");
-                }
-                self.trace.dispatch(cmd, Some(trace_set), &[], groups);
-                memory_barrier(device, cmd);
-                if let Some(p) = profiler.as_mut() {
-                    p.end(cmd);
-                }
-                if level > 1 {
-                    stage(cmd, STAGE_INTERPOLATE, level, groups);
-                }
+        }
+        // Every stage is its own timestamp scope, so the JSON and the reports show where a
+        // reprojected frame's time goes.
+        let scope = |profiler: &mut Option<&mut GpuProfiler>, name: &str| {
+            if let Some(p) = profiler.as_deref_mut() {
+                p.begin(cmd, name);
             }
-            stage(cmd, STAGE_STATS, 0, groups);
-            self.tonemap
-                .record(cmd, profiler.as_mut(), s.tonemap, s.exposure);
-            Ok(())
-        })?;
-        let gpu_ms = match &profiler {
-            Some(p) => merge_scopes(p.results()?),
-            None => Vec::new(),
         };
-        let c: Vec<u32> = self.counters.read(ctx)?;
-        let color: Vec<[f32; 4]> = self.color.read(ctx)?;
-        let rgba8: Vec<u8> = self.tonemap.output.read(ctx)?;
-        let states: Vec<u32> = self.state.read(ctx)?;
-        let n = pixels as usize;
-        let sources = states[..n]
+        if reuse {
+            scope(&mut profiler, "scatter");
+            stage(cmd, STAGE_SCATTER, 0, GATHER_NONE);
+            stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
+            stage(cmd, STAGE_FILL, 0, GATHER_NONE);
+        }
+        // The stage that settles which pixels need a primary ray lists them right away.
+        let verify_list = if rt_verify {
+            GATHER_VERIFY
+        } else {
+            GATHER_NONE
+        };
+        scope(&mut profiler, "classify");
+        if frameless {
+            stage(cmd, STAGE_CLASSIFY, 0, GATHER_NONE);
+            stage(cmd, STAGE_THRESHOLD, 0, GATHER_NONE);
+            stage(cmd, STAGE_SELECT, 0, verify_list);
+        } else {
+            stage(cmd, STAGE_CLASSIFY, 0, verify_list);
+        }
+        if rt_verify {
+            traced(
+                cmd,
+                &self.primary,
+                primary_set,
+                "visibility",
+                profiler.as_deref_mut(),
+            );
+        }
+        // Commit the reused pixels and list the first level's pixels to trace; each
+        // interpolation lists the next level's.
+        scope(&mut profiler, "commit");
+        stage(cmd, STAGE_COMMIT, 0, levels[0]);
+        for (i, &level) in levels.iter().enumerate() {
+            traced(
+                cmd,
+                &self.trace,
+                trace_set,
+                "trace",
+                profiler.as_deref_mut(),
+            );
+            if let Some(&next) = levels.get(i + 1) {
+                scope(&mut profiler, "interpolate");
+                stage(cmd, STAGE_INTERPOLATE, level, next);
+            }
+        }
+        scope(&mut profiler, "stats");
+        stage(cmd, STAGE_STATS, 0, GATHER_NONE);
+        if let Some(p) = profiler.as_deref_mut() {
+            p.end(cmd);
+        }
+        self.tonemap.record(cmd, profiler, s.tonemap, s.exposure);
+        if let Some((ring, slot)) = out {
+            memory_barrier(device, cmd);
+            ring.record_copy(
+                device,
+                cmd,
+                slot,
+                &RingSources {
+                    counters: &self.counters,
+                    rgba8: &self.tonemap.output,
+                    color: &self.color,
+                    aov: None,
+                    states: Some(&self.state),
+                },
+            );
+        }
+        self.parity = 1 - self.parity;
+        self.has_history = true;
+        self.prev_view_proj = Some(frame.view_proj);
+    }
+
+    /// The image, rays, pixel sources and statistics a frame copied into `ring`'s slot
+    /// `slot`, after its submission completed (`gpu_ms` left empty; sources empty when the
+    /// ring holds no states).
+    pub fn output(&self, ring: &FrameRing, slot: u32) -> crate::Result<ReprojectedFrame> {
+        let s = &self.settings;
+        let c = ring.counters(slot)?;
+        let states = ring.states(slot)?;
+        let sources = states
             .iter()
             .map(|st| match st & PX_KIND_MASK {
                 PX_REUSE => PixelSource::Reused,
@@ -744,9 +851,77 @@ impl<'r> Reprojector<'r> {
                 }
             })
             .collect();
-        let count = |i: usize| u64::from(c[i]);
-        let stats = ReuseStats {
-            pixels: u64::from(pixels),
+        let (rays, samples, stats) = counts(&c, s.pixels());
+        Ok(ReprojectedFrame {
+            output: RenderOutput {
+                width: s.width,
+                height: s.height,
+                color: ring.color(slot)?,
+                rgba8: ring.rgba8(slot)?,
+                aov: Vec::new(),
+                rays,
+                samples,
+                gpu_ms: Vec::new(),
+            },
+            sources,
+            stats,
+        })
+    }
+
+    /// Renders one frame through `camera` in its own submission, reusing what the cache
+    /// allows, and caches its samples for the next call. `draws` are the scene's raster draws
+    /// (hybrid path; ignored by the rt path).
+    pub fn render(
+        &mut self,
+        ctx: &Context,
+        draws: &[gbuffer::Draw],
+        camera: &Camera,
+    ) -> crate::Result<ReprojectedFrame> {
+        let mut profiler = self.profiler.take();
+        let readback = self
+            .readback
+            .take()
+            .ok_or_else(|| VkError::Limit("reprojection readback in use".into()))?;
+        let recorded = ctx.run("reprojected frame", |cmd| {
+            if let Some(p) = profiler.as_mut() {
+                p.reset(cmd);
+            }
+            self.record(
+                ctx,
+                cmd,
+                draws,
+                camera,
+                profiler.as_mut(),
+                Some((&readback, 0)),
+            );
+            Ok(())
+        });
+        let frame = recorded
+            .map_err(crate::Error::from)
+            .and_then(|()| self.output(&readback, 0));
+        self.readback = Some(readback);
+        self.profiler = profiler;
+        let mut frame = frame?;
+        if let Some(p) = &self.profiler {
+            frame.output.gpu_ms = merge_scopes(p.results()?);
+        }
+        Ok(frame)
+    }
+}
+
+/// Rays, samples and pixel statistics from a reprojected frame's counters.
+fn counts(c: &[u32], pixels: u64) -> (RayCounts, u64, ReuseStats) {
+    let count = |i: usize| u64::from(c.get(i).copied().unwrap_or(0));
+    (
+        RayCounts {
+            primary: count(0),
+            shadow: count(1),
+            reflection: count(2),
+            refraction: count(3),
+        },
+        count(C_SAMPLES),
+        ReuseStats {
+            pixels,
             reused: count(C_REUSED),
             traced: count(C_TRACED),
             interpolated: count(C_INTERP),
@@ -757,28 +932,6 @@ impl<'r> Reprojector<'r> {
             expired: count(C_EXPIRED),
             frameless: count(C_FRAMELESS),
             verify_rays: count(C_VERIFY_RAYS),
-        };
-        self.parity = 1 - self.parity;
-        self.has_history = true;
-        self.prev_view_proj = Some(frame.view_proj);
-        Ok(ReprojectedFrame {
-            output: RenderOutput {
-                width: s.width,
-                height: s.height,
-                color: color[..n].to_vec(),
-                rgba8: rgba8[..n * 4].to_vec(),
-                aov: Vec::new(),
-                rays: RayCounts {
-                    primary: count(0),
-                    shadow: count(1),
-                    reflection: count(2),
-                    refraction: count(3),
-                },
-                samples: count(C_SAMPLES),
-                gpu_ms,
-            },
-            sources,
-            stats,
-        })
-    }
+        },
+    )
 }

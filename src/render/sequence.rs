@@ -18,9 +18,10 @@ use super::gbuffer::{self, Draw};
 use super::reproject::{
     PixelSource, RenderPath, ReprojectedFrame, Reprojector, ReuseOptions, ReuseStats,
 };
-use super::{RayCounts, RenderOutput, RenderSettings, Renderer};
+use super::targets::{FrameRing, FrameTargets, RingContents};
+use super::{merge_scopes, RayCounts, RenderOutput, RenderSettings, Renderer};
 use crate::scene::{Camera, Scene};
-use crate::vk::{Context, VkError};
+use crate::vk::{Context, FrameTiming, GpuProfiler, VkError};
 
 /// A camera path as written on the command line (`--camera-path`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -408,6 +409,12 @@ pub struct SequenceFrame {
     pub reference: Option<ReferenceComparison>,
     /// The full render itself (with [`SequenceOptions::reference`]).
     pub reference_output: Option<RenderOutput>,
+    /// GPU milliseconds of the whole frame, first command to last (passes, the stages
+    /// between them and barriers; `output.gpu_ms` has the passes).
+    pub frame_gpu_ms: f64,
+    /// Whether the frame could reuse an earlier frame's samples (false for the first frame
+    /// of a range and for sequences without reuse).
+    pub reused_history: bool,
 }
 
 impl SequenceFrame {
@@ -424,7 +431,8 @@ impl SequenceFrame {
             traced_fraction: self.stats.traced_fraction(),
             interpolated_fraction: self.stats.interpolated_fraction(),
             gpu_ms: self.output.gpu_ms.clone(),
-            total_gpu_ms: self.output.total_ms(),
+            total_gpu_ms: self.frame_gpu_ms,
+            reused_history: self.reused_history,
             reference: self.reference.as_ref().map(|r| ReferenceSummary {
                 rays_total: r.rays.total(),
                 ray_fraction: r.ray_fraction,
@@ -480,8 +488,10 @@ pub struct FrameSummary {
     pub interpolated_fraction: f64,
     /// GPU milliseconds per pass.
     pub gpu_ms: Vec<(String, f64)>,
-    /// Sum of the passes.
+    /// GPU milliseconds of the whole frame (passes, stages between them, barriers).
     pub total_gpu_ms: f64,
+    /// Whether the frame could reuse an earlier frame's samples.
+    pub reused_history: bool,
     /// Against the full render, when requested.
     pub reference: Option<ReferenceSummary>,
 }
@@ -515,6 +525,81 @@ pub struct SequenceSummary {
     pub mean_psnr_db: Option<f64>,
     /// Mean GPU milliseconds of the full renders (with references).
     pub mean_reference_gpu_ms: Option<f64>,
+    /// Median, smallest and largest GPU milliseconds per frame.
+    pub frame_gpu_ms: Spread,
+    /// Mean GPU milliseconds of the frames that reused an earlier frame's samples (all but a
+    /// range's first frame with reuse; `None` without reuse).
+    pub mean_reused_frame_gpu_ms: Option<f64>,
+    /// Mean GPU time of the reusing frames ÷ mean GPU time of the full renders of the same
+    /// frames (with references and reuse).
+    pub reused_over_full_gpu_time: Option<f64>,
+    /// Per pass: median, smallest and largest GPU milliseconds over the frames that ran it.
+    pub passes: Vec<PassSpread>,
+}
+
+/// Median, smallest and largest of a set of timings.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Spread {
+    /// Median.
+    pub median: f64,
+    /// Smallest.
+    pub min: f64,
+    /// Largest.
+    pub max: f64,
+    /// Mean.
+    pub mean: f64,
+}
+
+impl Spread {
+    /// Of `values` (all zero when empty).
+    pub fn of(values: &[f64]) -> Self {
+        if values.is_empty() {
+            return Self::default();
+        }
+        let mut v = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        Self {
+            median: v[v.len() / 2],
+            min: v[0],
+            max: v[v.len() - 1],
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+        }
+    }
+}
+
+/// GPU time of one named pass over many frames.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PassSpread {
+    /// Scope name.
+    pub name: String,
+    /// Its spread.
+    #[serde(flatten)]
+    pub ms: Spread,
+}
+
+/// Per pass, in first-seen order: the spread of its GPU milliseconds over `frames`.
+pub fn pass_spreads<'a>(frames: impl IntoIterator<Item = &'a [(String, f64)]>) -> Vec<PassSpread> {
+    let mut names: Vec<String> = Vec::new();
+    let mut values: Vec<Vec<f64>> = Vec::new();
+    for passes in frames {
+        for (name, ms) in passes {
+            match names.iter().position(|n| n == name) {
+                Some(i) => values[i].push(*ms),
+                None => {
+                    names.push(name.clone());
+                    values.push(vec![*ms]);
+                }
+            }
+        }
+    }
+    names
+        .into_iter()
+        .zip(values)
+        .map(|(name, v)| PassSpread {
+            name,
+            ms: Spread::of(&v),
+        })
+        .collect()
 }
 
 impl SequenceSummary {
@@ -552,21 +637,108 @@ impl SequenceSummary {
             mean_psnr_db: (!finite.is_empty())
                 .then(|| finite.iter().sum::<f64>() / finite.len() as f64),
             mean_reference_gpu_ms: rmean(&|r| r.total_gpu_ms),
+            frame_gpu_ms: Spread::of(&frames.iter().map(|f| f.total_gpu_ms).collect::<Vec<_>>()),
+            mean_reused_frame_gpu_ms: reused_mean(frames, |f| f.total_gpu_ms),
+            reused_over_full_gpu_time: reused_mean(frames, |f| f.total_gpu_ms)
+                .zip(reused_mean(frames, |f| {
+                    f.reference.as_ref().map_or(f64::NAN, |r| r.total_gpu_ms)
+                }))
+                .filter(|(_, full)| full.is_finite() && *full > 0.0)
+                .map(|(frame, full)| frame / full),
+            passes: pass_spreads(frames.iter().map(|f| f.gpu_ms.as_slice())),
         }
     }
 }
 
+/// Mean of `value` over the frames that reused samples (`None` when there are none).
+fn reused_mean(frames: &[FrameSummary], value: impl Fn(&FrameSummary) -> f64) -> Option<f64> {
+    let v: Vec<f64> = frames
+        .iter()
+        .filter(|f| f.reused_history)
+        .map(value)
+        .collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
 /// Renders the frames of a camera path.
+///
+/// Every resource is allocated once, in [`Sequence::new`] (and [`Sequence::prepare_bursts`]):
+/// the reprojection cache, the full-render targets and the host-visible ring that frames copy
+/// their images and counters into. Frames are recorded in bursts, back to back in one
+/// submission ([`Sequence::render_burst`]); [`Sequence::render_frame`] is a burst of one.
 pub struct Sequence<'r> {
-    renderer: &'r Renderer,
     draws: Vec<Draw>,
     settings: RenderSettings,
     base: Camera,
     path: CameraPath,
     options: SequenceOptions,
     reprojector: Option<Reprojector<'r>>,
+    /// Full renders: every frame of a sequence without reuse, and the references.
+    full: FrameTargets,
+    burst: BurstResources,
     next: Option<u32>,
 }
+
+/// What the full render of a frame keeps for its comparison and for callers.
+const REFERENCE_CONTENTS: RingContents = RingContents {
+    rgba8: true,
+    color: true,
+    aov: false,
+    states: false,
+};
+
+/// What a burst's frames copy their outputs into, and its timestamps.
+struct BurstResources {
+    frames: FrameRing,
+    references: Option<FrameRing>,
+    profiler: Option<GpuProfiler>,
+}
+
+impl BurstResources {
+    fn new(
+        ctx: &Context,
+        settings: &RenderSettings,
+        frames: u32,
+        contents: RingContents,
+        reference: bool,
+    ) -> crate::Result<Self> {
+        let pixels = settings.pixels();
+        let ring = FrameRing::new(ctx, "sequence frames", frames, pixels, contents)?;
+        let references = reference
+            .then(|| {
+                FrameRing::new(
+                    ctx,
+                    "sequence references",
+                    frames,
+                    pixels,
+                    REFERENCE_CONTENTS,
+                )
+            })
+            .transpose()?;
+        // Each frame (and its reference) is one profiler frame plus its scopes.
+        let scopes = (super::reproject::SCOPES_PER_FRAME + 8) * frames * 2;
+        Ok(Self {
+            frames: ring,
+            references,
+            profiler: GpuProfiler::new(ctx, scopes).ok(),
+        })
+    }
+}
+
+/// How the warm-up before timed bursts went ([`Sequence::warm_up`]).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct WarmUp {
+    /// Warm-up bursts rendered.
+    pub bursts: u32,
+    /// Frames per warm-up burst.
+    pub frames_per_burst: u32,
+    /// Mean GPU milliseconds per frame of each warm-up burst.
+    pub burst_mean_ms: Vec<f64>,
+    /// Whether the last two bursts agreed within [`WARM_UP_TOLERANCE`].
+    pub settled: bool,
+}
+
+pub use super::burst::{WARM_UP_MAX_BURSTS, WARM_UP_TOLERANCE};
 
 impl<'r> Sequence<'r> {
     /// Prepares a sequence of `scene` (already uploaded into `renderer`) along `path`, where
@@ -608,16 +780,64 @@ impl<'r> Sequence<'r> {
         if options.reuse.any() {
             settings.gbuffer = gbuffer::GbufferLayout::Full;
         }
+        let draws = gbuffer::draws(scene);
+        let full = FrameTargets::new(ctx, renderer, options.path, &settings, &draws, false)?;
+        let burst = BurstResources::new(
+            ctx,
+            &settings,
+            1,
+            RingContents {
+                rgba8: true,
+                color: true,
+                aov: false,
+                states: true,
+            },
+            options.reference,
+        )?;
         Ok(Self {
-            renderer,
-            draws: gbuffer::draws(scene),
+            draws,
             settings,
             base,
             path,
             options,
             reprojector,
+            full,
+            burst,
             next: None,
         })
+    }
+
+    /// Makes room for bursts of up to `frames` frames whose ring slots hold `contents` (one
+    /// allocation, before the first burst). Returns the burst length actually prepared: at
+    /// most `frames`, fewer when the ring would exceed `max_ring_bytes`.
+    pub fn prepare_bursts(
+        &mut self,
+        ctx: &Context,
+        frames: u32,
+        contents: RingContents,
+        max_ring_bytes: u64,
+    ) -> crate::Result<u32> {
+        let slot = FrameRing::slot_bytes(self.settings.pixels(), contents)
+            + if self.options.reference {
+                FrameRing::slot_bytes(self.settings.pixels(), REFERENCE_CONTENTS)
+            } else {
+                0
+            };
+        let frames = frames.clamp(1, (max_ring_bytes / slot.max(1)).clamp(1, 4096) as u32);
+        ctx.check_memory("the burst's readback slots", slot * u64::from(frames))?;
+        self.burst = BurstResources::new(
+            ctx,
+            &self.settings,
+            frames,
+            contents,
+            self.options.reference,
+        )?;
+        Ok(frames)
+    }
+
+    /// The longest burst [`Self::render_burst`] takes.
+    pub fn burst_capacity(&self) -> u32 {
+        self.burst.frames.slots()
     }
 
     /// The camera of frame `index`.
@@ -633,59 +853,187 @@ impl<'r> Sequence<'r> {
         self.next = None;
     }
 
-    fn full_render(&self, ctx: &Context, camera: &Camera) -> crate::Result<RenderOutput> {
-        match self.options.path {
-            RenderPath::RayTraced => self.renderer.render_rt(ctx, &self.settings, camera, false),
-            RenderPath::Hybrid => {
-                self.renderer
-                    .render_hybrid(ctx, &self.draws, &self.settings, camera, false)
-            }
-        }
+    /// Renders frame `index` in its own submission. Frames rendered in order (`index` =
+    /// previous + 1) reuse the previous frame's samples; any other index starts from an empty
+    /// cache.
+    pub fn render_frame(&mut self, ctx: &Context, index: u32) -> crate::Result<SequenceFrame> {
+        let mut frames = self.render_burst(ctx, index..index.saturating_add(1))?;
+        frames
+            .pop()
+            .ok_or_else(|| VkError::Limit("empty frame range".into()).into())
     }
 
-    /// Renders frame `index`. Frames rendered in order (`index` = previous + 1) reuse the
-    /// previous frame's samples; any other index starts from an empty cache.
-    pub fn render_frame(&mut self, ctx: &Context, index: u32) -> crate::Result<SequenceFrame> {
-        let camera = self.camera(index);
-        if self.next != Some(index) {
+    /// Renders frames `frames` back to back in one submission, no host work between them
+    /// (with references, each frame's full render follows it in the same submission), then
+    /// reads every frame's image, statistics and GPU times from the ring. The images are
+    /// identical to rendering the frames one by one. At most [`Self::burst_capacity`] frames.
+    pub fn render_burst(
+        &mut self,
+        ctx: &Context,
+        frames: std::ops::Range<u32>,
+    ) -> crate::Result<Vec<SequenceFrame>> {
+        let count = frames.end.saturating_sub(frames.start);
+        if count == 0 || count > self.burst_capacity() {
+            return Err(VkError::Limit(format!(
+                "a burst of {count} frames does not fit the prepared {} (Sequence::prepare_bursts)",
+                self.burst_capacity()
+            ))
+            .into());
+        }
+        if self.next != Some(frames.start) {
             self.reset();
         }
-        let (output, sources, stats) = match self.reprojector.as_mut() {
+        let cameras: Vec<Camera> = frames.clone().map(|k| self.camera(k)).collect();
+        let mut history = Vec::with_capacity(cameras.len());
+        let reference = self.options.reference && self.reprojector.is_some();
+        let Self {
+            draws,
+            reprojector,
+            full,
+            burst,
+            ..
+        } = self;
+        let mut profiler = burst.profiler.take();
+        let recorded = ctx.run("sequence frames", |cmd| {
+            if let Some(p) = profiler.as_mut() {
+                p.reset(cmd);
+            }
+            for (slot, camera) in cameras.iter().enumerate() {
+                let slot = slot as u32;
+                if let Some(p) = profiler.as_mut() {
+                    p.begin_frame(cmd);
+                }
+                match reprojector.as_mut() {
+                    Some(r) => {
+                        history.push(r.has_history() && r.options().reuses());
+                        r.record(
+                            ctx,
+                            cmd,
+                            draws,
+                            camera,
+                            profiler.as_mut(),
+                            Some((&burst.frames, slot)),
+                        );
+                    }
+                    None => {
+                        history.push(false);
+                        full.record(
+                            ctx,
+                            cmd,
+                            &full.gpu_frame(camera),
+                            profiler.as_mut(),
+                            Some((&burst.frames, slot)),
+                        );
+                    }
+                }
+                if let Some(p) = profiler.as_mut() {
+                    p.end_frame(cmd);
+                }
+                if let (true, Some(ring)) = (reference, burst.references.as_ref()) {
+                    if let Some(p) = profiler.as_mut() {
+                        p.begin_frame(cmd);
+                    }
+                    full.record(
+                        ctx,
+                        cmd,
+                        &full.gpu_frame(camera),
+                        profiler.as_mut(),
+                        Some((ring, slot)),
+                    );
+                    if let Some(p) = profiler.as_mut() {
+                        p.end_frame(cmd);
+                    }
+                }
+            }
+            Ok(())
+        });
+        let timings = match (&recorded, profiler.as_ref()) {
+            (Ok(()), Some(p)) => p.frame_results(),
+            _ => Ok(Vec::new()),
+        };
+        burst.profiler = profiler;
+        recorded?;
+        let timings = timings?;
+        self.next = Some(frames.end);
+        let per_frame = if reference { 2 } else { 1 };
+        let mut out = Vec::with_capacity(cameras.len());
+        for (slot, (index, camera)) in frames.zip(cameras).enumerate() {
+            let timing = timings.get(slot * per_frame).cloned().unwrap_or_default();
+            let ref_timing = reference.then(|| {
+                timings
+                    .get(slot * per_frame + 1)
+                    .cloned()
+                    .unwrap_or_default()
+            });
+            out.push(self.frame_from_ring(
+                slot as u32,
+                index,
+                camera,
+                timing,
+                ref_timing,
+                history[slot],
+            )?);
+        }
+        Ok(out)
+    }
+
+    fn frame_from_ring(
+        &self,
+        slot: u32,
+        index: u32,
+        camera: Camera,
+        timing: FrameTiming,
+        ref_timing: Option<FrameTiming>,
+        reused_history: bool,
+    ) -> crate::Result<SequenceFrame> {
+        let ring = &self.burst.frames;
+        let (mut output, sources, stats) = match self.reprojector.as_ref() {
             Some(r) => {
                 let ReprojectedFrame {
                     output,
                     sources,
                     stats,
-                } = r.render(ctx, &self.draws, &camera)?;
+                } = r.output(ring, slot)?;
                 (output, sources, stats)
             }
             None => {
-                let output = self.full_render(ctx, &camera)?;
+                let output = self.full.output(ring, slot)?;
                 let pixels = u64::from(output.width) * u64::from(output.height);
                 let stats = ReuseStats {
                     pixels,
                     traced: pixels,
                     ..Default::default()
                 };
-                (output, vec![PixelSource::Traced; pixels as usize], stats)
+                let sources = if ring.contents().states {
+                    vec![PixelSource::Traced; pixels as usize]
+                } else {
+                    Vec::new()
+                };
+                (output, sources, stats)
             }
         };
-        self.next = index.checked_add(1);
+        output.gpu_ms = merge_scopes(timing.passes);
         let (reference, reference_output) = if self.options.reference {
             // Without reuse the frame is itself the full render.
-            let full = if self.reprojector.is_some() {
-                self.full_render(ctx, &camera)?
-            } else {
-                RenderOutput {
-                    width: output.width,
-                    height: output.height,
-                    color: output.color.clone(),
-                    rgba8: output.rgba8.clone(),
-                    aov: Vec::new(),
-                    rays: output.rays,
-                    samples: output.samples,
-                    gpu_ms: output.gpu_ms.clone(),
+            let (full, full_ms) = match (self.burst.references.as_ref(), ref_timing) {
+                (Some(refs), Some(t)) if self.reprojector.is_some() => {
+                    let mut full = self.full.output(refs, slot)?;
+                    full.gpu_ms = merge_scopes(t.passes);
+                    (full, t.total_ms)
                 }
+                _ => (
+                    RenderOutput {
+                        width: output.width,
+                        height: output.height,
+                        color: output.color.clone(),
+                        rgba8: output.rgba8.clone(),
+                        aov: Vec::new(),
+                        rays: output.rays,
+                        samples: output.samples,
+                        gpu_ms: output.gpu_ms.clone(),
+                    },
+                    timing.total_ms,
+                ),
             };
             let diff = compare::compare(output.width, output.height, &full.rgba8, &output.rgba8);
             (
@@ -693,7 +1041,7 @@ impl<'r> Sequence<'r> {
                     rays: full.rays,
                     ray_fraction: output.rays.total() as f64 / full.rays.total().max(1) as f64,
                     diff,
-                    total_gpu_ms: full.total_ms(),
+                    total_gpu_ms: full_ms,
                 }),
                 Some(full),
             )
@@ -708,7 +1056,37 @@ impl<'r> Sequence<'r> {
             stats,
             reference,
             reference_output,
+            frame_gpu_ms: timing.total_ms,
+            reused_history,
         })
+    }
+
+    /// Warms the GPU (and lavapipe's shader JIT) up before timed bursts: renders bursts of
+    /// `frames` frames from `start` (cache emptied before each) until two consecutive bursts'
+    /// mean frame times agree within [`WARM_UP_TOLERANCE`], at most [`WARM_UP_MAX_BURSTS`];
+    /// then empties the cache again, so the timed run starts exactly as an untimed one would.
+    pub fn warm_up(&mut self, ctx: &Context, start: u32, frames: u32) -> crate::Result<WarmUp> {
+        let frames = frames.clamp(1, self.burst_capacity());
+        let mut w = WarmUp {
+            frames_per_burst: frames,
+            ..Default::default()
+        };
+        while w.bursts < WARM_UP_MAX_BURSTS {
+            self.reset();
+            let burst = self.render_burst(ctx, start..start.saturating_add(frames))?;
+            w.bursts += 1;
+            let mean =
+                burst.iter().map(|f| f.frame_gpu_ms).sum::<f64>() / burst.len().max(1) as f64;
+            w.burst_mean_ms.push(mean);
+            if let [.., a, b] = w.burst_mean_ms[..] {
+                if (a - b).abs() <= WARM_UP_TOLERANCE * a.max(b) {
+                    w.settled = true;
+                    break;
+                }
+            }
+        }
+        self.reset();
+        Ok(w)
     }
 }
 

@@ -1,6 +1,6 @@
 use std::ffi::{c_void, CStr, CString};
 use std::mem::ManuallyDrop;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -84,6 +84,9 @@ pub struct Features {
     pub ray_query: bool,
     /// Timestamps usable on the chosen queue.
     pub timestamps: bool,
+    /// `shaderBufferInt64Atomics` enabled: the compute rasterizer's one-pass 64-bit
+    /// atomic-min (depth | triangle) path.
+    pub buffer_int64_atomics: bool,
 }
 
 /// Validation messages collected by the debug messenger.
@@ -131,6 +134,9 @@ pub(crate) struct Shared {
     graveyard: Mutex<Vec<Destructor>>,
     /// Abandoned work never finished: destroying anything could free memory it still uses.
     leak: AtomicBool,
+    /// Memory allocations made through the allocator since the device was opened (buffers,
+    /// images, staging): what a steady frame loop must stop adding to.
+    pub(crate) allocations: AtomicU64,
     // Dropped by hand after the device (or never, when leaking).
     pub(crate) owner: ManuallyDrop<InstanceOwner>,
 }
@@ -475,6 +481,7 @@ impl Context {
             abandoned: AtomicBool::new(false),
             graveyard: Mutex::new(Vec::new()),
             leak: AtomicBool::new(false),
+            allocations: AtomicU64::new(0),
             owner: ManuallyDrop::new(owner),
         });
         let device = &shared.device;
@@ -626,7 +633,8 @@ impl Context {
             .host_query_reset(f12.host_query_reset == vk::TRUE)
             .shader_float16(f12.shader_float16 == vk::TRUE)
             .storage_buffer8_bit_access(f12.storage_buffer8_bit_access == vk::TRUE)
-            .shader_int8(f12.shader_int8 == vk::TRUE);
+            .shader_int8(f12.shader_int8 == vk::TRUE)
+            .shader_buffer_int64_atomics(f12.shader_buffer_int64_atomics == vk::TRUE);
         let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true)
@@ -660,6 +668,7 @@ impl Context {
                 acceleration_structure,
                 ray_query,
                 timestamps,
+                buffer_int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
             },
         ))
     }
@@ -714,6 +723,13 @@ impl Context {
             .ok()
             .and_then(|a| a.as_ref().map(Allocator::capacity))
             .unwrap_or(0)
+    }
+
+    /// How many device-memory allocations (buffers, images, staging buffers) were made since
+    /// the device was opened. A frame loop that reuses its resources leaves it unchanged from
+    /// one frame to the next.
+    pub fn allocation_count(&self) -> u64 {
+        self.shared.allocations.load(Ordering::Relaxed)
     }
 
     /// Refuses to allocate `bytes` more for `what` when they, plus what is allocated now,

@@ -14,6 +14,9 @@ fn allocate(
     location: MemoryLocation,
     linear: bool,
 ) -> VkResult<Allocation> {
+    shared
+        .allocations
+        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let mut guard = shared.allocator.lock().expect("allocator lock poisoned");
     let allocator = guard.as_mut().expect("allocator alive while the device is");
     allocator
@@ -207,6 +210,47 @@ impl Buffer {
         Ok(bytemuck::pod_collect_to_vec(&mapped[..bytes]))
     }
 
+    /// Records a copy of `size` bytes from `src_offset` of this buffer to `dst_offset` of
+    /// `dst` (both alive until the command buffer completes).
+    pub fn record_copy_to(
+        &self,
+        device: &ash::Device,
+        cmd: vk::CommandBuffer,
+        dst: &Buffer,
+        src_offset: u64,
+        dst_offset: u64,
+        size: u64,
+    ) {
+        let region = vk::BufferCopy::default()
+            .src_offset(src_offset)
+            .dst_offset(dst_offset)
+            .size(size);
+        // SAFETY: recording command buffer; both buffers are alive and the caller keeps the
+        // ranges within them.
+        unsafe { device.cmd_copy_buffer(cmd, self.raw, dst.raw, &[region]) };
+    }
+
+    /// Records an update of the start of the buffer with `bytes` (at most 65536, a multiple
+    /// of 4): the way a frame recorded into a burst gets its own uniforms, without the host
+    /// writing memory the previous frame still reads.
+    pub fn record_update(&self, device: &ash::Device, cmd: vk::CommandBuffer, bytes: &[u8]) {
+        debug_assert!(bytes.len() <= 65536 && bytes.len() % 4 == 0);
+        debug_assert!(bytes.len() as u64 <= self.size);
+        // SAFETY: recording command buffer; the buffer has TRANSFER_DST usage and is large
+        // enough (checked above in debug builds; callers pass their own uniform structs).
+        unsafe { device.cmd_update_buffer(cmd, self.raw, 0, bytes) };
+    }
+
+    /// `count` elements at byte `offset` of a host-visible buffer, after the submission that
+    /// wrote them completed (see [`host_read_barrier`]). `None` if the buffer is not
+    /// host-visible or the range is outside it.
+    pub fn mapped_read<T: bytemuck::Pod>(&self, offset: u64, count: usize) -> Option<Vec<T>> {
+        let mapped = self.allocation.as_ref()?.mapped_slice()?;
+        let start = usize::try_from(offset).ok()?;
+        let end = start.checked_add(count.checked_mul(std::mem::size_of::<T>())?)?;
+        Some(bytemuck::pod_collect_to_vec(mapped.get(start..end)?))
+    }
+
     /// The Vulkan handle.
     pub fn raw(&self) -> vk::Buffer {
         self.raw
@@ -235,6 +279,19 @@ impl Drop for Buffer {
             }
         });
     }
+}
+
+/// Makes transfer writes recorded before it visible to the host once the submission's fence
+/// has signalled (for reading back host-visible buffers filled inside a frame).
+pub fn host_read_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
+    let barrier = [vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+        .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+        .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+    let dep = vk::DependencyInfo::default().memory_barriers(&barrier);
+    // SAFETY: recording command buffer; synchronization2 is enabled.
+    unsafe { device.cmd_pipeline_barrier2(cmd, &dep) };
 }
 
 /// A 2D image with one view over all its mip levels.

@@ -15,7 +15,7 @@ pub(crate) use context::Shared;
 pub use context::{
     Context, ContextOptions, DeviceSelector, Features, ABANDONED_WORK_GRACE, DEFAULT_FENCE_TIMEOUT,
 };
-pub use memory::{Buffer, Image};
+pub use memory::{host_read_barrier, Buffer, Image};
 pub use pipeline::{
     memory_barrier, spirv_words, Binding, ComputePipeline, DescriptorSet, GraphicsPipeline,
     GraphicsTargets,
@@ -24,7 +24,7 @@ pub use probe::{
     largest_device_heap, probe_devices, AsProperties, DeviceInfo, MemoryHeapInfo, ProbeReport,
     TimestampInfo,
 };
-pub use profiler::GpuProfiler;
+pub use profiler::{FrameTiming, GpuProfiler};
 pub use sampler::Sampler;
 
 pub use ash::vk;

@@ -240,6 +240,22 @@ impl ComputePipeline {
         };
     }
 
+    /// Records a dispatch whose workgroup counts the GPU reads from the first three words of
+    /// `args` (an `INDIRECT_BUFFER` buffer), so a pass can be sized by work an earlier pass
+    /// found (a job list's length).
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: Option<&DescriptorSet>,
+        push: &[u8],
+        args: &super::Buffer,
+    ) {
+        self.bind(cmd, set, push);
+        // SAFETY: recording command buffer with this pipeline bound; `args` has
+        // INDIRECT_BUFFER usage (the caller's) and holds three u32 at offset 0.
+        unsafe { self.shared.device.cmd_dispatch_indirect(cmd, args.raw(), 0) };
+    }
+
     /// Binds the pipeline, `set` and `push` for a dispatch.
     fn bind(&self, cmd: vk::CommandBuffer, set: Option<&DescriptorSet>, push: &[u8]) {
         let device = &self.shared.device;
@@ -271,7 +287,7 @@ impl ComputePipeline {
     /// Records a dispatch whose workgroup counts the GPU reads from `args` at byte `offset`
     /// (three `u32`s; the buffer needs `INDIRECT_BUFFER` usage): passes whose size an earlier
     /// pass computed run without a host round trip.
-    pub fn dispatch_indirect(
+    pub fn dispatch_indirect_at(
         &self,
         cmd: vk::CommandBuffer,
         set: Option<&DescriptorSet>,

@@ -55,6 +55,12 @@ pub struct DeviceInfo {
     pub driver_name: String,
     /// Driver info string.
     pub driver_info: String,
+    /// `VkPhysicalDeviceProperties::driverVersion` (vendor-specific encoding).
+    pub driver_version: u32,
+    /// `deviceUUID`, hex with dashes (the autotune cache key, with the driver version).
+    pub device_uuid: String,
+    /// `shaderBufferInt64Atomics`: the compute rasterizer's one-pass depth test.
+    pub buffer_int64_atomics: bool,
     /// `VK_KHR_ray_query` usable.
     pub ray_query: bool,
     /// `VK_KHR_acceleration_structure` usable.
@@ -83,6 +89,12 @@ pub struct DeviceInfo {
     pub backend: Option<String>,
     /// Why that backend.
     pub backend_reason: String,
+    /// What runs the hybrid visibility pass (`graphics` or `compute`) under `--raster auto`.
+    pub raster: String,
+    /// Why that visibility pass.
+    pub raster_reason: String,
+    /// The autotune numbers behind `backend`/`raster` (`null`: the feature rule decided).
+    pub autotune: Option<crate::autotune::Measurement>,
 }
 
 /// Size of the largest device-local heap (of the largest heap when none is device-local):
@@ -124,6 +136,17 @@ fn version_string(v: u32) -> String {
     )
 }
 
+fn uuid_string(bytes: &[u8; vk::UUID_SIZE]) -> String {
+    let mut s = String::with_capacity(36);
+    for (i, b) in bytes.iter().enumerate() {
+        if matches!(i, 4 | 6 | 8 | 10) {
+            s.push('-');
+        }
+        s.push_str(&format!("{b:02x}"));
+    }
+    s
+}
+
 fn c_string(chars: &[std::ffi::c_char]) -> String {
     // SAFETY: Vulkan strings are NUL-terminated within their fixed arrays.
     let bytes: &[u8] = unsafe { std::slice::from_raw_parts(chars.as_ptr().cast(), chars.len()) };
@@ -150,11 +173,13 @@ pub(crate) fn describe_device(
 
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
     let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut id_props = vk::PhysicalDeviceIDProperties::default();
     let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
     let props = {
         let mut props2 = vk::PhysicalDeviceProperties2::default()
             .push_next(&mut driver)
-            .push_next(&mut subgroup);
+            .push_next(&mut subgroup)
+            .push_next(&mut id_props);
         if has_as {
             props2 = props2.push_next(&mut as_props);
         }
@@ -251,6 +276,9 @@ pub(crate) fn describe_device(
         api_version: version_string(props.api_version),
         driver_name: c_string(&driver.driver_name),
         driver_info: c_string(&driver.driver_info),
+        driver_version: props.driver_version,
+        device_uuid: uuid_string(&id_props.device_uuid),
+        buffer_int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
         ray_query,
         acceleration_structure,
         ray_tracing_pipeline: has_rtp,
@@ -271,6 +299,9 @@ pub(crate) fn describe_device(
         missing_features: missing,
         backend: None,
         backend_reason: String::new(),
+        raster: "graphics".into(),
+        raster_reason: "auto (feature rule): graphics pipeline".into(),
+        autotune: None,
     };
     info.set_backend(BackendChoice::Auto);
     info

@@ -83,6 +83,8 @@ fn run_rqr_to(
     let start = std::time::Instant::now();
     let mut child = Command::new(env!("CARGO_BIN_EXE_rqr"))
         .args(args)
+        // `auto` by the feature rule unless a test sets its own cache (env below overrides).
+        .env("RQR_NO_AUTOTUNE", "1")
         .envs(env.iter().copied())
         .stdout(stdout)
         .stderr(Stdio::piped())

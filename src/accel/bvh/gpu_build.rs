@@ -406,11 +406,13 @@ impl<'a> Builder<'a> {
         let state = &self.scratch.state;
         match blocks {
             Some(b) => self.p.scan_reduce.dispatch(cmd, None, bytes, [b, 1, 1]),
-            None => {
-                self.p
-                    .scan_reduce
-                    .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_BLOCKS * 4)
-            }
+            None => self.p.scan_reduce.dispatch_indirect_at(
+                cmd,
+                None,
+                bytes,
+                state,
+                STATE_ARGS_BLOCKS * 4,
+            ),
         }
         self.barrier(cmd);
         match blocks {
@@ -418,17 +420,19 @@ impl<'a> Builder<'a> {
             None => {
                 self.p
                     .scan_top
-                    .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_SINGLE * 4)
+                    .dispatch_indirect_at(cmd, None, bytes, state, STATE_ARGS_SINGLE * 4)
             }
         }
         self.barrier(cmd);
         match blocks {
             Some(b) => self.p.scan_down.dispatch(cmd, None, bytes, [b, 1, 1]),
-            None => {
-                self.p
-                    .scan_down
-                    .dispatch_indirect(cmd, None, bytes, state, STATE_ARGS_BLOCKS * 4)
-            }
+            None => self.p.scan_down.dispatch_indirect_at(
+                cmd,
+                None,
+                bytes,
+                state,
+                STATE_ARGS_BLOCKS * 4,
+            ),
         }
         self.barrier(cmd);
     }
@@ -441,11 +445,13 @@ impl<'a> Builder<'a> {
             let push = self.push(parity, 0);
             let bytes = bytemuck::bytes_of(&push);
             let elems = STATE_ARGS_ELEMS * 4;
-            self.p.nn.dispatch_indirect(cmd, None, bytes, state, elems);
+            self.p
+                .nn
+                .dispatch_indirect_at(cmd, None, bytes, state, elems);
             self.barrier(cmd);
             self.p
                 .merge
-                .dispatch_indirect(cmd, None, bytes, state, elems);
+                .dispatch_indirect_at(cmd, None, bytes, state, elems);
             self.barrier(cmd);
             self.record_scan(
                 cmd,
@@ -456,7 +462,7 @@ impl<'a> Builder<'a> {
             );
             self.p
                 .compact
-                .dispatch_indirect(cmd, None, bytes, state, elems);
+                .dispatch_indirect_at(cmd, None, bytes, state, elems);
             self.barrier(cmd);
             self.p.ploc_prepare.dispatch(cmd, None, bytes, [1, 1, 1]);
             self.barrier(cmd);
@@ -548,7 +554,7 @@ impl<'a> Builder<'a> {
                 for l in level..level + COLLAPSE_CHUNK {
                     let push = b.push(l % 2, 0);
                     let bytes = bytemuck::bytes_of(&push);
-                    b.p.collapse.dispatch_indirect(
+                    b.p.collapse.dispatch_indirect_at(
                         cmd,
                         None,
                         bytes,

@@ -1,0 +1,379 @@
+//! `--backend auto` and `--raster auto` decided by measurement: the first time rqr meets a
+//! device and driver version it times a small fixed workload (the built-in scene at
+//! [`MEASURE_SIZE`]², depth 1): the ray-traced frame on `hw` and on `bvh`, and the hybrid
+//! path's visibility pass on the graphics pipeline and on the compute rasterizer. The numbers
+//! are cached as JSON in the user's cache directory (`$XDG_CACHE_HOME/rqr/autotune.json`),
+//! keyed by device UUID and driver version, and every later run decides from them.
+//!
+//! `RQR_NO_AUTOTUNE=1` skips all of this and applies the feature rule (`hw` where the device
+//! has ray queries, graphics visibility). A cache that is missing, corrupt, from another format
+//! or unwritable only costs a warning and a measurement (or the rule when measuring fails).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use serde::{Deserialize, Serialize};
+
+use crate::accel::Backend;
+use crate::render::raster_compute::RasterMode;
+use crate::vk::{Context, DeviceInfo};
+
+/// Format of the cache file; a file of another format is ignored and rewritten.
+pub const CACHE_FORMAT: u32 = 1;
+/// Image side of the measured frames.
+pub const MEASURE_SIZE: u32 = 256;
+/// Timed frames per measured configuration (after one untimed warm-up frame); the minimum is kept.
+pub const MEASURE_FRAMES: u32 = 2;
+/// Environment variable that turns measurement off (`1`).
+pub const NO_AUTOTUNE_ENV: &str = "RQR_NO_AUTOTUNE";
+
+/// What the micro-benchmark measured on one device (GPU milliseconds, minimum of
+/// [`MEASURE_FRAMES`] frames).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Measurement {
+    /// Ray-traced frame (primary rays + shadow rays, depth 1) on `hw`; `None` without ray queries.
+    pub rt_hw_ms: Option<f64>,
+    /// The same frame on `bvh`.
+    pub rt_bvh_ms: f64,
+    /// Hybrid visibility pass on the graphics pipeline.
+    pub visibility_graphics_ms: f64,
+    /// Hybrid visibility pass on the compute rasterizer.
+    pub visibility_compute_ms: f64,
+}
+
+/// The choices `auto` resolves to, with reasons.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Decision {
+    /// Ray backend.
+    pub backend: Backend,
+    /// Why.
+    pub backend_reason: String,
+    /// What runs the hybrid visibility pass.
+    pub raster: RasterMode,
+    /// Why.
+    pub raster_reason: String,
+    /// The numbers behind the decision (`None`: the feature rule decided).
+    pub measured: Option<Measurement>,
+}
+
+/// Today's feature rule: `hw` where the device has acceleration structures and ray queries,
+/// else `bvh`; the graphics pipeline for visibility. `why` says why no measurement decided.
+pub fn rule(device: &DeviceInfo, why: &str) -> Decision {
+    let hw_ok = device.ray_query && device.acceleration_structure;
+    let (backend, features) = if hw_ok {
+        (
+            Backend::Hw,
+            "device has VK_KHR_acceleration_structure + VK_KHR_ray_query".to_string(),
+        )
+    } else {
+        (
+            Backend::Bvh,
+            format!(
+                "device lacks {}; using the compute-shader BVH",
+                if device.acceleration_structure {
+                    "VK_KHR_ray_query"
+                } else {
+                    "VK_KHR_acceleration_structure"
+                }
+            ),
+        )
+    };
+    Decision {
+        backend,
+        backend_reason: format!("auto (feature rule, {why}): {features}"),
+        raster: RasterMode::Graphics,
+        raster_reason: format!("auto (feature rule, {why}): graphics pipeline"),
+        measured: None,
+    }
+}
+
+/// Decides from measured numbers: the faster ray backend (ties to `hw`) and the faster
+/// visibility pass (ties to graphics).
+pub fn decide(m: &Measurement, device: &DeviceInfo) -> Decision {
+    let hw_ok = device.ray_query && device.acceleration_structure;
+    let size = format!("built-in scene, {MEASURE_SIZE}x{MEASURE_SIZE}, depth 1");
+    let (backend, backend_reason) = match m.rt_hw_ms {
+        Some(hw) if hw_ok => {
+            let backend = if hw <= m.rt_bvh_ms {
+                Backend::Hw
+            } else {
+                Backend::Bvh
+            };
+            (
+                backend,
+                format!(
+                    "auto (measured): ray-traced frame {hw:.3} ms on hw vs {:.3} ms on bvh ({size})",
+                    m.rt_bvh_ms
+                ),
+            )
+        }
+        _ => (
+            Backend::Bvh,
+            format!(
+                "auto (measured): no ray queries; bvh frame {:.3} ms ({size})",
+                m.rt_bvh_ms
+            ),
+        ),
+    };
+    let raster = if m.visibility_compute_ms < m.visibility_graphics_ms {
+        RasterMode::Compute
+    } else {
+        RasterMode::Graphics
+    };
+    Decision {
+        backend,
+        backend_reason,
+        raster,
+        raster_reason: format!(
+            "auto (measured): visibility pass {:.3} ms graphics vs {:.3} ms compute ({size})",
+            m.visibility_graphics_ms, m.visibility_compute_ms
+        ),
+        measured: Some(m.clone()),
+    }
+}
+
+/// The cache key of a device: UUID and driver version (a driver update re-measures).
+pub fn cache_key(device: &DeviceInfo) -> String {
+    format!(
+        "{}/{:#x}/{}",
+        device.device_uuid, device.driver_version, device.driver_info
+    )
+}
+
+/// The cache file: `<user cache dir>/rqr/autotune.json` (`$XDG_CACHE_HOME` or `~/.cache` on
+/// Linux); `None` where the platform has no cache directory.
+pub fn cache_path() -> Option<PathBuf> {
+    dirs::cache_dir().map(|d| d.join("rqr").join("autotune.json"))
+}
+
+#[derive(Serialize, Deserialize)]
+struct CacheFile {
+    format: u32,
+    /// rqr version that wrote it (informational).
+    rqr: String,
+    devices: BTreeMap<String, Measurement>,
+}
+
+/// Why a cache file could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum CacheError {
+    /// Reading or writing failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Not a cache file of this format.
+    #[error("{path}: {message}")]
+    Invalid {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn read_cache(path: &Path) -> Result<Option<CacheFile>, CacheError> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(source) => {
+            return Err(CacheError::Io {
+                path: path.display().to_string(),
+                source,
+            })
+        }
+    };
+    let file: CacheFile = serde_json::from_str(&text).map_err(|e| CacheError::Invalid {
+        path: path.display().to_string(),
+        message: format!("not an autotune cache ({e})"),
+    })?;
+    if file.format != CACHE_FORMAT {
+        return Err(CacheError::Invalid {
+            path: path.display().to_string(),
+            message: format!(
+                "cache format {} (this rqr reads {CACHE_FORMAT})",
+                file.format
+            ),
+        });
+    }
+    Ok(Some(file))
+}
+
+/// The cached measurement of `key` in `path`; `Ok(None)` when the file or entry is missing.
+pub fn load(path: &Path, key: &str) -> Result<Option<Measurement>, CacheError> {
+    Ok(read_cache(path)?.and_then(|mut f| f.devices.remove(key)))
+}
+
+/// Stores `m` under `key` in `path`, keeping other devices' entries of a readable file.
+pub fn store(path: &Path, key: &str, m: &Measurement) -> Result<(), CacheError> {
+    let mut file = read_cache(path).ok().flatten().unwrap_or(CacheFile {
+        format: CACHE_FORMAT,
+        rqr: String::new(),
+        devices: BTreeMap::new(),
+    });
+    file.rqr = env!("CARGO_PKG_VERSION").to_string();
+    file.devices.insert(key.to_string(), m.clone());
+    let io = |source| CacheError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    let text = serde_json::to_string_pretty(&file).unwrap_or_default();
+    // Write then rename, so a concurrent reader never sees half a file.
+    let tmp = path.with_extension(format!("json.{}", std::process::id()));
+    std::fs::write(&tmp, text).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        io(e)
+    })
+}
+
+/// Whether `RQR_NO_AUTOTUNE=1`.
+pub fn disabled() -> bool {
+    std::env::var(NO_AUTOTUNE_ENV).is_ok_and(|v| v == "1")
+}
+
+/// What `rqr probe` reports for a device without opening it: the cached measurement's
+/// decision, else the feature rule.
+pub fn cached_decision(device: &DeviceInfo) -> Decision {
+    if disabled() {
+        return rule(device, "RQR_NO_AUTOTUNE=1");
+    }
+    let Some(path) = cache_path() else {
+        return rule(device, "no cache directory");
+    };
+    match load(&path, &cache_key(device)) {
+        Ok(Some(m)) => decide(&m, device),
+        Ok(None) => rule(device, "not measured on this device yet"),
+        Err(e) => {
+            log::warn!("autotune cache unusable: {e}");
+            rule(device, "autotune cache unusable")
+        }
+    }
+}
+
+// Measurements of this process, so that one run never measures twice (e.g. when the cache
+// cannot be written).
+static MEASURED: Mutex<BTreeMap<String, Measurement>> = Mutex::new(BTreeMap::new());
+
+/// The decision for the opened device: cached numbers, else a measurement (then cached),
+/// else the feature rule. Never fails: problems are logged as warnings.
+pub fn decision(ctx: &Context) -> Decision {
+    let device = ctx.info();
+    if disabled() {
+        return rule(device, "RQR_NO_AUTOTUNE=1");
+    }
+    let key = cache_key(device);
+    if let Some(m) = MEASURED.lock().ok().and_then(|g| g.get(&key).cloned()) {
+        return decide(&m, device);
+    }
+    let path = cache_path();
+    if let Some(path) = &path {
+        match load(path, &key) {
+            Ok(Some(m)) => return decide(&m, device),
+            Ok(None) => {}
+            Err(e) => log::warn!("autotune cache unusable, measuring again: {e}"),
+        }
+    }
+    log::info!(
+        "autotune: first run on {} ({}), measuring backends and visibility passes",
+        device.name,
+        device.driver_info
+    );
+    let m = match measure(ctx) {
+        Ok(m) => m,
+        Err(e) => {
+            log::warn!("autotune measurement failed ({e}); using the feature rule");
+            return rule(device, "measurement failed");
+        }
+    };
+    if let Ok(mut g) = MEASURED.lock() {
+        g.insert(key.clone(), m.clone());
+    }
+    match &path {
+        Some(path) => {
+            if let Err(e) = store(path, &key, &m) {
+                log::warn!("cannot write the autotune cache: {e}");
+            }
+        }
+        None => log::warn!("no user cache directory; autotune results are not kept"),
+    }
+    decide(&m, device)
+}
+
+/// Times the fixed workload on `ctx` (see the module docs).
+pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
+    use crate::render::{gbuffer, RenderSettings, Renderer};
+    let scene = crate::scene::load_default()?;
+    let camera = scene
+        .cameras
+        .first()
+        .copied()
+        .unwrap_or_else(|| crate::scene::auto_camera(&scene.bounds, 1.0));
+    let draws = gbuffer::draws(&scene);
+    let settings = RenderSettings {
+        width: MEASURE_SIZE,
+        height: MEASURE_SIZE,
+        max_depth: 1,
+        ..Default::default()
+    };
+    // Minimum over timed frames of the summed scopes `pick` selects; frame 0 warms up.
+    let time = |render: &dyn Fn() -> crate::Result<crate::render::RenderOutput>,
+                pick: &dyn Fn(&str) -> bool|
+     -> crate::Result<f64> {
+        let mut best = f64::INFINITY;
+        for i in 0..=MEASURE_FRAMES {
+            let start = std::time::Instant::now();
+            let out = render()?;
+            let wall = start.elapsed().as_secs_f64() * 1e3;
+            let ms = if out.gpu_ms.is_empty() {
+                wall
+            } else {
+                out.gpu_ms
+                    .iter()
+                    .filter(|(n, _)| pick(n))
+                    .map(|(_, v)| v)
+                    .sum()
+            };
+            if i > 0 {
+                best = best.min(ms);
+            }
+        }
+        Ok(best)
+    };
+    let frame = |name: &str| name != "tonemap";
+    let mut rt_hw_ms = None;
+    if ctx.features().ray_query {
+        let hw = Renderer::new(ctx, &scene, Backend::Hw)?;
+        rt_hw_ms = Some(time(
+            &|| hw.render_rt(ctx, &settings, &camera, false),
+            &frame,
+        )?);
+    }
+    let bvh = Renderer::new(ctx, &scene, Backend::Bvh)?;
+    let rt_bvh_ms = time(&|| bvh.render_rt(ctx, &settings, &camera, false), &frame)?;
+    let visibility = |raster: RasterMode| {
+        let s = RenderSettings {
+            raster,
+            ..settings.clone()
+        };
+        time(
+            &|| bvh.render_hybrid(ctx, &draws, &s, &camera, false),
+            &|n| n == "gbuffer",
+        )
+    };
+    let m = Measurement {
+        rt_hw_ms,
+        rt_bvh_ms,
+        visibility_graphics_ms: visibility(RasterMode::Graphics)?,
+        visibility_compute_ms: visibility(RasterMode::Compute)?,
+    };
+    log::info!("autotune measured {m:?}");
+    Ok(m)
+}

@@ -1,0 +1,318 @@
+//! Compute rasterizer of the hybrid path's visibility buffer (`--raster compute`): the same
+//! (instance, primitive) image `visibility.frag` writes, produced by compute shaders instead of
+//! the graphics pipeline, for GPUs whose graphics units are scarce next to their compute units
+//! (H100/H200 run graphics on 2 of 66 TPCs).
+//!
+//! Three stages (`shaders/raster_*.comp`, rules in `shaders/common/raster.glsl`):
+//! 1. `raster_triangles`: one invocation per scene triangle transforms, culls and sets it up;
+//!    small unclipped triangles are rasterized on the spot, the others are queued;
+//! 2. `raster_big`: one workgroup per queued triangle clips it (near plane, guard band) and
+//!    covers its bounding box in 16×16-pixel tiles;
+//! 3. `raster_resolve`: per pixel, the winning global triangle id becomes (instance, primitive).
+//!
+//! The depth test is a per-pixel atomic minimum of `depth bits << 32 | triangle id` where the
+//! device has `shaderBufferInt64Atomics`, else two passes of 32-bit atomics (depth, then the
+//! lowest id at that depth). Both resolve ties to the lowest id.
+
+use std::sync::Arc;
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use super::gbuffer::Draw;
+use super::PassContext;
+use crate::vk::{
+    memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, Image,
+    MemoryLocation, VkError, VkResult,
+};
+
+/// What runs the hybrid path's visibility pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RasterMode {
+    /// The graphics pipeline (`gbuffer.vert` + `visibility.frag`).
+    #[default]
+    Graphics,
+    /// The compute rasterizer of this module (64-bit atomics where the device has them).
+    Compute,
+    /// The compute rasterizer on its 32-bit-atomic fallback even where 64-bit atomics exist
+    /// (how devices without `shaderBufferInt64Atomics` run `compute`; for tests and checks).
+    #[value(name = "compute-atomic32")]
+    #[serde(rename = "compute-atomic32")]
+    ComputeAtomic32,
+}
+
+impl RasterMode {
+    /// `"graphics"` or `"compute"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Graphics => "graphics",
+            Self::Compute => "compute",
+            Self::ComputeAtomic32 => "compute-atomic32",
+        }
+    }
+}
+
+/// What the user asked for with `--raster`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RasterChoice {
+    /// The faster of the two on this device, measured once per device and driver
+    /// ([`crate::autotune`]); graphics under `RQR_NO_AUTOTUNE=1`.
+    #[default]
+    Auto,
+    /// The graphics pipeline.
+    Graphics,
+    /// The compute rasterizer.
+    Compute,
+    /// The compute rasterizer on its 32-bit-atomic fallback.
+    #[value(name = "compute-atomic32")]
+    #[serde(rename = "compute-atomic32")]
+    ComputeAtomic32,
+}
+
+impl RasterChoice {
+    /// The forced mode, or `None` for `auto`.
+    pub fn forced(self) -> Option<RasterMode> {
+        match self {
+            Self::Auto => None,
+            Self::Graphics => Some(RasterMode::Graphics),
+            Self::Compute => Some(RasterMode::Compute),
+            Self::ComputeAtomic32 => Some(RasterMode::ComputeAtomic32),
+        }
+    }
+}
+
+/// How the compute rasterizer resolves the depth test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthAtomics {
+    /// One pass of 64-bit `atomicMin(depth << 32 | id)` (`shaderBufferInt64Atomics`).
+    Int64,
+    /// Two passes of 32-bit atomics: depth, then the lowest id at the minimum depth.
+    Int32,
+}
+
+impl DepthAtomics {
+    /// The one-pass path when the device has 64-bit buffer atomics, else the fallback.
+    pub fn best(ctx: &Context) -> Self {
+        if ctx.features().buffer_int64_atomics {
+            Self::Int64
+        } else {
+            Self::Int32
+        }
+    }
+}
+
+/// `raster.glsl`'s `RasterDraw`: one entry per drawn instance.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct RasterDraw {
+    first_triangle: u32,
+    instance: u32,
+    flags: u32,
+}
+
+const DRAW_CULL_BACK: u32 = 1;
+const DRAW_MIRRORED: u32 = 2;
+const DRAW_ALPHA_TEST: u32 = 4;
+/// Workgroups of `raster_big.comp` (each loops over the queue).
+const BIG_WORKGROUPS: u32 = 512;
+/// Most workgroups of `raster_triangles.comp` (grid-stride beyond).
+const MAX_TRIANGLE_WORKGROUPS: u32 = 65_535;
+
+/// The compute rasterizer's pipelines and buffers for one image size and scene.
+pub struct ComputeRaster {
+    triangles: Arc<ComputePipeline>,
+    big: Arc<ComputePipeline>,
+    resolve: Arc<ComputePipeline>,
+    sets: [DescriptorSet; 3],
+    depth_ids: Buffer,
+    _draws: Buffer,
+    queue: Buffer,
+    triangle_count: u32,
+    draw_count: u32,
+    atomics: DepthAtomics,
+    extent: vk::Extent2D,
+}
+
+impl ComputeRaster {
+    /// Creates the rasterizer for `draws` at `extent`, writing `visibility` (an `R32G32_UINT`
+    /// storage image); `frame` is the Frame uniform (camera, jitter).
+    pub fn new(
+        ctx: &Context,
+        pass: &PassContext<'_>,
+        frame: &Buffer,
+        extent: vk::Extent2D,
+        draws: &[Draw],
+        visibility: &Image,
+        atomics: DepthAtomics,
+    ) -> VkResult<Self> {
+        if atomics == DepthAtomics::Int64 && !ctx.features().buffer_int64_atomics {
+            return Err(VkError::Limit(
+                "the 64-bit atomic compute rasterizer needs shaderBufferInt64Atomics".into(),
+            ));
+        }
+        let mut table = Vec::with_capacity(draws.len());
+        let mut triangles = 0u64;
+        for d in draws {
+            let mut flags = 0;
+            if d.cull_back {
+                flags |= DRAW_CULL_BACK;
+            }
+            if d.mirrored {
+                flags |= DRAW_MIRRORED;
+            }
+            if d.alpha_test {
+                flags |= DRAW_ALPHA_TEST;
+            }
+            table.push(RasterDraw {
+                first_triangle: triangles as u32,
+                instance: d.instance,
+                flags,
+            });
+            triangles += u64::from(d.vertex_count / 3);
+        }
+        // Global ids are 32-bit and 0xFFFFFFFF means "empty".
+        let triangle_count = u32::try_from(triangles)
+            .ok()
+            .filter(|&n| n < u32::MAX)
+            .ok_or_else(|| {
+                VkError::Limit(format!(
+                    "the compute rasterizer numbers triangles in 32 bits; the scene draws {triangles}"
+                ))
+            })?;
+        let pixels = u64::from(extent.width) * u64::from(extent.height);
+        let depth_bytes = pixels * 8;
+        let queue_bytes = (u64::from(triangle_count) + 1) * 4;
+        ctx.check_memory("compute rasterizer", depth_bytes + queue_bytes)?;
+        let depth_ids = Buffer::new(
+            ctx,
+            "raster depth|id",
+            depth_bytes,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::GpuOnly,
+        )?;
+        let queue = Buffer::new(
+            ctx,
+            "raster big-triangle queue",
+            queue_bytes,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::GpuOnly,
+        )?;
+        let draws_buffer = if table.is_empty() {
+            Buffer::new(
+                ctx,
+                "raster draws",
+                4,
+                vk::BufferUsageFlags::empty(),
+                MemoryLocation::GpuOnly,
+            )?
+        } else {
+            Buffer::from_slice(ctx, "raster draws", &table, vk::BufferUsageFlags::empty())?
+        };
+        let bindings = [
+            Binding::UniformBuffer,
+            Binding::SampledImages(pass.texture_capacity()),
+            Binding::Unused,
+            Binding::UniformBuffer,
+            Binding::StorageBuffer,
+            Binding::StorageBuffer,
+            Binding::StorageBuffer,
+            Binding::StorageImage,
+        ];
+        use crate::shaders as s;
+        let (tri_spv, big_spv, resolve_spv) = match atomics {
+            DepthAtomics::Int64 => (
+                s::RASTER_TRIANGLES_COMP_ATOMIC64,
+                s::RASTER_BIG_COMP_ATOMIC64,
+                s::RASTER_RESOLVE_COMP_ATOMIC64,
+            ),
+            DepthAtomics::Int32 => (
+                s::RASTER_TRIANGLES_COMP_ATOMIC32,
+                s::RASTER_BIG_COMP_ATOMIC32,
+                s::RASTER_RESOLVE_COMP_ATOMIC32,
+            ),
+        };
+        let make = |name: &str, spv: &[u8]| ComputePipeline::cached(ctx, name, spv, &bindings, 12);
+        let triangles = make("raster triangles", tri_spv)?;
+        let big = make("raster big triangles", big_spv)?;
+        let resolve = make("raster resolve", resolve_spv)?;
+        let bind = |p: &ComputePipeline| -> VkResult<DescriptorSet> {
+            let set = p.allocate_set()?;
+            pass.scene.bind(&set);
+            set.sampled_images(1, pass.textures)
+                .buffer(3, frame, Binding::UniformBuffer)
+                .buffer(4, &depth_ids, Binding::StorageBuffer)
+                .buffer(5, &draws_buffer, Binding::StorageBuffer)
+                .buffer(6, &queue, Binding::StorageBuffer)
+                .storage_image(7, visibility.view());
+            Ok(set)
+        };
+        let sets = [bind(&triangles)?, bind(&big)?, bind(&resolve)?];
+        Ok(Self {
+            triangles,
+            big,
+            resolve,
+            sets,
+            depth_ids,
+            _draws: draws_buffer,
+            queue,
+            triangle_count,
+            draw_count: table.len() as u32,
+            atomics,
+            extent,
+        })
+    }
+
+    /// Which depth-test path this rasterizer runs.
+    pub fn atomics(&self) -> DepthAtomics {
+        self.atomics
+    }
+
+    /// Records the rasterization; the visibility image must be in `GENERAL` layout.
+    pub fn record(&self, ctx: &Context, cmd: vk::CommandBuffer) {
+        let device = ctx.device();
+        // SAFETY: recording command buffer; both buffers are ours and have TRANSFER_DST.
+        unsafe {
+            device.cmd_fill_buffer(cmd, self.depth_ids.raw(), 0, vk::WHOLE_SIZE, u32::MAX);
+            device.cmd_fill_buffer(cmd, self.queue.raw(), 0, 4, 0);
+        }
+        memory_barrier(device, cmd);
+        let passes: &[u32] = match self.atomics {
+            DepthAtomics::Int64 => &[0],
+            DepthAtomics::Int32 => &[0, 1],
+        };
+        let triangle_groups = self
+            .triangle_count
+            .div_ceil(64)
+            .clamp(1, MAX_TRIANGLE_WORKGROUPS);
+        for &pass_kind in passes {
+            let push: Vec<u8> = [self.triangle_count, self.draw_count, pass_kind]
+                .iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
+            if self.triangle_count > 0 {
+                self.triangles
+                    .dispatch(cmd, Some(&self.sets[0]), &push, [triangle_groups, 1, 1]);
+                memory_barrier(device, cmd);
+                self.big
+                    .dispatch(cmd, Some(&self.sets[1]), &push, [BIG_WORKGROUPS, 1, 1]);
+                memory_barrier(device, cmd);
+            }
+        }
+        let push: Vec<u8> = [self.triangle_count, self.draw_count, 0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        self.resolve.dispatch(
+            cmd,
+            Some(&self.sets[2]),
+            &push,
+            [
+                self.extent.width.div_ceil(8),
+                self.extent.height.div_ceil(8),
+                1,
+            ],
+        );
+    }
+}

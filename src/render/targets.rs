@@ -1,0 +1,630 @@
+//! The frame arena (issue #12): every buffer, image and descriptor set one frame of a path
+//! needs, created once per resolution and sample count and reused by every frame and sample
+//! of `rqr render`, `rqr compare` and `rqr render --frames`.
+//!
+//! A frame is *recorded* into the caller's command buffer, not submitted: drivers record
+//! frames back to back into one submission (a burst), so no host work separates them and the
+//! GPU clock stays up. The frame's camera goes in with the commands (`vkCmdUpdateBuffer`),
+//! never through memory the previous frame may still read, and its outputs (counters,
+//! tonemapped and linear colour, AOVs) are copied into a host-visible readback buffer by the
+//! frame's own commands, so reading them costs no extra submission and no allocation.
+
+use ash::vk;
+
+use super::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
+use super::gbuffer::{Draw, GbufferPass};
+use super::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
+use super::raytraced::{RaytracedPass, COUNTER_SLOTS};
+use super::tonemap::TonemapPass;
+use super::{merge_scopes, sampling, Aov, RayCounts, RenderOutput, Renderer};
+use crate::scene::Camera;
+use crate::vk::{
+    host_read_barrier, memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkError,
+    VkResult,
+};
+
+/// Timestamp scopes one frame of either path records per sample (raster, shading), plus
+/// tonemap and the frame itself.
+const SCOPES_PER_SAMPLE: u32 = 2;
+
+/// What each slot of a [`FrameRing`] holds besides the counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RingContents {
+    /// Tonemapped RGBA8 (PNG output, FLIP).
+    pub rgba8: bool,
+    /// Linear colour (EXR output).
+    pub color: bool,
+    /// Primary-hit AOVs.
+    pub aov: bool,
+    /// Reprojection pixel states (where each pixel's colour came from).
+    pub states: bool,
+}
+
+/// Counter words every ring slot holds (rays by kind, samples, reprojection statistics).
+pub const RING_COUNTERS: usize = 32;
+const AOV_BYTES: u64 = std::mem::size_of::<Aov>() as u64;
+
+/// Host-visible slots that frames copy their outputs into with their own commands: one slot
+/// per frame of a burst, read after the burst's submission completed, so reading a frame's
+/// image or statistics needs no extra submission, no allocation and no host work between
+/// frames.
+pub struct FrameRing {
+    buffer: Buffer,
+    slots: u32,
+    pixels: u64,
+    contents: RingContents,
+}
+
+/// Where a frame's outputs are, for [`FrameRing::record_copy`].
+pub struct RingSources<'a> {
+    /// Counters (the first [`RING_COUNTERS`] words at most are copied).
+    pub counters: &'a Buffer,
+    /// Tonemapped RGBA8, one `u32` per pixel.
+    pub rgba8: &'a Buffer,
+    /// Linear colour, `vec4` per pixel.
+    pub color: &'a Buffer,
+    /// AOVs per pixel, when the frame writes them.
+    pub aov: Option<&'a Buffer>,
+    /// Reprojection pixel states.
+    pub states: Option<&'a Buffer>,
+}
+
+impl FrameRing {
+    /// Bytes of one slot.
+    pub fn slot_bytes(pixels: u64, contents: RingContents) -> u64 {
+        let mut b = RING_COUNTERS as u64 * 4;
+        for (on, per_pixel) in [
+            (contents.rgba8, 4),
+            (contents.color, 16),
+            (contents.aov, AOV_BYTES),
+            (contents.states, 4),
+        ] {
+            if on {
+                b += pixels * per_pixel;
+            }
+        }
+        b
+    }
+
+    /// A ring of `slots` slots for images of `pixels` pixels.
+    pub fn new(
+        ctx: &Context,
+        name: &str,
+        slots: u32,
+        pixels: u64,
+        contents: RingContents,
+    ) -> VkResult<Self> {
+        let slots = slots.max(1);
+        let buffer = Buffer::new(
+            ctx,
+            name,
+            Self::slot_bytes(pixels, contents) * u64::from(slots),
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::GpuToCpu,
+        )?;
+        Ok(Self {
+            buffer,
+            slots,
+            pixels,
+            contents,
+        })
+    }
+
+    /// Number of slots.
+    pub fn slots(&self) -> u32 {
+        self.slots
+    }
+
+    /// What the slots hold.
+    pub fn contents(&self) -> RingContents {
+        self.contents
+    }
+
+    /// Byte offsets in slot `slot`: counters, rgba8, colour, AOVs, states.
+    fn offsets(&self, slot: u32) -> [u64; 5] {
+        let c = self.contents;
+        let base = Self::slot_bytes(self.pixels, c) * u64::from(slot);
+        let counters = base;
+        let rgba8 = counters + RING_COUNTERS as u64 * 4;
+        let color = rgba8 + if c.rgba8 { self.pixels * 4 } else { 0 };
+        let aov = color + if c.color { self.pixels * 16 } else { 0 };
+        let states = aov + if c.aov { self.pixels * AOV_BYTES } else { 0 };
+        [counters, rgba8, color, aov, states]
+    }
+
+    /// Records copies of a frame's outputs into slot `slot` (what the ring holds), then the
+    /// barrier that makes them visible to the host after the submission's fence.
+    pub fn record_copy(
+        &self,
+        device: &ash::Device,
+        cmd: vk::CommandBuffer,
+        slot: u32,
+        src: &RingSources<'_>,
+    ) {
+        debug_assert!(slot < self.slots);
+        let [counters, rgba8, color, aov, states] = self.offsets(slot);
+        let c = self.contents;
+        let n = self.pixels;
+        let words = (src.counters.size() / 4).min(RING_COUNTERS as u64);
+        src.counters
+            .record_copy_to(device, cmd, &self.buffer, 0, counters, words * 4);
+        if c.rgba8 {
+            src.rgba8
+                .record_copy_to(device, cmd, &self.buffer, 0, rgba8, n * 4);
+        }
+        if c.color {
+            src.color
+                .record_copy_to(device, cmd, &self.buffer, 0, color, n * 16);
+        }
+        if let (true, Some(a)) = (c.aov, src.aov) {
+            a.record_copy_to(device, cmd, &self.buffer, 0, aov, n * AOV_BYTES);
+        }
+        if let (true, Some(s)) = (c.states, src.states) {
+            s.record_copy_to(device, cmd, &self.buffer, 0, states, n * 4);
+        }
+        host_read_barrier(device, cmd);
+    }
+
+    fn read<T: bytemuck::Pod>(&self, offset: u64, count: usize) -> VkResult<Vec<T>> {
+        self.buffer
+            .mapped_read(offset, count)
+            .ok_or_else(|| VkError::Limit("frame ring is not host-visible".into()))
+    }
+
+    /// The counters of slot `slot` ([`RING_COUNTERS`] words).
+    pub fn counters(&self, slot: u32) -> VkResult<Vec<u32>> {
+        self.read(self.offsets(slot)[0], RING_COUNTERS)
+    }
+
+    /// The tonemapped image of slot `slot` (empty when the ring holds none).
+    pub fn rgba8(&self, slot: u32) -> VkResult<Vec<u8>> {
+        if !self.contents.rgba8 {
+            return Ok(Vec::new());
+        }
+        self.read(self.offsets(slot)[1], self.pixels as usize * 4)
+    }
+
+    /// The linear colour of slot `slot` (empty when the ring holds none).
+    pub fn color(&self, slot: u32) -> VkResult<Vec<[f32; 4]>> {
+        if !self.contents.color {
+            return Ok(Vec::new());
+        }
+        self.read(self.offsets(slot)[2], self.pixels as usize)
+    }
+
+    /// The AOVs of slot `slot` (empty when the ring holds none).
+    pub fn aov(&self, slot: u32) -> VkResult<Vec<Aov>> {
+        if !self.contents.aov {
+            return Ok(Vec::new());
+        }
+        self.read(self.offsets(slot)[3], self.pixels as usize)
+    }
+
+    /// The reprojection pixel states of slot `slot` (empty when the ring holds none).
+    pub fn states(&self, slot: u32) -> VkResult<Vec<u32>> {
+        if !self.contents.states {
+            return Ok(Vec::new());
+        }
+        self.read(self.offsets(slot)[4], self.pixels as usize)
+    }
+}
+
+/// Host-visible bytes of a frame's own readback slot at `settings` (counters, RGBA8, colour
+/// and the AOVs when written).
+pub fn readback_bytes(settings: &RenderSettings, aov: bool) -> u64 {
+    FrameRing::slot_bytes(
+        settings.pixels(),
+        RingContents {
+            rgba8: true,
+            color: true,
+            aov,
+            states: false,
+        },
+    )
+}
+
+/// One sample of the hybrid path: its jittered frame uniform, raster pass and shading pass.
+struct HybridSample {
+    frame: Buffer,
+    gbuffer: GbufferPass,
+    shading: HybridPass,
+    jitter: [f32; 2],
+    weight: f32,
+}
+
+/// What a path's frame writes and where (beyond the passes' own resources).
+#[allow(clippy::large_enum_variant)] // one per FrameTargets, never moved in a hot loop
+enum PathPasses {
+    RayTraced(Box<RaytracedPass>),
+    Hybrid {
+        samples: Vec<HybridSample>,
+        accum: Buffer,
+        aov: Buffer,
+        counters: Buffer,
+        draws: Vec<Draw>,
+    },
+}
+
+/// The resources of one path at one resolution and sample count, reused by every frame.
+pub struct FrameTargets {
+    path: RenderPath,
+    settings: RenderSettings,
+    scene_scale: f32,
+    passes: PathPasses,
+    tonemap: TonemapPass,
+    /// One slot: what [`Self::render`] reads back.
+    readback: FrameRing,
+    write_aov: bool,
+    /// Timestamps of single frames ([`Self::render`]); bursts bring their own.
+    profiler: Option<GpuProfiler>,
+}
+
+impl FrameTargets {
+    /// Allocates everything frames of `path` at `settings` need, after checking that it fits
+    /// the device ([`RenderSettings::check_device`]). `draws` are the scene's raster draws
+    /// (hybrid path; ignored by the ray-traced one). With `write_aov` frames also write the
+    /// primary-hit AOVs (48 bytes per pixel).
+    pub fn new(
+        ctx: &Context,
+        renderer: &Renderer,
+        path: RenderPath,
+        settings: &RenderSettings,
+        draws: &[Draw],
+        write_aov: bool,
+    ) -> crate::Result<Self> {
+        settings
+            .check_device(ctx.info(), path, write_aov, ctx.allocated_bytes())
+            .map_err(|e| VkError::Limit(e.to_string()))?;
+        let pass = renderer.pass_context();
+        let pixels = settings.pixels();
+        let none = vk::BufferUsageFlags::empty();
+        let frame_uniform = |name: &str| {
+            Buffer::new(
+                ctx,
+                name,
+                std::mem::size_of::<GpuFrame>() as u64,
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let scale = renderer.scene_scale();
+        let passes = match path {
+            RenderPath::RayTraced => PathPasses::RayTraced(Box::new(RaytracedPass::new(
+                ctx,
+                &pass,
+                settings,
+                frame_uniform("rt frame")?,
+                write_aov,
+            )?)),
+            RenderPath::Hybrid => {
+                let positions = hybrid_sample_positions(settings)?;
+                let accum = Buffer::new(
+                    ctx,
+                    "hybrid accumulation",
+                    pixels * 16,
+                    none,
+                    MemoryLocation::GpuOnly,
+                )?;
+                // Per-pixel AOVs only when asked for; else a placeholder (hybrid.comp writes
+                // AOVs only under HYBRID_WRITE_AOV).
+                let aov = Buffer::new(
+                    ctx,
+                    if write_aov {
+                        "hybrid aov"
+                    } else {
+                        "hybrid aov placeholder"
+                    },
+                    if write_aov { pixels } else { 1 } * AOV_BYTES,
+                    none,
+                    MemoryLocation::GpuOnly,
+                )?;
+                let counters = Buffer::new(
+                    ctx,
+                    "hybrid counters",
+                    COUNTER_SLOTS as u64 * 4,
+                    none,
+                    MemoryLocation::GpuOnly,
+                )?;
+                let extent = vk::Extent2D {
+                    width: settings.width,
+                    height: settings.height,
+                };
+                let mut samples = Vec::with_capacity(positions.len());
+                for u in positions {
+                    let (jitter, weight) = match settings.filter {
+                        FilterKind::Box => ([u[0] - 0.5, u[1] - 0.5], 1.0),
+                        FilterKind::Tent => {
+                            let o = [u[0] * 2.0 - 1.0, u[1] * 2.0 - 1.0];
+                            (o, sampling::tent_weight(o[0], o[1]))
+                        }
+                    };
+                    let frame = frame_uniform("hybrid frame")?;
+                    let gbuffer = GbufferPass::with_raster(
+                        ctx,
+                        &pass,
+                        &frame,
+                        extent,
+                        settings.gbuffer,
+                        settings.raster,
+                        draws,
+                    )?;
+                    let shading =
+                        HybridPass::new(ctx, &pass, &frame, &accum, &aov, &counters, &gbuffer)?;
+                    samples.push(HybridSample {
+                        frame,
+                        gbuffer,
+                        shading,
+                        jitter,
+                        weight,
+                    });
+                }
+                PathPasses::Hybrid {
+                    samples,
+                    accum,
+                    aov,
+                    counters,
+                    draws: draws.to_vec(),
+                }
+            }
+        };
+        let color = match &passes {
+            PathPasses::RayTraced(rt) => &rt.color,
+            PathPasses::Hybrid { accum, .. } => accum,
+        };
+        let tonemap = TonemapPass::new(ctx, color, pixels as u32)?;
+        let readback = FrameRing::new(
+            ctx,
+            "frame readback",
+            1,
+            pixels,
+            RingContents {
+                rgba8: true,
+                color: true,
+                aov: write_aov,
+                states: false,
+            },
+        )?;
+        let samples = match &passes {
+            PathPasses::RayTraced(_) => 1,
+            PathPasses::Hybrid { samples, .. } => samples.len() as u32,
+        };
+        let profiler = GpuProfiler::new(ctx, Self::scopes_per_frame_for(samples)).ok();
+        Ok(Self {
+            path,
+            settings: settings.clone(),
+            scene_scale: scale,
+            passes,
+            tonemap,
+            readback,
+            write_aov,
+            profiler,
+        })
+    }
+
+    fn scopes_per_frame_for(samples: u32) -> u32 {
+        SCOPES_PER_SAMPLE * samples + 2
+    }
+
+    /// Timestamp scopes one frame records (the frame itself included): size a burst's
+    /// profiler with this times the frames.
+    pub fn scopes_per_frame(&self) -> u32 {
+        Self::scopes_per_frame_for(match &self.passes {
+            PathPasses::RayTraced(_) => 1,
+            PathPasses::Hybrid { samples, .. } => samples.len() as u32,
+        })
+    }
+
+    /// The path these targets render.
+    pub fn path(&self) -> RenderPath {
+        self.path
+    }
+
+    /// The settings these targets were made for.
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// The frame uniform for `camera` at these targets' settings.
+    pub fn gpu_frame(&self, camera: &Camera) -> GpuFrame {
+        let s = &self.settings;
+        let setup = CameraSetup::new(camera, s.width, s.height, self.scene_scale);
+        GpuFrame::new(s, &setup, self.scene_scale)
+    }
+
+    /// Records one frame seen through `frame` into `cmd`: a barrier against the previous
+    /// frame's work, the passes, tonemapping, and, with `out`, the copies of its outputs into
+    /// that ring slot ([`Self::output`] reads them once the submission has completed).
+    /// Timestamp scopes go to `profiler` (the caller brackets frames with
+    /// `begin_frame`/`end_frame`).
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        frame: &GpuFrame,
+        mut profiler: Option<&mut GpuProfiler>,
+        out: Option<(&FrameRing, u32)>,
+    ) {
+        let device = ctx.device();
+        // Write-after-read against the previous frame in the same command buffer (its
+        // passes still read the uniform and the counters this frame resets).
+        memory_barrier(device, cmd);
+        match &self.passes {
+            PathPasses::RayTraced(rt) => {
+                rt.record(ctx, cmd, frame, profiler.as_deref_mut());
+                memory_barrier(device, cmd);
+            }
+            PathPasses::Hybrid {
+                samples, counters, ..
+            } => {
+                for s in samples {
+                    let mut f = *frame;
+                    f.jitter = s.jitter;
+                    s.frame.record_update(device, cmd, bytemuck::bytes_of(&f));
+                }
+                // SAFETY: recording command buffer; the counters buffer is ours.
+                unsafe { device.cmd_fill_buffer(cmd, counters.raw(), 0, vk::WHOLE_SIZE, 0) };
+                memory_barrier(device, cmd);
+                let camera_pos = glam::Vec3::from(frame.camera_pos);
+                let draws = match &self.passes {
+                    PathPasses::Hybrid { draws, .. } => draws.as_slice(),
+                    PathPasses::RayTraced(_) => &[],
+                };
+                let extent = vk::Extent2D {
+                    width: self.settings.width,
+                    height: self.settings.height,
+                };
+                for (i, s) in samples.iter().enumerate() {
+                    s.gbuffer
+                        .record(ctx, cmd, draws, camera_pos, profiler.as_deref_mut());
+                    let mut flags = 0;
+                    if i == 0 {
+                        flags |= HYBRID_FIRST_SAMPLE;
+                        if self.write_aov {
+                            flags |= HYBRID_WRITE_AOV;
+                        }
+                    }
+                    s.shading
+                        .record(cmd, extent, flags, s.weight, profiler.as_deref_mut());
+                    memory_barrier(device, cmd);
+                }
+            }
+        }
+        let s = &self.settings;
+        self.tonemap.record(cmd, profiler, s.tonemap, s.exposure);
+        if let Some((ring, slot)) = out {
+            memory_barrier(device, cmd);
+            self.record_copy(device, cmd, ring, slot);
+        }
+    }
+
+    /// Records copies of the last recorded frame's outputs into `ring`'s slot `slot`.
+    pub fn record_copy(
+        &self,
+        device: &ash::Device,
+        cmd: vk::CommandBuffer,
+        ring: &FrameRing,
+        slot: u32,
+    ) {
+        let (color, counters, aov) = match &self.passes {
+            PathPasses::RayTraced(rt) => (&rt.color, &rt.counters, &rt.aov),
+            PathPasses::Hybrid {
+                accum,
+                counters,
+                aov,
+                ..
+            } => (accum, counters, aov),
+        };
+        ring.record_copy(
+            device,
+            cmd,
+            slot,
+            &RingSources {
+                counters,
+                rgba8: &self.tonemap.output,
+                color,
+                aov: self.write_aov.then_some(aov),
+                states: None,
+            },
+        );
+    }
+
+    /// The image, AOVs and ray counts a frame copied into `ring`'s slot `slot`, after its
+    /// submission completed (`gpu_ms` is left empty: timing belongs to the caller).
+    pub fn output(&self, ring: &FrameRing, slot: u32) -> VkResult<RenderOutput> {
+        let c = ring.counters(slot)?;
+        let rgba8 = ring.rgba8(slot)?;
+        let color = ring.color(slot)?;
+        let aov = ring.aov(slot)?;
+        let color = match self.path {
+            RenderPath::RayTraced => color,
+            // The hybrid accumulation holds Σ weight·colour and Σ weight.
+            RenderPath::Hybrid => color
+                .iter()
+                .map(|v| {
+                    if v[3] > 0.0 {
+                        [v[0] / v[3], v[1] / v[3], v[2] / v[3], 1.0]
+                    } else {
+                        [v[0], v[1], v[2], 1.0]
+                    }
+                })
+                .collect(),
+        };
+        Ok(RenderOutput {
+            width: self.settings.width,
+            height: self.settings.height,
+            color,
+            rgba8,
+            aov,
+            rays: RayCounts {
+                primary: u64::from(c[0]),
+                shadow: u64::from(c[1]),
+                reflection: u64::from(c[2]),
+                refraction: u64::from(c[3]),
+            },
+            samples: u64::from(c[4]),
+            gpu_ms: Vec::new(),
+        })
+    }
+
+    /// The one-slot ring [`Self::render`] reads back through; record into it with
+    /// `Some((targets.readback_ring(), 0))` and read with [`Self::read`].
+    pub fn readback_ring(&self) -> &FrameRing {
+        &self.readback
+    }
+
+    /// [`Self::output`] of [`Self::readback_ring`].
+    pub fn read(&self) -> VkResult<RenderOutput> {
+        self.output(&self.readback, 0)
+    }
+
+    /// Renders one frame through `camera` in its own submission and reads it back, with GPU
+    /// times per pass (scopes of the same name, one per sample, summed).
+    pub fn render(&mut self, ctx: &Context, camera: &Camera) -> crate::Result<RenderOutput> {
+        let frame = self.gpu_frame(camera);
+        let mut profiler = self.profiler.take();
+        let name = match self.path {
+            RenderPath::RayTraced => "ray-traced frame",
+            RenderPath::Hybrid => "hybrid frame",
+        };
+        let recorded = ctx.run(name, |cmd| {
+            if let Some(p) = profiler.as_mut() {
+                p.reset(cmd);
+            }
+            self.record(
+                ctx,
+                cmd,
+                &frame,
+                profiler.as_mut(),
+                Some((&self.readback, 0)),
+            );
+            Ok(())
+        });
+        self.profiler = profiler;
+        recorded?;
+        let mut out = self.output(&self.readback, 0)?;
+        if let Some(p) = &self.profiler {
+            out.gpu_ms = merge_scopes(p.results()?);
+        }
+        Ok(out)
+    }
+}
+
+/// The sub-pixel position of every sample of the hybrid path (one raster pass each): the
+/// samplers that place sample s at the same offset in every pixel.
+fn hybrid_sample_positions(settings: &RenderSettings) -> crate::Result<Vec<[f32; 2]>> {
+    (0..settings.spp)
+        .map(|s| {
+            sampling::pixel_independent_sample(settings.sampler, s, settings.spp, settings.seed)
+        })
+        .collect::<Option<_>>()
+        .ok_or_else(|| {
+            VkError::Limit(
+                format!(
+                    "--sampler {:?} varies per pixel (or is adaptive); the hybrid path rasterizes one jittered pass per sample and supports center, grid, halton and sobol",
+                    settings.sampler
+                )
+                .to_lowercase(),
+            )
+            .into()
+        })
+}
