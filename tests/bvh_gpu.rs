@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::trace::{trace_with, TestHit};
+
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Quat, Vec3};
 use rqr::accel::bvh::cpu::{
@@ -14,7 +16,6 @@ use rqr::accel::bvh::layout::*;
 use rqr::accel::bvh::testing::*;
 use rqr::accel::bvh::{BvhBuildOptions, BvhData, GpuBvh};
 use rqr::accel::hw::HwAccel;
-use rqr::scene::gpu::GpuScene;
 use rqr::scene::{Instance, Scene};
 use rqr::vk::{vk, Binding, Buffer, ComputePipeline, Context, MemoryLocation};
 
@@ -124,25 +125,6 @@ fn bvh_records_match_glsl_layout() {
     common::assert_validation_clean(&ctx);
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct TestRay {
-    origin: [f32; 3],
-    tmin: f32,
-    dir: [f32; 3],
-    tmax: f32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct TestHit {
-    t: f32,
-    instance: i32,
-    primitive: i32,
-    barycentrics: [f32; 2],
-    any_hit: u32,
-}
-
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Which {
     Bvh,
@@ -151,77 +133,32 @@ enum Which {
 
 /// Traces `rays` through `bvh_trace.comp` with the chosen backend.
 fn trace_gpu(ctx: &Context, scene: &Scene, rays: &[Ray], which: Which) -> Vec<TestHit> {
-    let gpu_scene = GpuScene::upload(ctx, scene, 0).unwrap();
-    let input: Vec<TestRay> = rays
-        .iter()
-        .map(|r| TestRay {
-            origin: r.origin.to_array(),
-            tmin: r.tmin,
-            dir: r.dir.to_array(),
-            tmax: r.tmax,
-        })
-        .collect();
-    let ray_buf = Buffer::from_slice(ctx, "rays", &input, vk::BufferUsageFlags::empty()).unwrap();
-    let hit_buf = Buffer::new(
-        ctx,
-        "hits",
-        (rays.len() * std::mem::size_of::<TestHit>()) as u64,
-        vk::BufferUsageFlags::empty(),
-        MemoryLocation::GpuOnly,
-    )
-    .unwrap();
-    let (spirv, accel_binding) = match which {
-        Which::Bvh => (rqr::shaders::BVH_TRACE_COMP_BVH, Binding::UniformBuffer),
-        Which::Hw => (
+    match which {
+        Which::Bvh => trace_with(
+            ctx,
+            scene,
+            rays,
+            rqr::shaders::BVH_TRACE_COMP_BVH,
+            Binding::UniformBuffer,
+            |set, _| {
+                let b = GpuBvh::build(ctx, scene, &BvhBuildOptions::default()).unwrap();
+                b.bind(set);
+                Box::new(b)
+            },
+        ),
+        Which::Hw => trace_with(
+            ctx,
+            scene,
+            rays,
             rqr::shaders::BVH_TRACE_COMP_HW,
             Binding::AccelerationStructure,
+            |set, gpu_scene| {
+                let h = HwAccel::build(ctx, scene, gpu_scene).unwrap();
+                set.acceleration_structure(2, h.tlas());
+                Box::new(h)
+            },
         ),
-    };
-    let pipeline = ComputePipeline::new(
-        ctx,
-        "bvh trace",
-        spirv,
-        &[
-            Binding::UniformBuffer,
-            Binding::SampledImages(1),
-            accel_binding,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-        ],
-        4,
-    )
-    .unwrap();
-    let set = pipeline.allocate_set().unwrap();
-    gpu_scene.bind(&set);
-    set.buffer(3, &ray_buf, Binding::StorageBuffer)
-        .buffer(4, &hit_buf, Binding::StorageBuffer);
-    // Keep whichever acceleration structure alive until the dispatch finished.
-    let _bvh;
-    let _hw;
-    match which {
-        Which::Bvh => {
-            let b = GpuBvh::build(ctx, scene, &BvhBuildOptions::default()).unwrap();
-            b.bind(&set);
-            _bvh = Some(b);
-        }
-        Which::Hw => {
-            let h = HwAccel::build(ctx, scene, &gpu_scene).unwrap();
-            set.acceleration_structure(2, h.tlas());
-            _hw = Some(h);
-        }
     }
-    let count = rays.len() as u32;
-    ctx.run("bvh trace", |cmd| {
-        pipeline.dispatch(
-            cmd,
-            Some(&set),
-            &count.to_le_bytes(),
-            [count.div_ceil(64), 1, 1],
-        );
-        Ok(())
-    })
-    .unwrap();
-    hit_buf.read(ctx).unwrap()
 }
 
 fn backends(ctx: &Context) -> Vec<Which> {

@@ -234,6 +234,7 @@ fn bench_reports_build_and_ray_throughput_per_backend() {
     let j = common::run_json(rqr().args([
         "bench",
         "--all-backends",
+        "--all-bvh-builds",
         "--width",
         "32",
         "--height",
@@ -255,4 +256,17 @@ fn bench_reports_build_and_ray_throughput_per_backend() {
         }
         assert!(b["build"].is_object());
     }
+    // --all-bvh-builds: the compute BVH once per builder, with the same hits, an SAH cost
+    // each, and GPU phase times and peak scratch for the GPU build.
+    let bvh: Vec<_> = backends.iter().filter(|b| b["backend"] == "bvh").collect();
+    let builders: Vec<_> = bvh.iter().map(|b| b["build"]["builder"].clone()).collect();
+    assert_eq!(builders, ["host", "gpu"]);
+    assert_eq!(bvh[0]["primary"]["hits"], bvh[1]["primary"]["hits"]);
+    for b in &bvh {
+        let sah = b["build"]["sah_cost"].as_f64().unwrap();
+        assert!(sah.is_finite() && sah >= 1.0, "SAH {sah}");
+    }
+    let gpu = &bvh[1]["build"];
+    assert!(gpu["gpu_phases"]["sort_ms"].as_f64().unwrap() > 0.0);
+    assert!(gpu["peak_scratch_bytes"].as_u64().unwrap() > 0);
 }

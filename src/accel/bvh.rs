@@ -8,12 +8,17 @@
 //! 64-byte nodes that hold both children's boxes (see [`layout`]). Triangles are stored in leaf
 //! order as three exact vertex copies plus their original primitive index.
 //!
+//! With `--bvh-build gpu` the bottom levels are built in compute shaders instead
+//! ([`gpu_build`]: Morton codes, radix sort, PLOC, collapse into the same node layout).
+//!
 //! [`BvhData`] is the host form (with a CPU mirror of the traversal in [`cpu`]); [`GpuBvh`]
 //! uploads it and owns the `BvhRefs` uniform bound at set 0, binding 2.
 
 mod builder;
 pub mod cpu;
+pub mod gpu_build;
 pub mod layout;
+pub mod sah;
 pub mod testing;
 #[cfg(test)]
 mod tests;
@@ -53,6 +58,16 @@ pub enum BvhError {
         heap: u64,
         /// "estimate" before the build, "exact" after it.
         what: &'static str,
+    },
+    /// A geometry has more triangles than the GPU build takes.
+    #[error("geometry {geometry} has {triangles} triangles; the GPU BVH build takes at most {limit} per geometry (use --bvh-build host)")]
+    GpuBuildLimit {
+        /// Geometry index.
+        geometry: usize,
+        /// Its triangle count.
+        triangles: usize,
+        /// [`gpu_build::GPU_BUILD_MAX_TRIANGLES`].
+        limit: usize,
     },
     /// A Vulkan failure while uploading.
     #[error(transparent)]
@@ -107,9 +122,69 @@ impl Default for BvhBuildOptions {
     }
 }
 
+/// Where the bottom levels are built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BvhBuild {
+    /// On the host with `obvhs`.
+    Host,
+    /// In compute shaders ([`gpu_build`]).
+    Gpu,
+}
+
+impl BvhBuild {
+    /// `"host"` or `"gpu"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Host => "host",
+            Self::Gpu => "gpu",
+        }
+    }
+}
+
+/// What the user asked for with `--bvh-build`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BvhBuildChoice {
+    /// The GPU build on discrete and integrated GPUs, the host build elsewhere (CPU devices
+    /// such as lavapipe, where the GPU build measured slower: see BENCHMARKS.md).
+    #[default]
+    Auto,
+    /// Host build (`obvhs`).
+    Host,
+    /// Compute-shader build.
+    Gpu,
+}
+
+impl BvhBuildChoice {
+    /// Resolves the choice for a device, with a human-readable reason.
+    pub fn resolve(self, device: &crate::vk::DeviceInfo) -> (BvhBuild, String) {
+        match self {
+            Self::Host => (BvhBuild::Host, "forced by --bvh-build host".into()),
+            Self::Gpu => (BvhBuild::Gpu, "forced by --bvh-build gpu".into()),
+            Self::Auto => match device.device_type.as_str() {
+                "discrete" | "integrated" => (
+                    BvhBuild::Gpu,
+                    format!("auto: {} GPU (not yet measured there)", device.device_type),
+                ),
+                other => (
+                    BvhBuild::Host,
+                    format!("auto: {other} device, where the host build measured faster"),
+                ),
+            },
+        }
+    }
+}
+
 /// Build statistics.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BvhStats {
+    /// `"host"` or `"gpu"`.
+    pub builder: String,
+    /// GPU times per phase of the GPU build (`None` for the host build).
+    pub gpu_phases: Option<gpu_build::GpuBuildPhases>,
+    /// Scratch bytes the GPU build allocated (0 for the host build).
+    pub peak_scratch_bytes: u64,
     /// Whole host build (both levels, flattening), milliseconds.
     pub build_ms: f64,
     /// Bottom levels (gather + build + flatten), milliseconds.
@@ -209,8 +284,21 @@ pub struct GpuBvh {
 }
 
 impl GpuBvh {
-    /// Builds the BVH of `scene` and uploads it. Checks an upper-bound size estimate against
-    /// the device heaps before building and the exact size before allocating.
+    /// Builds the BVH of `scene` with the chosen builder.
+    pub fn build_with(
+        ctx: &Context,
+        scene: &Scene,
+        opts: &BvhBuildOptions,
+        build: BvhBuild,
+    ) -> Result<Self, BvhError> {
+        match build {
+            BvhBuild::Host => Self::build(ctx, scene, opts),
+            BvhBuild::Gpu => gpu_build::build(ctx, scene, opts),
+        }
+    }
+
+    /// Builds the BVH of `scene` on the host and uploads it. Checks an upper-bound size
+    /// estimate against the device heaps before building and the exact size before allocating.
     pub fn build(ctx: &Context, scene: &Scene, opts: &BvhBuildOptions) -> Result<Self, BvhError> {
         check_fits(
             &ctx.info().memory_heaps,
@@ -227,7 +315,30 @@ impl GpuBvh {
         let usage = vk::BufferUsageFlags::empty();
         let nodes = Buffer::from_slice(ctx, "bvh nodes", &data.nodes, usage)?;
         let triangles = Buffer::from_slice(ctx, "bvh triangles", &data.triangles, usage)?;
-        let instances = Buffer::from_slice(ctx, "bvh instances", &data.instances, usage)?;
+        Self::from_buffers(
+            ctx,
+            nodes,
+            data.nodes.len(),
+            triangles,
+            data.triangles.len(),
+            &data.instances,
+            data.stats.clone(),
+        )
+    }
+
+    /// Wraps node and triangle buffers already on the device (filled by the GPU build),
+    /// uploads the instances and creates the `BvhRefs` uniform.
+    pub(crate) fn from_buffers(
+        ctx: &Context,
+        nodes: Buffer,
+        node_count: usize,
+        triangles: Buffer,
+        triangle_count: usize,
+        instance_records: &[BvhInstance],
+        stats: BvhStats,
+    ) -> Result<Self, BvhError> {
+        let usage = vk::BufferUsageFlags::empty();
+        let instances = Buffer::from_slice(ctx, "bvh instances", instance_records, usage)?;
         // The shader reads every record as 64-bit words.
         for b in [&nodes, &triangles, &instances] {
             if b.address() % 8 != 0 {
@@ -241,9 +352,9 @@ impl GpuBvh {
             nodes: nodes.address(),
             triangles: triangles.address(),
             instances: instances.address(),
-            node_count: data.nodes.len() as u32,
-            triangle_count: data.triangles.len() as u32,
-            instance_count: data.instances.len() as u32,
+            node_count: node_count as u32,
+            triangle_count: triangle_count as u32,
+            instance_count: instance_records.len() as u32,
             tlas_root: TLAS_ROOT,
         };
         let mut refs = Buffer::new(
@@ -260,7 +371,23 @@ impl GpuBvh {
             instances,
             refs,
             refs_data,
-            stats: data.stats.clone(),
+            stats,
+        })
+    }
+
+    /// Reads the BVH back into its host form (for tests, SAH costs and the CPU traversal).
+    pub fn read_back(&self, ctx: &Context) -> Result<BvhData, BvhError> {
+        let mut nodes: Vec<BvhNode> = self.nodes.read(ctx)?;
+        nodes.truncate(self.refs_data.node_count as usize);
+        let mut triangles: Vec<BvhTriangle> = self.triangles.read(ctx)?;
+        triangles.truncate(self.refs_data.triangle_count as usize);
+        let mut instances: Vec<BvhInstance> = self.instances.read(ctx)?;
+        instances.truncate(self.refs_data.instance_count as usize);
+        Ok(BvhData {
+            nodes,
+            triangles,
+            instances,
+            stats: self.stats.clone(),
         })
     }
 

@@ -86,19 +86,22 @@ pub enum RayBackend {
 }
 
 impl RayBackend {
-    /// Builds the backend's structures for an uploaded scene.
+    /// Builds the backend's structures for an uploaded scene; `bvh_build` chooses where the
+    /// compute BVH is built (ignored by the `hw` backend).
     pub fn build(
         ctx: &crate::vk::Context,
         scene: &crate::scene::Scene,
         gpu: &crate::scene::gpu::GpuScene,
         backend: Backend,
+        bvh_build: bvh::BvhBuild,
     ) -> crate::Result<Self> {
         match backend {
             Backend::Hw => Ok(Self::Hw(Box::new(hw::HwAccel::build(ctx, scene, gpu)?))),
-            Backend::Bvh => Ok(Self::Bvh(Box::new(bvh::GpuBvh::build(
+            Backend::Bvh => Ok(Self::Bvh(Box::new(bvh::GpuBvh::build_with(
                 ctx,
                 scene,
                 &bvh::BvhBuildOptions::default(),
+                bvh_build,
             )?))),
         }
     }
@@ -136,6 +139,8 @@ impl RayBackend {
             Self::Bvh(b) => {
                 let s = b.stats();
                 serde_json::json!({
+                    "builder": s.builder, "gpu_phases": s.gpu_phases,
+                    "peak_scratch_bytes": s.peak_scratch_bytes,
                     "build_ms": s.build_ms, "blas_ms": s.blas_ms, "tlas_ms": s.tlas_ms, "bytes": s.bytes,
                     "node_count": s.node_count, "tlas_nodes": s.tlas_nodes, "blas_count": s.blas_count,
                     "triangle_count": s.triangle_count, "instance_count": s.instance_count,

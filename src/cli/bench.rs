@@ -5,7 +5,8 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rqr::accel::Backend;
+use rqr::accel::bvh::{sah, testing, BvhBuild, BvhBuildOptions, GpuBvh};
+use rqr::accel::{Backend, RayBackend};
 use rqr::render::raybench::{RayBatch, RayBench};
 use rqr::render::{CameraSetup, GpuFrame, RenderSettings, Renderer};
 use serde_json::json;
@@ -34,6 +35,10 @@ pub struct BenchArgs {
     /// Run every backend the device supports, not just the one `--backend` resolves to.
     #[arg(long)]
     all_backends: bool,
+    /// Run the compute-BVH backend with both builders (`--bvh-build host` and `gpu`), to
+    /// compare build time, SAH cost and trace speed.
+    #[arg(long)]
+    all_bvh_builds: bool,
     /// Print the results as JSON.
     #[arg(long)]
     json: bool,
@@ -66,17 +71,43 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         ..Default::default()
     };
     settings.validate(ctx.info().max_image_dimension_2d)?;
-    let bar = ProgressBar::new(backends.len() as u64 * 2 * (u64::from(args.repeat) + 1));
+    let chosen_build = args.device.bvh_build(&ctx);
+    let mut runs: Vec<(Backend, BvhBuild)> = Vec::new();
+    for b in &backends {
+        if *b == Backend::Bvh && args.all_bvh_builds {
+            runs.push((*b, BvhBuild::Host));
+            runs.push((*b, BvhBuild::Gpu));
+        } else {
+            runs.push((*b, chosen_build));
+        }
+    }
+    let bar = ProgressBar::new(runs.len() as u64 * 2 * (u64::from(args.repeat) + 1));
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} batches {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut results = Vec::new();
-    for backend in &backends {
+    if runs.contains(&(Backend::Bvh, BvhBuild::Gpu)) {
+        // lavapipe JIT-compiles each pipeline inside its first dispatch: build a small
+        // scene once so the timed build measures the build, not the compiler.
+        let mut rng = testing::Rng::new(1);
+        let warm = testing::scene_of(
+            vec![testing::random_triangles(&mut rng, 4096, 1.0, 0.1)],
+            vec![],
+        );
+        GpuBvh::build_with(&ctx, &warm, &BvhBuildOptions::default(), BvhBuild::Gpu)?;
+    }
+    for (backend, bvh_build) in &runs {
         bar.set_message(format!("{} backend", backend.as_str()));
         let start = Instant::now();
-        let renderer = Renderer::new(&ctx, &scene, *backend)?;
+        let renderer = Renderer::with_bvh_build(&ctx, &scene, *backend, *bvh_build)?;
         let setup_ms = start.elapsed().as_secs_f64() * 1e3;
+        let mut build = renderer.backend.stats_json();
+        if let RayBackend::Bvh(bvh) = &renderer.backend {
+            // SAH cost of the bottom levels as built (read back: not part of the build time).
+            let data = bvh.read_back(&ctx)?;
+            build["sah_cost"] = json!(sah::blas_cost(&data));
+        }
         let setup = CameraSetup::new(&camera, args.width, args.height, renderer.scene_scale());
         let frame = GpuFrame::new(&settings, &setup, renderer.scene_scale());
         let bench = RayBench::new(&ctx, &renderer.pass_context(), &frame)?;
@@ -96,7 +127,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let (p, s) = (median(primary), median(incoherent));
         results.push(json!({
             "backend": backend.as_str(),
-            "build": renderer.backend.stats_json(),
+            "build": build,
             "upload_and_build_wall_ms": setup_ms,
             "primary": {"rays": p.rays, "hits": p.hits, "gpu_ms": p.ms, "mrays_per_s": p.mrays_per_s()},
             "incoherent": {"rays": s.rays, "hits": s.hits, "gpu_ms": s.ms, "mrays_per_s": s.mrays_per_s()},
@@ -129,8 +160,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             args.height,
             args.repeat
         )?;
-        outln!("| backend | build ms | build MiB | primary Mrays/s | incoherent Mrays/s |")?;
-        outln!("|---------|----------|-----------|-----------------|--------------------|")?;
+        outln!("| backend | builder | build ms | build MiB | SAH cost | primary Mrays/s | incoherent Mrays/s |")?;
+        outln!("|---------|---------|----------|-----------|----------|-----------------|--------------------|")?;
         for r in doc["backends"].as_array().context("results")? {
             let build = &r["build"];
             let build_ms = build["build_ms"].as_f64().unwrap_or_else(|| {
@@ -144,13 +175,34 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     + build["tlas_bytes"].as_u64().unwrap_or(0)
             });
             outln!(
-                "| {:<7} | {:>8.2} | {:>9.2} | {:>15.3} | {:>18.3} |",
+                "| {:<7} | {:<7} | {:>8.2} | {:>9.2} | {:>8} | {:>15.3} | {:>18.3} |",
                 r["backend"].as_str().unwrap_or("?"),
+                build["builder"].as_str().unwrap_or("-"),
                 build_ms,
                 bytes as f64 / 1048576.0,
+                build["sah_cost"]
+                    .as_f64()
+                    .map_or("-".to_string(), |c| format!("{c:.2}")),
                 r["primary"]["mrays_per_s"].as_f64().unwrap_or(0.0),
                 r["incoherent"]["mrays_per_s"].as_f64().unwrap_or(0.0)
             )?;
+        }
+        for r in doc["backends"].as_array().context("results")? {
+            let build = &r["build"];
+            let phases = &build["gpu_phases"];
+            if phases.is_object() {
+                let ms = |k: &str| phases[k].as_f64().unwrap_or(0.0);
+                outln!(
+                    "GPU build phases (GPU ms): Morton {:.2}, sort {:.2}, clustering {:.2} ({} PLOC iterations), collapse {:.2}, relocate {:.2}; peak scratch {:.1} MiB",
+                    ms("morton_ms"),
+                    ms("sort_ms"),
+                    ms("clustering_ms"),
+                    phases["ploc_iterations"].as_u64().unwrap_or(0),
+                    ms("collapse_ms"),
+                    ms("relocate_ms"),
+                    build["peak_scratch_bytes"].as_u64().unwrap_or(0) as f64 / 1048576.0
+                )?;
+            }
         }
     }
     super::common::check_validation(&ctx)

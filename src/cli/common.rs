@@ -7,6 +7,7 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
 use glam::Vec3;
+use rqr::accel::bvh::{BvhBuild, BvhBuildChoice};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::render::gbuffer::GbufferLayout;
 use rqr::render::raster_compute::{RasterChoice, RasterMode};
@@ -65,6 +66,10 @@ pub struct DeviceArgs {
     /// Ray backend: hardware ray queries, the compute-shader BVH, or auto.
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     pub backend: BackendChoice,
+    /// Where the compute BVH (`--backend bvh`) is built: on the host, in compute shaders, or
+    /// auto (GPU build on discrete/integrated GPUs, host build on CPU devices like lavapipe).
+    #[arg(long, value_enum, default_value_t = BvhBuildChoice::Auto)]
+    pub bvh_build: BvhBuildChoice,
     /// Hybrid path: what rasterizes primary visibility (`graphics` pipeline, `compute`
     /// rasterizer, or `auto`: the faster one as measured on first use of the device).
     #[arg(long, value_enum, default_value_t = RasterChoice::Auto)]
@@ -83,6 +88,13 @@ impl DeviceArgs {
             sync_validation: None,
             fence_timeout: Duration::from_millis(self.timeout_ms),
         })?)
+    }
+
+    /// Resolves `--bvh-build` on the opened device.
+    pub fn bvh_build(&self, ctx: &Context) -> BvhBuild {
+        let (build, reason) = self.bvh_build.resolve(ctx.info());
+        log::info!("BVH build: {} ({reason})", build.as_str());
+        build
     }
 
     /// Resolves `--backend` on the opened device: `auto` by measurement ([`rqr::autotune`]).

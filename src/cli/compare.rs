@@ -213,7 +213,7 @@ fn time_backend(
     backend: Backend,
 ) -> Result<(BackendRun, Duration)> {
     let setup = Instant::now();
-    let renderer = Renderer::new(ctx, scene, backend)?;
+    let renderer = Renderer::with_bvh_build(ctx, scene, backend, args.device.bvh_build(ctx))?;
     // AOVs (primary ids) only where the backends are compared with each other.
     let aov = args.backends == Backends::All;
     let targets = |path: RenderPath, s: &RenderSettings, aov: bool| {

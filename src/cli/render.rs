@@ -251,7 +251,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     settings.raster = raster;
     let renderer = {
         let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
-        Renderer::new(&ctx, &scene, backend)?
+        Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?
     };
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
@@ -375,7 +375,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     log::info!("backend {} ({reason})", backend.as_str());
     let renderer = {
         let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
-        Renderer::new(&ctx, &scene, backend)?
+        Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?
     };
     let render_path = match args.mode {
         Mode::Rt => RenderPath::RayTraced,

@@ -143,12 +143,24 @@ pub struct Renderer {
 }
 
 impl Renderer {
-    /// Uploads `scene` and builds the chosen backend.
+    /// Uploads `scene` and builds the chosen backend (the compute BVH where `--bvh-build auto`
+    /// puts it).
     pub fn new(ctx: &Context, scene: &Scene, backend: Backend) -> crate::Result<Self> {
+        let (bvh_build, _) = crate::accel::bvh::BvhBuildChoice::Auto.resolve(ctx.info());
+        Self::with_bvh_build(ctx, scene, backend, bvh_build)
+    }
+
+    /// Uploads `scene` and builds the chosen backend, the compute BVH with `bvh_build`.
+    pub fn with_bvh_build(
+        ctx: &Context,
+        scene: &Scene,
+        backend: Backend,
+        bvh_build: crate::accel::bvh::BvhBuild,
+    ) -> crate::Result<Self> {
         let gpu_textures = crate::scene::textures::GpuTextures::upload(ctx, scene)?;
         let textures = gpu_textures.descriptors();
         let gpu = GpuScene::upload(ctx, scene, textures.len() as u32)?;
-        let backend = RayBackend::build(ctx, scene, &gpu, backend)?;
+        let backend = RayBackend::build(ctx, scene, &gpu, backend, bvh_build)?;
         Ok(Self {
             scene_scale: gpu.refs_data.scene_scale,
             gpu,

@@ -256,6 +256,7 @@ impl ComputePipeline {
         unsafe { self.shared.device.cmd_dispatch_indirect(cmd, args.raw(), 0) };
     }
 
+    /// Binds the pipeline, `set` and `push` for a dispatch.
     fn bind(&self, cmd: vk::CommandBuffer, set: Option<&DescriptorSet>, push: &[u8]) {
         let device = &self.shared.device;
         debug_assert_eq!(
@@ -281,6 +282,27 @@ impl ComputePipeline {
                 device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
         }
+    }
+
+    /// Records a dispatch whose workgroup counts the GPU reads from `args` at byte `offset`
+    /// (three `u32`s; the buffer needs `INDIRECT_BUFFER` usage): passes whose size an earlier
+    /// pass computed run without a host round trip.
+    pub fn dispatch_indirect_at(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: Option<&DescriptorSet>,
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) {
+        self.bind(cmd, set, push);
+        // SAFETY: recording command buffer with this pipeline bound; `args` is alive and
+        // `offset + 12` lies within it (callers pass fixed slots).
+        unsafe {
+            self.shared
+                .device
+                .cmd_dispatch_indirect(cmd, args.raw(), offset)
+        };
     }
 }
 

@@ -3,6 +3,8 @@
 
 use rqr::vk::{Context, ContextOptions, VkError};
 
+pub mod trace;
+
 pub const INSTALL_HINT: &str =
     "Vulkan is required for the test suite: run `scripts/setup-vulkan.sh` (Debian 12: Mesa lavapipe from bookworm-backports, validation layers, glslc), then export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.json";
 

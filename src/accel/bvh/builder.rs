@@ -171,13 +171,16 @@ fn flatten(
 }
 
 /// One geometry's usable triangles: exact vertex copies with their original primitive index.
-struct GeometryTris {
-    tris: Vec<BvhTriangle>,
-    aabbs: Vec<ObAabb>,
-    bounds: ObAabb,
+pub(super) struct GeometryTris {
+    /// Usable triangles in index order.
+    pub tris: Vec<BvhTriangle>,
+    /// Their boxes.
+    pub aabbs: Vec<ObAabb>,
+    /// Union of the boxes.
+    pub bounds: ObAabb,
 }
 
-fn gather_geometry(scene: &Scene, g: usize) -> Result<GeometryTris, BvhError> {
+pub(super) fn gather_geometry(scene: &Scene, g: usize) -> Result<GeometryTris, BvhError> {
     let geom = &scene.geometries[g];
     if geom.indices.len() % 3 != 0 {
         return Err(BvhError::InvalidScene(format!(
@@ -221,19 +224,32 @@ fn gather_geometry(scene: &Scene, g: usize) -> Result<GeometryTris, BvhError> {
     Ok(out)
 }
 
-fn max_abs(b: &ObAabb) -> f32 {
+pub(super) fn max_abs(b: &ObAabb) -> f32 {
     b.min.abs().max(b.max.abs()).max_element()
 }
 
-/// Builds the two-level BVH of `scene` on the host.
-pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, BvhError> {
-    let t_start = Instant::now();
-    let max_leaf = opts.max_leaf_size.clamp(1, MAX_LEAF_PRIMITIVES);
-    let mut stats = BvhStats::default();
+/// What both builders need from the scene before building: which geometries are used by an
+/// instance with an invertible transform, the world-to-object rows of every instance, and
+/// which geometries are alpha tested.
+pub(super) struct SceneInput {
+    /// Per geometry: used by at least one instance with an invertible transform.
+    pub used: Vec<bool>,
+    /// Per instance: world-to-object rows (`None`: singular or non-finite transform).
+    pub w2o: Vec<Option<[[f32; 4]; 3]>>,
+    /// Per geometry: alpha MASK material.
+    pub alpha: Vec<bool>,
+    /// Instances left out (singular or non-finite transform).
+    pub skipped_instances: usize,
+}
 
-    // Which geometries are used by an instance with an invertible transform.
-    let mut used = vec![false; scene.geometries.len()];
-    let mut w2o = Vec::with_capacity(scene.instances.len());
+/// Validates instance and material references and collects [`SceneInput`].
+pub(super) fn scene_input(scene: &Scene) -> Result<SceneInput, BvhError> {
+    let mut input = SceneInput {
+        used: vec![false; scene.geometries.len()],
+        w2o: Vec::with_capacity(scene.instances.len()),
+        alpha: vec![false; scene.geometries.len()],
+        skipped_instances: 0,
+    };
     for (i, inst) in scene.instances.iter().enumerate() {
         let g = inst.geometry as usize;
         if g >= scene.geometries.len() {
@@ -244,29 +260,19 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
         }
         let rows = world_to_object_rows(&inst.transform);
         if rows.is_some() {
-            used[g] = true;
+            input.used[g] = true;
         } else {
-            stats.skipped_instances += 1;
+            input.skipped_instances += 1;
         }
-        w2o.push(rows);
+        input.w2o.push(rows);
     }
     if scene.instances.len() > LINK_FIRST_MASK as usize + 1 {
         return Err(BvhError::too_many("instances"));
     }
-
-    // Bottom levels (built first: the top level needs their bounds).
-    let t_blas = Instant::now();
-    let mut blas_nodes: Vec<BvhNode> = Vec::new();
-    let mut triangles: Vec<BvhTriangle> = Vec::new();
-    // Per geometry: (root node index relative to blas_nodes, object bounds).
-    let mut blas: Vec<Option<(u32, ObAabb)>> = vec![None; scene.geometries.len()];
-    let mut alpha = vec![false; scene.geometries.len()];
-    let mut max_blas_stack = 0u32;
-    for g in 0..scene.geometries.len() {
-        if !used[g] {
+    for (g, geom) in scene.geometries.iter().enumerate() {
+        if !input.used[g] {
             continue;
         }
-        let geom = &scene.geometries[g];
         let mat = scene.materials.get(geom.material as usize).ok_or_else(|| {
             BvhError::InvalidScene(format!(
                 "geometry {g} uses material {}, but the scene has {}",
@@ -274,38 +280,27 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
                 scene.materials.len()
             ))
         })?;
-        alpha[g] = mat.alpha_mode == AlphaMode::Mask;
-        let gt = gather_geometry(scene, g)?;
-        stats.skipped_triangles += geom.triangle_count() - gt.tris.len();
-        if gt.tris.is_empty() {
-            continue;
-        }
-        if triangles.len() + gt.tris.len() > LINK_FIRST_MASK as usize + 1 {
-            return Err(BvhError::too_many("triangles"));
-        }
-        let bvh = build_bvh2(&gt.aabbs, opts, max_leaf);
-        let scale = max_abs(&gt.bounds);
-        let shape = flatten(&bvh, scale, &mut blas_nodes, &mut |prims| {
-            let first = triangles.len() as u32;
-            for &p in prims {
-                triangles.push(gt.tris[p as usize]);
-            }
-            leaf_link(first, prims.len() as u32).ok_or_else(|| BvhError::too_many("triangles"))
-        })?;
-        stats.blas_count += 1;
-        stats.max_blas_depth = stats.max_blas_depth.max(shape.depth);
-        max_blas_stack = max_blas_stack.max(shape.stack);
-        blas[g] = Some((shape.root, gt.bounds));
+        input.alpha[g] = mat.alpha_mode == AlphaMode::Mask;
     }
-    stats.blas_ms = t_blas.elapsed().as_secs_f64() * 1e3;
+    Ok(input)
+}
 
-    // Top level over instances: world boxes of the transformed bottom-level root boxes.
+/// Builds and flattens the top level over the instances whose geometry has a bottom level
+/// (`blas_bounds[g]`: object bounds of geometry `g`'s bottom level). Returns the nodes (root
+/// first) and the most stack entries a traversal of it can hold; fills the top-level stats.
+pub(super) fn build_tlas(
+    scene: &Scene,
+    input: &SceneInput,
+    blas_bounds: &[Option<ObAabb>],
+    opts: &BvhBuildOptions,
+    stats: &mut BvhStats,
+) -> Result<(Vec<BvhNode>, u32), BvhError> {
     let t_tlas = Instant::now();
     let mut inst_aabbs = Vec::new();
     let mut inst_ids = Vec::new();
     let mut world = ObAabb::empty();
     for (i, inst) in scene.instances.iter().enumerate() {
-        let (Some(_), Some((_, b))) = (w2o[i], blas[inst.geometry as usize]) else {
+        let (Some(_), Some(b)) = (input.w2o[i], blas_bounds[inst.geometry as usize]) else {
             continue;
         };
         let mut wb = ObAabb::empty();
@@ -347,6 +342,106 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
     }
     stats.tlas_nodes = nodes.len();
     stats.tlas_ms = t_tlas.elapsed().as_secs_f64() * 1e3;
+    Ok((nodes, tlas_stack))
+}
+
+/// One [`BvhInstance`] per scene instance; `blas_roots[g]` is the absolute root node of
+/// geometry `g`'s bottom level.
+pub(super) fn instance_records(
+    scene: &Scene,
+    input: &SceneInput,
+    blas_roots: &[Option<u32>],
+) -> Vec<BvhInstance> {
+    scene
+        .instances
+        .iter()
+        .enumerate()
+        .map(|(i, inst)| {
+            let g = inst.geometry as usize;
+            BvhInstance {
+                world_to_object: input.w2o[i].unwrap_or([[0.0; 4]; 3]),
+                // Instances left out of the top level are never entered.
+                blas_root: blas_roots[g].unwrap_or(0),
+                flags: if input.alpha[g] {
+                    BVH_INSTANCE_ALPHA_TEST
+                } else {
+                    0
+                },
+                geometry: g as u32,
+                pad: 0,
+            }
+        })
+        .collect()
+}
+
+/// Fills the depth/stack stats and refuses trees deeper than the traversal stack.
+pub(super) fn finish_stats(
+    stats: &mut BvhStats,
+    tlas_stack: u32,
+    max_blas_stack: u32,
+) -> Result<(), BvhError> {
+    stats.max_depth = stats.tlas_depth + stats.max_blas_depth;
+    stats.max_stack = tlas_stack + max_blas_stack;
+    if stats.max_stack > BVH_STACK_SIZE {
+        return Err(BvhError::TooDeep {
+            entries: stats.max_stack,
+            limit: BVH_STACK_SIZE,
+        });
+    }
+    Ok(())
+}
+
+/// Builds the two-level BVH of `scene` on the host.
+pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, BvhError> {
+    let t_start = Instant::now();
+    let max_leaf = opts.max_leaf_size.clamp(1, MAX_LEAF_PRIMITIVES);
+    let input = scene_input(scene)?;
+    let mut stats = BvhStats {
+        skipped_instances: input.skipped_instances,
+        builder: "host".into(),
+        ..Default::default()
+    };
+
+    // Bottom levels (built first: the top level needs their bounds).
+    let t_blas = Instant::now();
+    let mut blas_nodes: Vec<BvhNode> = Vec::new();
+    let mut triangles: Vec<BvhTriangle> = Vec::new();
+    // Per geometry: root node index relative to blas_nodes, and object bounds.
+    let mut blas_roots: Vec<Option<u32>> = vec![None; scene.geometries.len()];
+    let mut blas_bounds: Vec<Option<ObAabb>> = vec![None; scene.geometries.len()];
+    let mut max_blas_stack = 0u32;
+    for g in 0..scene.geometries.len() {
+        if !input.used[g] {
+            continue;
+        }
+        let geom = &scene.geometries[g];
+        let gt = gather_geometry(scene, g)?;
+        stats.skipped_triangles += geom.triangle_count() - gt.tris.len();
+        if gt.tris.is_empty() {
+            continue;
+        }
+        if triangles.len() + gt.tris.len() > LINK_FIRST_MASK as usize + 1 {
+            return Err(BvhError::too_many("triangles"));
+        }
+        let bvh = build_bvh2(&gt.aabbs, opts, max_leaf);
+        let scale = max_abs(&gt.bounds);
+        let shape = flatten(&bvh, scale, &mut blas_nodes, &mut |prims| {
+            let first = triangles.len() as u32;
+            for &p in prims {
+                triangles.push(gt.tris[p as usize]);
+            }
+            leaf_link(first, prims.len() as u32).ok_or_else(|| BvhError::too_many("triangles"))
+        })?;
+        stats.blas_count += 1;
+        stats.max_blas_depth = stats.max_blas_depth.max(shape.depth);
+        max_blas_stack = max_blas_stack.max(shape.stack);
+        blas_roots[g] = Some(shape.root);
+        blas_bounds[g] = Some(gt.bounds);
+    }
+    stats.blas_ms = t_blas.elapsed().as_secs_f64() * 1e3;
+
+    // Top level over instances: world boxes of the transformed bottom-level root boxes.
+    let (mut nodes, tlas_stack) = build_tlas(scene, &input, &blas_bounds, opts, &mut stats)?;
 
     // Append the bottom levels behind the top level and shift their inner links.
     let offset = nodes.len() as u32;
@@ -361,32 +456,10 @@ pub(super) fn build(scene: &Scene, opts: &BvhBuildOptions) -> Result<BvhData, Bv
         }
         nodes.push(n);
     }
-    let instances = scene
-        .instances
-        .iter()
-        .enumerate()
-        .map(|(i, inst)| {
-            let g = inst.geometry as usize;
-            let rows = w2o[i].unwrap_or([[0.0; 4]; 3]);
-            BvhInstance {
-                world_to_object: rows,
-                // Instances left out of the top level are never entered.
-                blas_root: blas[g].map_or(0, |(r, _)| r + offset),
-                flags: if alpha[g] { BVH_INSTANCE_ALPHA_TEST } else { 0 },
-                geometry: g as u32,
-                pad: 0,
-            }
-        })
-        .collect();
+    let roots: Vec<Option<u32>> = blas_roots.iter().map(|r| r.map(|r| r + offset)).collect();
+    let instances = instance_records(scene, &input, &roots);
 
-    stats.max_depth = stats.tlas_depth + stats.max_blas_depth;
-    stats.max_stack = tlas_stack + max_blas_stack;
-    if stats.max_stack > BVH_STACK_SIZE {
-        return Err(BvhError::TooDeep {
-            entries: stats.max_stack,
-            limit: BVH_STACK_SIZE,
-        });
-    }
+    finish_stats(&mut stats, tlas_stack, max_blas_stack)?;
     stats.node_count = nodes.len();
     stats.triangle_count = triangles.len();
     stats.instance_count = scene.instances.len();

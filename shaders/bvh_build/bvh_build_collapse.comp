@@ -1,0 +1,201 @@
+#version 460
+// Collapse, one level of the 4-wide tree per dispatch: each work item turns a binary node
+// into one 4-wide node. Its children are gathered as in the host build (open the inner child
+// with the largest surface area until there are four); children emitted as leaves get their
+// triangles copied in leaf order into the output array, inner children get a new wide node
+// and a work item for the next level. Boxes are padded and quantized like BvhNode::new.
+// `pc.a`: parity of the input queue.
+#include "bvh_build/build_common.glsl"
+layout(local_size_x = 64) in;
+
+// Same padding as pad_box in builder.rs.
+const float PAD_RELATIVE = 1.0 / 1048576.0;
+
+bool is_inner(uint node) {
+    BuildRefs r = BUILD_REFS;
+    return node >= r.n && (U32s(r.info).v[node] & INFO_LEAF) == 0u;
+}
+
+// Copies the triangles under `node` (a subtree of at most 16 leaves) to tris_out[at..].
+void emit_leaf(uint node, uint at) {
+    BuildRefs r = BUILD_REFS;
+    uint stack[32];
+    uint top = 0u;
+    stack[top++] = node;
+    Tris tris_in = Tris(r.tris_in);
+    Tris tris_out = Tris(r.tris_out);
+    U32s children = U32s(r.children);
+    while (top > 0u) {
+        uint x = stack[--top];
+        if (x < r.n) {
+            tris_out.v[at++] = tris_in.v[x];
+        } else if (top + 2u <= 32u) {
+            stack[top++] = children.v[2u * (x - r.n) + 1u];
+            stack[top++] = children.v[2u * (x - r.n)];
+        }
+    }
+}
+
+void main() {
+    BuildRefs r = BUILD_REFS;
+    U32s state = U32s(r.state);
+    uint queue_in = pc.a == 0u ? STATE_QUEUE0 : STATE_QUEUE1;
+    uint queue_out = pc.a == 0u ? STATE_QUEUE1 : STATE_QUEUE0;
+    uint t = gl_GlobalInvocationID.x;
+    if (t >= state.v[queue_in]) {
+        return;
+    }
+    uvec4 item = UVec4s(pc.a == 0u ? r.queue0 : r.queue1).v[t];
+    UVec4s next = UVec4s(pc.a == 0u ? r.queue1 : r.queue0);
+    uint depth = item.w & 255u;
+    uint pushed = (item.w >> 8) & 255u;
+    U32s children = U32s(r.children);
+    uint kids[4];
+    uint count = 0u;
+    if ((item.w & 0x80000000u) != 0u) {
+        kids[0] = item.x;
+        count = 1u;
+    } else {
+        kids[0] = children.v[2u * (item.x - r.n)];
+        kids[1] = children.v[2u * (item.x - r.n) + 1u];
+        count = 2u;
+        while (count < 4u) {
+            int pos = -1;
+            float best = -1.0;
+            for (uint k = 0u; k < count; ++k) {
+                if (is_inner(kids[k])) {
+                    vec3 lo, hi;
+                    load_box(r.boxes, kids[k], lo, hi);
+                    float area = half_area(lo, hi);
+                    if (area > best) {
+                        best = area;
+                        pos = int(k);
+                    }
+                }
+            }
+            if (pos < 0) {
+                break;
+            }
+            uint opened = kids[pos];
+            for (uint k = count; k > uint(pos) + 1u; --k) {
+                kids[k] = kids[k - 1u];
+            }
+            kids[pos] = children.v[2u * (opened - r.n)];
+            kids[pos + 1] = children.v[2u * (opened - r.n) + 1u];
+            count += 1u;
+        }
+    }
+    uint child_pushed = pushed + count - 1u;
+    uint first = item.z;
+    vec3 bmin[4];
+    vec3 bmax[4];
+    uint links[4];
+    U32s info = U32s(r.info);
+    for (uint k = 0u; k < 4u; ++k) {
+        links[k] = LINK_EMPTY;
+        bmin[k] = vec3(0.0);
+        bmax[k] = vec3(0.0);
+    }
+    for (uint k = 0u; k < count; ++k) {
+        uint c = kids[k];
+        vec3 lo, hi;
+        load_box(r.boxes, c, lo, hi);
+        precise vec3 m = max(abs(lo), abs(hi));
+        precise vec3 pad = (m + vec3(r.pad_scale)) * PAD_RELATIVE;
+        precise vec3 plo = lo - pad;
+        precise vec3 phi = hi + pad;
+        bmin[k] = plo;
+        bmax[k] = phi;
+        uint leaves = info.v[c] & INFO_COUNT;
+        if (is_inner(c)) {
+            uint wide = atomicAdd(state.v[STATE_WIDE_COUNT], 1u);
+            links[k] = wide;
+            uint slot = atomicAdd(state.v[queue_out], 1u);
+            next.v[slot] = uvec4(c, wide, first, (depth + 1u) | (child_pushed << 8));
+        } else {
+            uint at = r.tri_base + first;
+            links[k] = LINK_LEAF | ((leaves - 1u) << 27) | at;
+            emit_leaf(c, at);
+        }
+        first += leaves;
+    }
+
+    // Quantization as BvhNode::new: per axis the smallest power-of-two step with 255 steps
+    // covering the union, planes rounded outward and verified in the traversal's arithmetic.
+    BuildNode node;
+    node.exponents = 0u;
+    for (uint p = 0u; p < 6u; ++p) {
+        node.planes[p] = (p & 1u) == 0u ? 0xFFFFFFFFu : 0u;
+    }
+    bool failed = false;
+    for (uint a = 0u; a < 3u; ++a) {
+        float lo = bmin[0][a];
+        float hi = bmax[0][a];
+        for (uint k = 1u; k < count; ++k) {
+            lo = min(lo, bmin[k][a]);
+            hi = max(hi, bmax[k][a]);
+        }
+        node.origin[a] = lo;
+        precise float extent = hi - lo;
+        int e = extent > 0.0 ? int(ceil(log2(extent / 255.0))) : -126;
+        e = clamp(e, -126, 127);
+        uint qlo[4];
+        uint qhi[4];
+        bool ok = false;
+        for (int attempt = 0; attempt < 8 && !ok && e <= 127; ++attempt) {
+            float scale = uintBitsToFloat(uint(e + 127) << 23);
+            ok = true;
+            for (uint k = 0u; k < count; ++k) {
+                float cmin = bmin[k][a];
+                float cmax = bmax[k][a];
+                int q0 = clamp(int(floor((cmin - lo) / scale)), 0, 255);
+                while (q0 > 0) {
+                    precise float d = lo + float(q0) * scale;
+                    if (d <= cmin) {
+                        break;
+                    }
+                    q0 -= 1;
+                }
+                int q1 = clamp(int(ceil((cmax - lo) / scale)), 0, 256);
+                while (q1 <= 255) {
+                    precise float d = lo + float(q1) * scale;
+                    if (d >= cmax) {
+                        break;
+                    }
+                    q1 += 1;
+                }
+                precise float d0 = lo + float(q0) * scale;
+                if (q1 > 255 || d0 > cmin) {
+                    ok = false;
+                    break;
+                }
+                qlo[k] = uint(q0);
+                qhi[k] = uint(q1);
+            }
+            if (!ok) {
+                e += 1;
+            }
+        }
+        if (!ok) {
+            failed = true;
+            continue;
+        }
+        node.exponents |= uint(e + 127) << (8u * a);
+        for (uint k = 0u; k < count; ++k) {
+            uint shift = 8u * k;
+            node.planes[2u * a] = (node.planes[2u * a] & ~(255u << shift)) | (qlo[k] << shift);
+            node.planes[2u * a + 1u] = (node.planes[2u * a + 1u] & ~(255u << shift)) | (qhi[k] << shift);
+        }
+    }
+    if (failed) {
+        atomicOr(state.v[STATE_ERROR], 1u);
+    }
+    for (uint k = 0u; k < 4u; ++k) {
+        node.links[k] = links[k];
+    }
+    node.reserved[0] = 0u;
+    node.reserved[1] = 0u;
+    Nodes(r.nodes).v[item.y] = node;
+    atomicMax(state.v[STATE_MAX_DEPTH], depth);
+    atomicMax(state.v[STATE_MAX_STACK], child_pushed);
+}

@@ -1,0 +1,26 @@
+#version 460
+// Scan, step 1 of 3: sum of each 1024-element block of `data` into `sums`.
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_scalar_block_layout : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#include "bvh_build/scan_common.glsl"
+layout(local_size_x = 256) in;
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer U32s { uint v[]; };
+layout(push_constant) uniform Push { uint64_t data; uint64_t sums; uint64_t count; uint64_t total; } pc;
+
+void main() {
+    uint count = U32s(pc.count).v[0];
+    U32s data = U32s(pc.data);
+    uint base = gl_WorkGroupID.x * SCAN_BLOCK + gl_LocalInvocationID.x * SCAN_PER_THREAD;
+    uint s = 0u;
+    for (uint k = 0u; k < SCAN_PER_THREAD; ++k) {
+        if (base + k < count) {
+            s += data.v[base + k];
+        }
+    }
+    uint total;
+    workgroup_exclusive_scan(s, total);
+    if (gl_LocalInvocationID.x == 0u) {
+        U32s(pc.sums).v[gl_WorkGroupID.x] = total;
+    }
+}
