@@ -81,6 +81,11 @@ fn meshopt_renders_like_its_source() {
                 .rgba8
         };
         let d = compare::compare(96, 96, &render(&a), &render(&b));
+        eprintln!(
+            "Avocado vs Avocado_meshopt, {}: FLIP mean {:.5}",
+            backend.as_str(),
+            d.flip_mean
+        );
         assert!(
             d.flip_mean < 0.01,
             "{}: FLIP {} between Avocado and its meshopt copy",

@@ -328,6 +328,11 @@ fn avocado_quantized_renders_like_avocado() {
         let a = render(&ctx, &plain, &camera, backend);
         let b = render(&ctx, &quant, &camera, backend);
         let d = compare::compare(128, 128, &a, &b);
+        eprintln!(
+            "Avocado vs Avocado_Quantized, {}: FLIP mean {:.5}",
+            backend.as_str(),
+            d.flip_mean
+        );
         // Before the fix the texture LOD came from the untransformed integer UVs: a
         // flat-coloured avocado.
         assert!(

@@ -8,6 +8,9 @@
 // sends all of it to reflection); Beer-Lambert absorption inside KHR_materials_volume media.
 // A path stops at frame.max_depth segments or when its weight's largest channel falls below
 // frame.min_weight. Alpha BLEND continues the ray straight through with weight (1 - alpha).
+// Layered materials (KHR_materials_specular / clearcoat / sheen, Surface.layered) add the
+// specular extension's Fresnel, a sheen lobe in direct light, and a clearcoat lobe with its
+// own mirror ray; other materials never enter that code.
 #ifndef RQR_SHADE_GLSL
 #define RQR_SHADE_GLSL
 #include "surface.glsl"
