@@ -334,7 +334,7 @@ fn avocado_quantized_renders_like_avocado() {
             d.flip_mean
         );
         // Before the fix the texture LOD came from the untransformed integer UVs: a
-        // flat-coloured avocado.
+        // flat-coloured avocado, FLIP mean 0.179 here (lavapipe, both backends); 0.004 after.
         assert!(
             d.flip_mean < 0.01,
             "{}: FLIP mean {} between Avocado and Avocado_Quantized",
