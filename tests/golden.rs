@@ -169,3 +169,30 @@ fn golden_texture_transform() {
         &small(),
     );
 }
+
+/// Under a bright sky gradient, so that reflections show.
+fn sky() -> RenderSettings {
+    RenderSettings {
+        sky: true,
+        background: glam::Vec3::ONE,
+        ..small()
+    }
+}
+
+/// KHR_materials_clearcoat: columns without coat, coated, coat only, in rows of factor,
+/// roughness, textures and clearcoat normal maps; the coat adds a sharp reflection lobe.
+#[test]
+fn golden_clearcoat() {
+    check(
+        "clearcoat",
+        &asset("ClearCoatTest/ClearCoatTest.glb"),
+        &sky(),
+    );
+}
+
+/// KHR_materials_specular: black dielectric spheres that show only their specular
+/// reflection, with specular factor, texture and colour varying per row.
+#[test]
+fn golden_specular() {
+    check("specular", &asset("SpecularTest/SpecularTest.glb"), &sky());
+}

@@ -486,7 +486,7 @@ fn required_and_optional_extensions() {
     let (b, mut doc) = quad();
     doc["extensionsUsed"] = json!([
         "KHR_draco_mesh_compression",
-        "KHR_materials_sheen",
+        "KHR_materials_iridescence",
         "KHR_texture_transform"
     ]);
     doc["extensionsRequired"] = json!(["KHR_draco_mesh_compression", "KHR_texture_transform"]);
@@ -507,7 +507,7 @@ fn required_and_optional_extensions() {
     let s = load_doc(&b.document(doc)).unwrap();
     assert_eq!(
         s.extensions_unsupported,
-        vec!["KHR_draco_mesh_compression", "KHR_materials_sheen"]
+        vec!["KHR_draco_mesh_compression", "KHR_materials_iridescence"]
     );
     assert_eq!(s.extensions_used.len(), 3);
 }

@@ -117,3 +117,44 @@ fn info_fails_cleanly_on_bad_input() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn info_json_lists_each_extension_with_its_status() {
+    let cc = scene_util::asset("ClearCoatTest/ClearCoatTest.glb");
+    let v = info_json(&[cc.to_str().unwrap()]);
+    assert_eq!(
+        v["extensions"],
+        serde_json::json!([{"name": "KHR_materials_clearcoat", "status": "supported"}])
+    );
+    // Optional unknown extensions are "ignored"; a required one is refused, and the JSON on
+    // stdout still says which (exit status 1, the error on stderr).
+    let dir = std::env::temp_dir().join(format!("rqr-info-ext-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut b = scene_util::Builder::default();
+    let mut doc = scene_util::quad_doc(&mut b, serde_json::json!({}));
+    doc["extensionsUsed"] =
+        serde_json::json!(["KHR_materials_iridescence", "KHR_texture_transform"]);
+    let optional = dir.join("optional.gltf");
+    std::fs::write(&optional, scene_util::bytes(&b.document(doc.clone()))).unwrap();
+    let v = info_json(&[optional.to_str().unwrap()]);
+    assert_eq!(
+        v["extensions"],
+        serde_json::json!([
+            {"name": "KHR_materials_iridescence", "status": "ignored"},
+            {"name": "KHR_texture_transform", "status": "supported"},
+        ])
+    );
+    doc["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    doc["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    let required = dir.join("required.gltf");
+    std::fs::write(&required, scene_util::bytes(&b.document(doc))).unwrap();
+    let out = rqr(&["info", "--json", required.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(
+        v["extensions"],
+        serde_json::json!([{"name": "KHR_draco_mesh_compression", "status": "unsupported-required"}])
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("KHR_draco_mesh_compression"));
+    std::fs::remove_dir_all(&dir).ok();
+}

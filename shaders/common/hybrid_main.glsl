@@ -95,6 +95,8 @@ void main() {
         s.atten_color = m.attenuation_color;
         s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
         s.alpha_mode = m.alpha_mode;
+        // The full G-buffer keeps no layer textures: their factors only.
+        surface_layers(s, m);
         Hit at = miss_hit(BIG_FLOAT);
         at.t = p.w;
         c = whitted(camera, PRIMARY_SURFACE, s, at, info);

@@ -70,7 +70,28 @@ struct GpuMaterial {
     // same bytes as the six named slots of src/scene/layout.rs. An array so that a loop can
     // load one slot at a time from memory (see surface_at).
     GpuTextureSlot textures[6];
+    // KHR_materials_specular / clearcoat / sheen (defaults without them) and the extension
+    // textures (EXT_TEX_*), read only when flags has MATERIAL_EXT_TEXTURES.
+    float specular;
+    vec3 specular_color;
+    float clearcoat;
+    float clearcoat_roughness;
+    float clearcoat_normal_scale;
+    vec3 sheen_color;
+    float sheen_roughness;
+    uint flags;
+    GpuTextureSlot ext_textures[8];
 };
+#define MATERIAL_LAYERED 1u
+#define MATERIAL_EXT_TEXTURES 2u
+#define EXT_TEX_SPECULAR 0
+#define EXT_TEX_SPECULAR_COLOR 1
+#define EXT_TEX_CLEARCOAT 2
+#define EXT_TEX_CLEARCOAT_ROUGHNESS 3
+#define EXT_TEX_CLEARCOAT_NORMAL 4
+#define EXT_TEX_SHEEN_COLOR 5
+#define EXT_TEX_SHEEN_ROUGHNESS 6
+#define EXT_TEX_THICKNESS 7
 #define TEX_BASE_COLOR 0
 #define TEX_METALLIC_ROUGHNESS 1
 #define TEX_NORMAL 2

@@ -8,11 +8,16 @@
 // sends all of it to reflection); Beer-Lambert absorption inside KHR_materials_volume media.
 // A path stops at frame.max_depth segments or when its weight's largest channel falls below
 // frame.min_weight. Alpha BLEND continues the ray straight through with weight (1 - alpha).
+// Layered materials (KHR_materials_specular / clearcoat / sheen, Surface.layered) add the
+// specular extension's Fresnel, a sheen lobe in direct light, and a clearcoat lobe with its
+// own mirror ray; other materials never enter that code.
 #ifndef RQR_SHADE_GLSL
 #define RQR_SHADE_GLSL
 #include "surface.glsl"
 
 float eps_offset() { return frame.epsilon; }
+
+float max3(vec3 v) { return max(v.x, max(v.y, v.z)); }
 
 #define RAY_PRIMARY 0u
 #define RAY_SHADOW 1u
@@ -23,6 +28,51 @@ float eps_offset() { return frame.epsilon; }
 
 // Rays traced by this invocation, by kind; flushed once with atomics at the end.
 uint rays_by_kind[4] = uint[4](0u, 0u, 0u, 0u);
+
+// Fresnel of the base layer at cosine `c`. Plain materials: Schlick with `f0`. Layered ones
+// (KHR_materials_specular): the dielectric part has F0 = min(F0(ior) * specularColor, 1) and
+// F90 = 1, both scaled by specularFactor; metals keep Schlick with F0 = base colour.
+vec3 surface_fresnel(Surface s, vec3 f0, float c) {
+    if (!s.layered) {
+        return fresnel_schlick(f0, c);
+    }
+    vec3 f0_dielectric = min(vec3(pow((s.ior - 1.0) / (s.ior + 1.0), 2.0)) * s.specular_color, vec3(1.0));
+    return mix(s.specular * fresnel_schlick(f0_dielectric, c), fresnel_schlick(s.base_color, c), s.metallic);
+}
+
+// Fraction of light the clearcoat reflects at its normal (F0 = 0.04, i.e. ior 1.5), times
+// its strength: the base layer under it receives (1 - this).
+float clearcoat_reflectance(Surface s, vec3 v) {
+    return s.clearcoat * fresnel_schlick(vec3(0.04), max(dot(s.clearcoat_n, v), 0.0)).x;
+}
+
+// Direct radiance factor (BRDF x cosine) of a layered material for light from `l`: the base
+// layer (with the specular extension's Fresnel), plus the sheen lobe (Charlie; the Sample
+// Viewer's albedo scaling of the base is left out), under a clearcoat GGX lobe with its own
+// roughness and normal.
+vec3 layered_direct(Surface s, vec3 v, vec3 l) {
+    vec3 h = normalize(l + v);
+    float n_dot_l = max(dot(s.n, l), 0.0);
+    float n_dot_v = max(dot(s.n, v), 1e-4);
+    float n_dot_h = max(dot(s.n, h), 0.0);
+    float v_dot_h = dot(v, h);
+    float alpha = max(s.roughness * s.roughness, 1e-3);
+    vec3 diffuse_color = s.base_color * (1.0 - s.metallic) * (1.0 - s.transmission);
+    vec3 f = surface_fresnel(s, vec3(0.0), v_dot_h);
+    vec3 base = ((vec3(1.0) - f) * diffuse_color / PI + f * d_ggx(n_dot_h, alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha)) * n_dot_l;
+    if (max3(s.sheen_color) > 0.0) {
+        base += s.sheen_color * d_charlie(s.sheen_roughness, n_dot_h) * v_sheen(n_dot_l, n_dot_v, s.sheen_roughness) * n_dot_l;
+    }
+    if (s.clearcoat <= 0.0) {
+        return base;
+    }
+    float c_dot_l = max(dot(s.clearcoat_n, l), 0.0);
+    float c_dot_v = max(dot(s.clearcoat_n, v), 1e-4);
+    float c_alpha = max(s.clearcoat_roughness * s.clearcoat_roughness, 1e-3);
+    float fc = s.clearcoat * fresnel_schlick(vec3(0.04), v_dot_h).x;
+    float coat = fc * d_ggx(max(dot(s.clearcoat_n, h), 0.0), c_alpha) * v_smith_ggx(c_dot_l, c_dot_v, c_alpha) * c_dot_l;
+    return base * (1.0 - clearcoat_reflectance(s, v)) + vec3(coat);
+}
 
 // Direct light with shadow rays: the seed's "for each light: if not inShadow: diffuse + specular".
 vec3 direct_light(Surface s, vec3 v) {
@@ -44,6 +94,10 @@ vec3 direct_light(Surface s, vec3 v) {
         float tmax = dist < BIG_FLOAT ? dist - 2.0 * eps_offset() : BIG_FLOAT;
         rays_by_kind[RAY_SHADOW] += 1u;
         if (trace_any(origin, to_light, 0.0, tmax)) {
+            continue;
+        }
+        if (s.layered && (frame.flags & FLAG_NO_SPECULAR) == 0u) {
+            sum += layered_direct(s, v, to_light) * e;
             continue;
         }
         vec3 h = normalize(to_light + v);
@@ -82,12 +136,17 @@ struct PrimaryInfo {
 
 PathRay path_stack[STACK_SIZE];
 
-float max3(vec3 v) { return max(v.x, max(v.y, v.z)); }
-
 // Shades surface `s` hit by `r` and pushes the reflection/refraction continuations.
 vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
     vec3 v = -r.dir;
-    vec3 color = s.emissive + direct_light(s, v) + frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion;
+    vec3 direct = direct_light(s, v);
+    vec3 color = s.emissive + direct + frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion;
+    float coat = 0.0;
+    if (s.layered) {
+        // Emission and ambient light pass through the clearcoat (direct light has it already).
+        coat = clearcoat_reflectance(s, v);
+        color = (s.emissive + frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion) * (1.0 - coat) + direct;
+    }
     float coverage = s.alpha_mode == ALPHA_BLEND ? clamp(s.alpha, 0.0, 1.0) : 1.0;
     float cone = r.cone_width + frame.pixel_spread * t;
     if (coverage < 1.0 && sp < STACK_SIZE) {
@@ -112,15 +171,28 @@ vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
         if (refract_dir(r.dir, s.n, eta, refracted)) {
             // Schlick uses the angle on the less dense side.
             float c = s.front_face ? cos_i : max(-dot(s.n, refracted), 0.0);
-            vec3 f = fresnel_schlick(f0, c);
+            vec3 f = surface_fresnel(s, f0, c);
             reflect_weight *= f;
             refract_weight = w * transmission * (vec3(1.0) - f) * s.base_color;
         } else {
             // Total internal reflection: all energy goes to the reflected ray.
-            reflect_weight = w * (transmission + (1.0 - transmission) * gloss * fresnel_schlick(f0, cos_i));
+            reflect_weight = w * (transmission + (1.0 - transmission) * gloss * surface_fresnel(s, f0, cos_i));
         }
     } else {
-        reflect_weight *= fresnel_schlick(f0, cos_i);
+        reflect_weight *= surface_fresnel(s, f0, cos_i);
+    }
+    if (coat > 0.0) {
+        // The clearcoat's own mirror ray (its normal, its roughness' gloss); the base layer's
+        // rays carry what the coat lets through.
+        reflect_weight *= 1.0 - coat;
+        refract_weight *= 1.0 - coat;
+        float coat_gloss = (1.0 - s.clearcoat_roughness) * (1.0 - s.clearcoat_roughness);
+        vec3 coat_weight = w * coat * coat_gloss;
+        if (max3(coat_weight) >= frame.min_weight && sp < STACK_SIZE) {
+            vec3 d = normalize(reflect_dir(r.dir, s.clearcoat_n));
+            if (dot(d, s.ng) <= 0.0) d = normalize(reflect_dir(r.dir, s.ng));
+            path_stack[sp++] = PathRay(s.position + s.ng * eps_offset(), d, coat_weight, r.depth + 1u, RAY_REFLECTION, cone);
+        }
     }
     if (max3(reflect_weight) >= frame.min_weight && sp < STACK_SIZE) {
         vec3 d = normalize(reflect_dir(r.dir, s.n));

@@ -25,11 +25,41 @@ struct Surface {
     float atten_dist;
     uint alpha_mode;
     uint material;
+    // KHR_materials_specular / clearcoat / sheen; read only when `layered` (see
+    // surface_layers); other materials shade with the plain metallic-roughness code.
+    bool layered;
+    float specular;
+    vec3 specular_color;
+    float clearcoat;
+    float clearcoat_roughness;
+    vec3 clearcoat_n;  // clearcoat shading normal, same side as ng
+    vec3 sheen_color;
+    float sheen_roughness;
 };
 
-vec4 sample_slot(GpuTextureSlot slot, vec2 uv0, vec2 uv1, float lod_base) {
+// The layered-material parameters of material `m` from its factors alone (no textures).
+void surface_layers(inout Surface s, GpuMaterial m) {
+    s.layered = (m.flags & MATERIAL_LAYERED) != 0u;
+    s.specular = m.specular;
+    s.specular_color = m.specular_color;
+    s.clearcoat = m.clearcoat;
+    s.clearcoat_roughness = m.clearcoat_roughness;
+    s.clearcoat_n = s.n;
+    s.sheen_color = m.sheen_color;
+    s.sheen_roughness = m.sheen_roughness;
+}
+
+// Samples a texture slot at the LOD of a ray cone: `lod_world` is log2(cone width / cos) minus
+// half log2 of the triangle's world area (or -BIG_FLOAT for mip 0); `uv_areas` holds twice the
+// triangle's area in TEXCOORD sets 0 and 1. The slot's texel footprint uses the area of ITS set
+// after ITS KHR_texture_transform (|det| of the 2x2 part scales areas): a quantized mesh whose
+// integer UVs are scaled by 1/4096 in the transform would otherwise pick a mip 12 levels too
+// coarse (a flat colour), and a slot on TEXCOORD_1 would use TEXCOORD_0's density.
+vec4 sample_slot(GpuTextureSlot slot, vec2 uv0, vec2 uv1, float lod_world, vec2 uv_areas) {
     ivec2 size = textureSize(textures[nonuniformEXT(slot.texture)], 0);
-    float lod = lod_base + 0.5 * log2(float(size.x) * float(size.y));
+    float det = abs(slot.row0.x * slot.row1.y - slot.row0.y * slot.row1.x);
+    float uv_area = (slot.tex_coord == 1u ? uv_areas.y : uv_areas.x) * det;
+    float lod = uv_area > 0.0 ? lod_world + 0.5 * log2(uv_area * float(size.x) * float(size.y)) : 0.0;
     return textureLod(textures[nonuniformEXT(slot.texture)], texture_uv(slot, uv0, uv1), max(lod, 0.0));
 }
 
@@ -76,6 +106,7 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
     // one scalar load per SIMD lane.
     VertexBuf verts = VertexBuf(scene.attributes);
     vec2 uv0_a = verts.v[tri.x].uv0, uv0_b = verts.v[tri.y].uv0, uv0_c = verts.v[tri.z].uv0;
+    vec2 uv1_a = verts.v[tri.x].uv1, uv1_b = verts.v[tri.y].uv1, uv1_c = verts.v[tri.z].uv1;
 
     Surface s;
     s.material = g.material;
@@ -88,20 +119,23 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
     vec3 n = n2w * (w.x * verts.v[tri.x].normal + w.y * verts.v[tri.y].normal + w.z * verts.v[tri.z].normal);
     n = dot(n, n) > 0.0 ? normalize(n) : s.ng_front;
     vec2 uv0 = w.x * uv0_a + w.y * uv0_b + w.z * uv0_c;
-    vec2 uv1 = w.x * verts.v[tri.x].uv1 + w.y * verts.v[tri.y].uv1 + w.z * verts.v[tri.z].uv1;
+    vec2 uv1 = w.x * uv1_a + w.y * uv1_b + w.z * uv1_c;
     vec4 vcolor = vec4(1.0);
     if ((g.flags & GEOMETRY_HAS_COLORS) != 0u) {
         vcolor = w.x * verts.v[tri.x].color + w.y * verts.v[tri.y].color + w.z * verts.v[tri.z].color;
     }
 
-    float lod_base = -100.0;
+    float lod_world = -BIG_FLOAT;
+    vec2 uv_areas = vec2(0.0);
     if (cone_width > 0.0) {
         mat3 o2w = mat3(inst.object_to_world);
         float world_area = length(cross(o2w * (p1 - p0), o2w * (p2 - p0)));
-        float uv_area = abs((uv0_b.x - uv0_a.x) * (uv0_c.y - uv0_a.y) - (uv0_c.x - uv0_a.x) * (uv0_b.y - uv0_a.y));
+        uv_areas = abs(vec2(
+            (uv0_b.x - uv0_a.x) * (uv0_c.y - uv0_a.y) - (uv0_c.x - uv0_a.x) * (uv0_b.y - uv0_a.y),
+            (uv1_b.x - uv1_a.x) * (uv1_c.y - uv1_a.y) - (uv1_c.x - uv1_a.x) * (uv1_b.y - uv1_a.y)));
         float cos_theta = max(abs(dot(s.ng, dir)), 1e-3);
-        if (world_area > 0.0 && uv_area > 0.0) {
-            lod_base = 0.5 * log2(uv_area / world_area) + log2(cone_width / cos_theta);
+        if (world_area > 0.0) {
+            lod_world = log2(cone_width / cos_theta) - 0.5 * log2(world_area);
         }
     }
 
@@ -116,7 +150,7 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
         int tex = materials.v[g.material].textures[k].texture;
         texel[k] = vec4(1.0);
         if (tex >= 0 && uint(tex) < scene.texture_count) {
-            texel[k] = sample_slot(materials.v[g.material].textures[k], uv0, uv1, lod_base);
+            texel[k] = sample_slot(materials.v[g.material].textures[k], uv0, uv1, lod_world, uv_areas);
         }
     }
     vec4 base = m.base_color * vcolor * texel[0];
@@ -132,16 +166,47 @@ Surface surface_at(uint instance, uint prim, vec2 bary, vec3 dir, float cone_wid
     s.atten_color = m.attenuation_color;
     s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
 
+    vec3 n_vertex = n;
+    vec3 t = vec3(0.0), bt = vec3(0.0);
     if (m.textures[TEX_NORMAL].texture >= 0 && (g.flags & GEOMETRY_HAS_TANGENTS) != 0u) {
         vec4 t4 = w.x * verts.v[tri.x].tangent + w.y * verts.v[tri.y].tangent + w.z * verts.v[tri.z].tangent;
-        vec3 t = mat3(inst.object_to_world) * t4.xyz;
+        t = mat3(inst.object_to_world) * t4.xyz;
         t = normalize(t - n * dot(n, t));
-        vec3 bt = cross(n, t) * (t4.w < 0.0 ? -1.0 : 1.0);
+        bt = cross(n, t) * (t4.w < 0.0 ? -1.0 : 1.0);
         vec3 tn = texel[2].xyz * 2.0 - 1.0;
         tn.xy *= m.normal_scale;
         n = normalize(t * tn.x + bt * tn.y + n * tn.z);
     }
     s.n = s.front_face ? n : -n;
+    surface_layers(s, m);
+    if ((m.flags & MATERIAL_LAYERED) != 0u) {
+        // The clearcoat has its own normal: the vertex normal, or its own normal map.
+        s.clearcoat_n = s.front_face ? n_vertex : -n_vertex;
+    }
+    if ((m.flags & MATERIAL_EXT_TEXTURES) != 0u) {
+        vec4 ext[8];
+        [[dont_unroll]] for (int k = 0; k < 8; ++k) {
+            int tex = materials.v[g.material].ext_textures[k].texture;
+            ext[k] = vec4(1.0);
+            if (tex >= 0 && uint(tex) < scene.texture_count) {
+                ext[k] = sample_slot(materials.v[g.material].ext_textures[k], uv0, uv1, lod_world, uv_areas);
+            }
+        }
+        s.specular *= ext[EXT_TEX_SPECULAR].a;
+        s.specular_color *= ext[EXT_TEX_SPECULAR_COLOR].rgb;
+        s.clearcoat *= ext[EXT_TEX_CLEARCOAT].r;
+        s.clearcoat_roughness *= ext[EXT_TEX_CLEARCOAT_ROUGHNESS].g;
+        s.sheen_color *= ext[EXT_TEX_SHEEN_COLOR].rgb;
+        s.sheen_roughness *= ext[EXT_TEX_SHEEN_ROUGHNESS].a;
+        // KHR_materials_volume: a thickness of 0 makes the material thin-walled.
+        s.atten_dist = m.thickness * ext[EXT_TEX_THICKNESS].g > 0.0 ? m.attenuation_distance : BIG_FLOAT;
+        if (m.ext_textures[EXT_TEX_CLEARCOAT_NORMAL].texture >= 0 && (g.flags & GEOMETRY_HAS_TANGENTS) != 0u) {
+            vec3 tn = ext[EXT_TEX_CLEARCOAT_NORMAL].xyz * 2.0 - 1.0;
+            tn.xy *= m.clearcoat_normal_scale;
+            vec3 cn = normalize(t * tn.x + bt * tn.y + n_vertex * tn.z);
+            s.clearcoat_n = s.front_face ? cn : -cn;
+        }
+    }
     return s;
 }
 

@@ -37,6 +37,9 @@ void main() {
     putf(m.occlusion_strength); putf(m.alpha_cutoff); put(m.alpha_mode); put(m.double_sided);
     putf(m.transmission); putf(m.ior); putf(m.thickness); put3(m.attenuation_color); putf(m.attenuation_distance);
     for (int k = 0; k < 6; ++k) put_slot(m.textures[k]);
+    putf(m.specular); put3(m.specular_color); putf(m.clearcoat); putf(m.clearcoat_roughness);
+    putf(m.clearcoat_normal_scale); put3(m.sheen_color); putf(m.sheen_roughness); put(m.flags);
+    for (int k = 0; k < 8; ++k) put_slot(m.ext_textures[k]);
 
     GpuLight l = scene_light(0u);
     put3(l.position); put(l.kind); put3(l.direction); putf(l.range); put3(l.radiance);

@@ -2,7 +2,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use rqr::scene::{self, LoadOptions, Scene};
+use rqr::scene::{self, ExtensionStatus, LoadOptions, Scene, SceneError};
 use serde::Serialize;
 
 use super::outln;
@@ -60,6 +60,9 @@ struct InfoJson<'a> {
     cameras: usize,
     extensions_used: &'a [String],
     extensions_unsupported: &'a [String],
+    /// Every extension the file names: `{"name", "status"}` with status `supported`,
+    /// `ignored` or `unsupported-required`.
+    extensions: &'a [ExtensionStatus],
     /// `null` for a scene without geometry.
     bounds: Option<BoundsJson>,
 }
@@ -81,6 +84,7 @@ fn to_json(s: &Scene) -> InfoJson<'_> {
         cameras: s.cameras.len(),
         extensions_used: &s.extensions_used,
         extensions_unsupported: &s.extensions_unsupported,
+        extensions: &s.extensions,
         bounds: (!s.bounds.is_empty()).then(|| BoundsJson {
             min: s.bounds.min.to_array(),
             max: s.bounds.max.to_array(),
@@ -90,7 +94,21 @@ fn to_json(s: &Scene) -> InfoJson<'_> {
 
 /// Runs `rqr info`.
 pub fn run(args: &InfoArgs) -> Result<()> {
-    let s = load_scene(args.scene.as_ref(), args.scene_index)?;
+    let s = match load_scene(args.scene.as_ref(), args.scene_index) {
+        Ok(s) => s,
+        Err(e) => {
+            // A file refused for a required extension still gets its extension list in
+            // JSON (then the error, exit status 1): what to add to support it.
+            if let (true, Some(SceneError::UnsupportedExtensions { file, all, .. })) =
+                (args.json, e.downcast_ref::<SceneError>())
+            {
+                let doc =
+                    serde_json::json!({"source": file, "error": e.to_string(), "extensions": all});
+                outln!("{doc}")?;
+            }
+            return Err(e);
+        }
+    };
     if args.json {
         outln!("{}", serde_json::to_string(&to_json(&s))?)?;
         return Ok(());

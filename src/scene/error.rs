@@ -38,6 +38,8 @@ pub enum SceneError {
         file: String,
         /// The unsupported required extensions.
         extensions: Vec<String>,
+        /// Every extension the file names, with how rqr treats it (for `rqr info`).
+        all: Vec<super::extensions::ExtensionStatus>,
     },
 }
 

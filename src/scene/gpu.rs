@@ -35,14 +35,14 @@ pub struct GpuScene {
     pub bytes: u64,
 }
 
-fn texture_slot(r: Option<TextureRef>) -> GpuTextureSlot {
+fn texture_slot(material: &Material, r: Option<TextureRef>) -> GpuTextureSlot {
     match r {
         None => GpuTextureSlot::default(),
         Some(r) => {
             let m: Mat3 = r.transform;
             GpuTextureSlot {
                 texture: r.texture as i32,
-                tex_coord: r.tex_coord,
+                tex_coord: material.stored_uv_set(r.tex_coord),
                 row0: [m.x_axis.x, m.y_axis.x, m.z_axis.x],
                 row1: [m.x_axis.y, m.y_axis.y, m.z_axis.y],
             }
@@ -52,6 +52,18 @@ fn texture_slot(r: Option<TextureRef>) -> GpuTextureSlot {
 
 /// Converts a material to its GPU record.
 pub fn gpu_material(m: &Material) -> GpuMaterial {
+    let layers = m.layers.as_deref().cloned().unwrap_or_default();
+    let [t0, t1, t2, t3, t4, t5, t6] = layers.textures().map(|t| texture_slot(m, *t));
+    let ext_textures = [
+        t0,
+        t1,
+        t2,
+        t3,
+        t4,
+        t5,
+        t6,
+        texture_slot(m, m.thickness_texture),
+    ];
     GpuMaterial {
         base_color: m.base_color.to_array(),
         emissive: m.emissive.to_array(),
@@ -75,12 +87,29 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         } else {
             BIG
         },
-        base_color_texture: texture_slot(m.base_color_texture),
-        metallic_roughness_texture: texture_slot(m.metallic_roughness_texture),
-        normal_texture: texture_slot(m.normal_texture),
-        occlusion_texture: texture_slot(m.occlusion_texture),
-        emissive_texture: texture_slot(m.emissive_texture),
-        transmission_texture: texture_slot(m.transmission_texture),
+        base_color_texture: texture_slot(m, m.base_color_texture),
+        metallic_roughness_texture: texture_slot(m, m.metallic_roughness_texture),
+        normal_texture: texture_slot(m, m.normal_texture),
+        occlusion_texture: texture_slot(m, m.occlusion_texture),
+        emissive_texture: texture_slot(m, m.emissive_texture),
+        transmission_texture: texture_slot(m, m.transmission_texture),
+        specular: layers.specular,
+        specular_color: layers.specular_color.to_array(),
+        clearcoat: layers.clearcoat,
+        clearcoat_roughness: layers.clearcoat_roughness,
+        clearcoat_normal_scale: layers.clearcoat_normal_scale,
+        sheen_color: layers.sheen_color.to_array(),
+        sheen_roughness: layers.sheen_roughness,
+        flags: if m.layers.is_some() {
+            MATERIAL_LAYERED
+        } else {
+            0
+        } | if ext_textures.iter().any(|t| t.texture >= 0) {
+            MATERIAL_EXT_TEXTURES
+        } else {
+            0
+        },
+        ext_textures,
     }
 }
 

@@ -140,7 +140,33 @@ pub struct GpuMaterial {
     pub emissive_texture: GpuTextureSlot,
     /// Transmission (R).
     pub transmission_texture: GpuTextureSlot,
+    /// KHR_materials_specular factor (1 without the extension).
+    pub specular: f32,
+    /// KHR_materials_specular colour factor (linear; 1 without the extension).
+    pub specular_color: [f32; 3],
+    /// KHR_materials_clearcoat factor.
+    pub clearcoat: f32,
+    /// Clearcoat roughness factor.
+    pub clearcoat_roughness: f32,
+    /// Scale of the clearcoat normal texture.
+    pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen colour factor (linear).
+    pub sheen_color: [f32; 3],
+    /// Sheen roughness factor.
+    pub sheen_roughness: f32,
+    /// `MATERIAL_*` bits.
+    pub flags: u32,
+    /// Extension textures in `EXT_TEX_*` order: specular (A), specular colour (sRGB),
+    /// clearcoat (R), clearcoat roughness (G), clearcoat normal, sheen colour (sRGB), sheen
+    /// roughness (A), volume thickness (G).
+    pub ext_textures: [GpuTextureSlot; 8],
 }
+
+/// [`GpuMaterial::flags`] bit: the material has KHR_materials_specular, _clearcoat or _sheen
+/// (shaded by the layered path; others keep the plain metallic-roughness code).
+pub const MATERIAL_LAYERED: u32 = 1;
+/// [`GpuMaterial::flags`] bit: at least one of `ext_textures` is bound.
+pub const MATERIAL_EXT_TEXTURES: u32 = 2;
 
 /// Light kinds as stored in [`GpuLight::kind`].
 pub const LIGHT_DIRECTIONAL: u32 = 0;

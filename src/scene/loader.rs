@@ -13,23 +13,12 @@ use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 
 use super::accessor::{self, Buffers, Elements};
 use super::camera::{camera_pose, default_lights};
+use super::compression;
 use super::error::SceneError;
+use super::extensions::{self, ExtensionSupport};
 use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topology};
 use super::image::{self as img, MAX_IMAGE_SIZE};
 use super::types::*;
-
-/// Extensions rqr implements. Others in `extensionsUsed` are ignored with a warning; others
-/// in `extensionsRequired` make loading fail.
-pub const SUPPORTED_EXTENSIONS: &[&str] = &[
-    "KHR_lights_punctual",
-    "KHR_materials_transmission",
-    "KHR_materials_ior",
-    "KHR_materials_volume",
-    "KHR_materials_emissive_strength",
-    "KHR_texture_transform",
-    "KHR_mesh_quantization",
-    "EXT_mesh_gpu_instancing",
-];
 
 /// Most instances a scene may expand to (node hierarchy × EXT_mesh_gpu_instancing); guards
 /// against files whose node graph shares subtrees exponentially.
@@ -204,7 +193,7 @@ enum ImageBytes<'a> {
     Owned(Vec<u8>),
 }
 
-struct Loader<'a> {
+pub(super) struct Loader<'a> {
     file: String,
     base_dir: Option<&'a Path>,
     opts: &'a LoadOptions,
@@ -236,39 +225,23 @@ fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
 }
 
 impl Loader<'_> {
-    fn err(&self, element: impl Into<String>, message: impl Into<String>) -> SceneError {
+    pub(super) fn err(&self, element: impl Into<String>, message: impl Into<String>) -> SceneError {
         SceneError::element(&self.file, element, message)
     }
 
     fn check_extensions(&mut self) -> Result<(), SceneError> {
-        let unsupported_required: Vec<String> = self
-            .root
-            .extensions_required
-            .iter()
-            .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
-            .cloned()
-            .collect();
-        if !unsupported_required.is_empty() {
-            return Err(SceneError::UnsupportedExtensions {
-                file: self.file.clone(),
-                extensions: unsupported_required,
-            });
-        }
+        let all = extensions::check(
+            &self.file,
+            &self.root.extensions_used,
+            &self.root.extensions_required,
+        )?;
         self.scene.extensions_used = self.root.extensions_used.clone();
-        self.scene.extensions_unsupported = self
-            .root
-            .extensions_used
+        self.scene.extensions_unsupported = all
             .iter()
-            .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
-            .cloned()
+            .filter(|e| e.status != ExtensionSupport::Supported)
+            .map(|e| e.name.clone())
             .collect();
-        if !self.scene.extensions_unsupported.is_empty() {
-            log::warn!(
-                "{}: ignoring unsupported glTF extension(s): {}",
-                self.file,
-                self.scene.extensions_unsupported.join(", ")
-            );
-        }
+        self.scene.extensions = all;
         Ok(())
     }
 
@@ -328,6 +301,7 @@ impl Loader<'_> {
                         self.err(&element, "has no uri and the file has no GLB BIN chunk")
                     })?
                     .to_vec(),
+                None if compression::is_fallback(b) => Vec::new(),
                 None => {
                     return Err(self.err(
                         &element,
@@ -336,7 +310,7 @@ impl Loader<'_> {
                 }
             };
             let want = b.byte_length.0;
-            if (bytes.len() as u64) < want {
+            if (bytes.len() as u64) < want && !compression::is_fallback(b) {
                 return Err(self.err(
                     &element,
                     format!(
@@ -351,7 +325,7 @@ impl Loader<'_> {
             data.push(bytes);
         }
         self.buffers = Buffers { data };
-        Ok(())
+        compression::decode_views(&self.file, &mut self.root, &mut self.buffers)
     }
 
     /// Checks child indices and rejects cycles (iterative DFS, so deep trees cannot
@@ -880,8 +854,6 @@ impl Loader<'_> {
         let vc = Some(vertex_count);
         let normals = self.attribute(&element, &prim, Semantic::Normals, &[3], vc)?;
         let tangents = self.attribute(&element, &prim, Semantic::Tangents, &[4], vc)?;
-        let uv0 = self.attribute(&element, &prim, Semantic::TexCoords(0), &[2], vc)?;
-        let uv1 = self.attribute(&element, &prim, Semantic::TexCoords(1), &[2], vc)?;
         let colors = self.attribute(&element, &prim, Semantic::Colors(0), &[3, 4], vc)?;
 
         let material = match prim.material {
@@ -897,9 +869,11 @@ impl Loader<'_> {
             }
             m => self.material(m.map(|m| m.value()))?,
         };
-        let normal_map_uv = self.scene.materials[material as usize]
-            .normal_texture
-            .map(|t| t.tex_coord);
+        let mat = &self.scene.materials[material as usize];
+        let normal_map_uv = mat.normal_texture.map(|t| mat.stored_uv_set(t.tex_coord));
+        let [set0, set1] = mat.uv_sets.map(Semantic::TexCoords);
+        let uv0 = self.attribute(&element, &prim, set0, &[2], vc)?;
+        let uv1 = self.attribute(&element, &prim, set1, &[2], vc)?;
 
         let mut g = Geometry {
             positions,
@@ -991,8 +965,8 @@ impl Loader<'_> {
         if let Some(set) = normal_map_uv {
             if g.tangents.is_empty() && !compute_tangents(&mut g, set) {
                 log::warn!(
-                    "{}: {element}: cannot compute tangents for the normal map (TEXCOORD_{set} missing or degenerate); the normal map is ignored",
-                    self.file
+                    "{}: {element}: cannot compute tangents for the normal map (TEXCOORD_{} missing or degenerate); the normal map is ignored",
+                    self.file, self.scene.materials[material as usize].uv_sets[set as usize]
                 );
             }
         }
@@ -1134,6 +1108,14 @@ impl Loader<'_> {
                 m.attenuation_color = Vec3::from(v.attenuation_color.0);
                 m.attenuation_distance = v.attenuation_distance.0;
             }
+            let thickness = ext
+                .volume
+                .as_ref()
+                .and_then(|v| v.thickness_texture.as_ref());
+            self.material_extensions(&el, &ext.others, thickness, &mut m)?;
+        }
+        for set in m.assign_uv_sets() {
+            log::warn!("{}: {el}: a material reads at most two TEXCOORD sets in rqr; textures on TEXCOORD_{set} read TEXCOORD_{}", self.file, m.uv_sets[0]);
         }
         if m.ior != 0.0 && m.ior < 1.0 {
             return Err(self.err(&el, format!("KHR_materials_ior ior {} is below 1", m.ior)));
@@ -1150,7 +1132,7 @@ impl Loader<'_> {
         Ok(m)
     }
 
-    fn texture_ref(
+    pub(super) fn texture_ref(
         &mut self,
         el: &str,
         slot: &str,
@@ -1179,15 +1161,6 @@ impl Loader<'_> {
                 t.tex_coord.unwrap_or(tex_coord),
             ),
             None => (Mat3::IDENTITY, tex_coord),
-        };
-        let tex_coord = if tex_coord > 1 {
-            log::warn!(
-                "{}: {element}: TEXCOORD_{tex_coord} is not supported; using TEXCOORD_0",
-                self.file
-            );
-            0
-        } else {
-            tex_coord
         };
         Ok(TextureRef {
             texture: self.texture(texture, srgb)?,

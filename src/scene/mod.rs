@@ -6,13 +6,16 @@
 
 mod accessor;
 pub mod camera;
+mod compression;
 mod default_scene;
 mod error;
+pub mod extensions;
 pub mod geometry;
 pub mod gpu;
 mod image;
 pub mod layout;
 mod loader;
+mod material_ext;
 pub mod procedural;
 pub mod textures;
 pub mod types;
@@ -20,10 +23,10 @@ pub mod types;
 pub use camera::{auto_camera, default_lights, look_at_camera};
 pub use default_scene::{load_default, DEFAULT_SCENE_GLB};
 pub use error::SceneError;
+pub use extensions::{ExtensionStatus, ExtensionSupport, SUPPORTED_EXTENSIONS};
 pub use image::MAX_IMAGE_SIZE;
 pub use loader::{
     load, load_slice, texture_transform_matrix, LoadOptions, MAX_COORDINATE, MAX_INSTANCES,
     MAX_READ_BYTES, MAX_SCENE_TEXELS, MAX_SCENE_TRIANGLES, MAX_SCENE_VERTICES,
-    SUPPORTED_EXTENSIONS,
 };
 pub use types::*;

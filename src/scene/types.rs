@@ -56,9 +56,9 @@ pub struct Geometry {
     pub normals: Vec<Vec3>,
     /// Tangents (xyz, w = handedness); empty unless the material uses a normal map.
     pub tangents: Vec<Vec4>,
-    /// TEXCOORD_0 (empty if absent).
+    /// TEXCOORD_0, or TEXCOORD_n for n = the material's `uv_sets[0]` (empty if absent).
     pub uv0: Vec<Vec2>,
-    /// TEXCOORD_1 (empty if absent).
+    /// TEXCOORD_1, or TEXCOORD_n for n = the material's `uv_sets[1]` (empty if absent).
     pub uv1: Vec<Vec2>,
     /// COLOR_0 as linear RGBA (empty if absent).
     pub colors: Vec<Vec4>,
@@ -114,7 +114,7 @@ pub enum AlphaMode {
 pub struct TextureRef {
     /// Index into [`Scene::textures`].
     pub texture: u32,
-    /// TEXCOORD set (0 or 1).
+    /// glTF TEXCOORD set (any n; [`Material::uv_sets`] says where the geometry keeps it).
     pub tex_coord: u32,
     /// KHR_texture_transform as a 3x3 matrix applied to (u, v, 1).
     pub transform: Mat3,
@@ -165,6 +165,54 @@ pub struct Material {
     pub attenuation_color: Vec3,
     /// KHR_materials_volume attenuation distance (infinite: no absorption).
     pub attenuation_distance: f32,
+    /// KHR_materials_volume thickness (G) texture, multiplied with `thickness`.
+    pub thickness_texture: Option<TextureRef>,
+    /// KHR_materials_specular / clearcoat / sheen parameters (`None`: the material uses
+    /// none of them and shades exactly as plain metallic-roughness).
+    pub layers: Option<Box<MaterialLayers>>,
+    /// The glTF TEXCOORD sets this material's textures read, as geometries using it store
+    /// them: `Geometry::uv0` holds TEXCOORD_`uv_sets[0]`, `uv1` TEXCOORD_`uv_sets[1]`.
+    /// `[0, 1]` unless a texture reads TEXCOORD_2 or above (see [`Material::assign_uv_sets`]).
+    pub uv_sets: [u32; 2],
+}
+
+impl Material {
+    /// Every texture reference of the material.
+    pub fn texture_refs(&self) -> impl Iterator<Item = &TextureRef> {
+        [
+            &self.base_color_texture,
+            &self.metallic_roughness_texture,
+            &self.normal_texture,
+            &self.occlusion_texture,
+            &self.emissive_texture,
+            &self.transmission_texture,
+            &self.thickness_texture,
+        ]
+        .into_iter()
+        .chain(self.layers.iter().flat_map(|l| l.textures()))
+        .flatten()
+    }
+
+    /// Chooses [`Material::uv_sets`] from the sets the textures read: `[0, 1]` when they
+    /// read only those, else the two lowest sets in use (a single set fills both). A
+    /// material whose textures read more than two sets keeps the two lowest; the returned
+    /// sets are the ones dropped (their textures read `uv_sets[0]`).
+    pub fn assign_uv_sets(&mut self) -> Vec<u32> {
+        let mut used: Vec<u32> = self.texture_refs().map(|t| t.tex_coord).collect();
+        used.sort_unstable();
+        used.dedup();
+        if used.iter().all(|&s| s <= 1) {
+            self.uv_sets = [0, 1];
+            return Vec::new();
+        }
+        self.uv_sets = [used[0], *used.get(1).unwrap_or(&used[0])];
+        used.split_off(2.min(used.len()))
+    }
+
+    /// Which of the geometry's two stored UV sets (0: `uv0`, 1: `uv1`) holds TEXCOORD_`set`.
+    pub fn stored_uv_set(&self, set: u32) -> u32 {
+        u32::from(set == self.uv_sets[1] && set != self.uv_sets[0])
+    }
 }
 
 impl Default for Material {
@@ -192,7 +240,82 @@ impl Default for Material {
             thickness: 0.0,
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
+            thickness_texture: None,
+            layers: None,
+            uv_sets: [0, 1],
         }
+    }
+}
+
+/// The layered-material extensions of a [`Material`]: KHR_materials_specular, _clearcoat and
+/// _sheen, with the glTF defaults for the ones a material does not use.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialLayers {
+    /// KHR_materials_specular `specularFactor` (strength of the dielectric specular lobe).
+    pub specular: f32,
+    /// `specularTexture` (A).
+    pub specular_texture: Option<TextureRef>,
+    /// `specularColorFactor` (linear; scales the dielectric F0).
+    pub specular_color: Vec3,
+    /// `specularColorTexture` (RGB, sRGB).
+    pub specular_color_texture: Option<TextureRef>,
+    /// KHR_materials_clearcoat `clearcoatFactor`.
+    pub clearcoat: f32,
+    /// `clearcoatTexture` (R).
+    pub clearcoat_texture: Option<TextureRef>,
+    /// `clearcoatRoughnessFactor`.
+    pub clearcoat_roughness: f32,
+    /// `clearcoatRoughnessTexture` (G).
+    pub clearcoat_roughness_texture: Option<TextureRef>,
+    /// `clearcoatNormalTexture` (tangent space, same tangents as the normal map).
+    pub clearcoat_normal_texture: Option<TextureRef>,
+    /// Scale of `clearcoatNormalTexture`.
+    pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen `sheenColorFactor` (linear).
+    pub sheen_color: Vec3,
+    /// `sheenColorTexture` (RGB, sRGB).
+    pub sheen_color_texture: Option<TextureRef>,
+    /// `sheenRoughnessFactor`.
+    pub sheen_roughness: f32,
+    /// `sheenRoughnessTexture` (A).
+    pub sheen_roughness_texture: Option<TextureRef>,
+}
+
+impl Default for MaterialLayers {
+    /// Each extension's defaults: full-strength white specular, no clearcoat, no sheen.
+    fn default() -> Self {
+        Self {
+            specular: 1.0,
+            specular_texture: None,
+            specular_color: Vec3::ONE,
+            specular_color_texture: None,
+            clearcoat: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness: 0.0,
+            clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
+            clearcoat_normal_scale: 1.0,
+            sheen_color: Vec3::ZERO,
+            sheen_color_texture: None,
+            sheen_roughness: 0.0,
+            sheen_roughness_texture: None,
+        }
+    }
+}
+
+impl MaterialLayers {
+    /// The texture slots in GPU order (`EXT_TEX_*` of `shaders/common/scene.glsl`), without
+    /// the thickness texture, which belongs to [`Material`].
+    pub fn textures(&self) -> [&Option<TextureRef>; 7] {
+        [
+            &self.specular_texture,
+            &self.specular_color_texture,
+            &self.clearcoat_texture,
+            &self.clearcoat_roughness_texture,
+            &self.clearcoat_normal_texture,
+            &self.sheen_color_texture,
+            &self.sheen_roughness_texture,
+        ]
     }
 }
 
@@ -362,6 +485,8 @@ pub struct Scene {
     pub extensions_used: Vec<String>,
     /// Used extensions rqr ignores.
     pub extensions_unsupported: Vec<String>,
+    /// Every extension the file names (used or required), with how rqr treats it.
+    pub extensions: Vec<super::extensions::ExtensionStatus>,
     /// World-space bounds of every instance.
     pub bounds: Aabb,
     /// World transform of every glTF node reached from the chosen scene (indexed by node;

@@ -726,12 +726,12 @@ fn image_cases(out: &mut Vec<Case>) {
         fails(&["requires glTF extension(s) rqr does not support: KHR_draco_mesh_compression"]),
     ));
     let mut d = quad_gltf();
-    d["extensionsUsed"] = json!(["KHR_materials_sheen"]);
+    d["extensionsUsed"] = json!(["KHR_materials_iridescence"]);
     out.push(gltf(
         "extension_optional_unsupported",
         &d,
         Expect::Loads {
-            warning: Some("ignoring unsupported glTF extension(s): KHR_materials_sheen"),
+            warning: Some("ignoring unsupported glTF extension(s): KHR_materials_iridescence"),
             render: true,
         },
     ));
@@ -779,5 +779,6 @@ pub fn cases() -> Vec<Case> {
     geometry_cases(&mut out);
     node_cases(&mut out);
     image_cases(&mut out);
+    crate::extensions::cases(&mut out);
     out
 }

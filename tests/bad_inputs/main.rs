@@ -9,6 +9,7 @@ mod common;
 mod scene_util;
 
 mod corpus;
+mod extensions;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;

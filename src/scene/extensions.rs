@@ -1,0 +1,137 @@
+//! glTF extensions: which ones rqr implements, and how each extension a file names is
+//! treated (`rqr info --json` lists them).
+
+use super::error::SceneError;
+
+/// Extensions rqr implements. Others in `extensionsUsed` are ignored with a warning; others
+/// in `extensionsRequired` make loading fail.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_texture_transform",
+    "KHR_mesh_quantization",
+    "EXT_mesh_gpu_instancing",
+    "EXT_meshopt_compression",
+];
+
+/// How rqr treats one extension a file names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ExtensionSupport {
+    /// Implemented.
+    Supported,
+    /// Not implemented, but only in `extensionsUsed`: the file loads without it (warning).
+    Ignored,
+    /// Not implemented and in `extensionsRequired`: the file is refused.
+    UnsupportedRequired,
+}
+
+impl ExtensionSupport {
+    /// `supported`, `ignored` or `unsupported-required`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ExtensionSupport::Supported => "supported",
+            ExtensionSupport::Ignored => "ignored",
+            ExtensionSupport::UnsupportedRequired => "unsupported-required",
+        }
+    }
+}
+
+/// One extension named by a file (in `extensionsUsed` or `extensionsRequired`).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct ExtensionStatus {
+    /// Extension name, e.g. `KHR_materials_clearcoat`.
+    pub name: String,
+    /// How rqr treats it.
+    pub status: ExtensionSupport,
+}
+
+/// Every extension of `used` ∪ `required` (in that order, each once) with its treatment.
+pub fn classify(used: &[String], required: &[String]) -> Vec<ExtensionStatus> {
+    let mut out: Vec<ExtensionStatus> = Vec::new();
+    for name in used.iter().chain(required) {
+        if out.iter().any(|e| &e.name == name) {
+            continue;
+        }
+        let status = if SUPPORTED_EXTENSIONS.contains(&name.as_str()) {
+            ExtensionSupport::Supported
+        } else if required.contains(name) {
+            ExtensionSupport::UnsupportedRequired
+        } else {
+            ExtensionSupport::Ignored
+        };
+        out.push(ExtensionStatus {
+            name: name.clone(),
+            status,
+        });
+    }
+    out
+}
+
+/// Fails with [`SceneError::UnsupportedExtensions`] when a required extension is not
+/// implemented; else warns once about the ignored ones and returns every extension's status.
+pub(crate) fn check(
+    file: &str,
+    used: &[String],
+    required: &[String],
+) -> Result<Vec<ExtensionStatus>, SceneError> {
+    let all = classify(used, required);
+    let names = |s: ExtensionSupport| -> Vec<String> {
+        all.iter()
+            .filter(|e| e.status == s)
+            .map(|e| e.name.clone())
+            .collect()
+    };
+    let refused = names(ExtensionSupport::UnsupportedRequired);
+    if !refused.is_empty() {
+        return Err(SceneError::UnsupportedExtensions {
+            file: file.to_string(),
+            extensions: refused,
+            all,
+        });
+    }
+    let ignored = names(ExtensionSupport::Ignored);
+    if !ignored.is_empty() {
+        log::warn!(
+            "{file}: ignoring unsupported glTF extension(s): {}",
+            ignored.join(", ")
+        );
+    }
+    Ok(all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn classify_names_each_extension_once() {
+        let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        let all = classify(
+            &s(&[
+                "KHR_materials_clearcoat",
+                "KHR_draco_mesh_compression",
+                "KHR_xmp",
+            ]),
+            &s(&["KHR_draco_mesh_compression"]),
+        );
+        let got: Vec<(&str, &str)> = all
+            .iter()
+            .map(|e| (e.name.as_str(), e.status.as_str()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                ("KHR_materials_clearcoat", "supported"),
+                ("KHR_draco_mesh_compression", "unsupported-required"),
+                ("KHR_xmp", "ignored"),
+            ]
+        );
+    }
+}
