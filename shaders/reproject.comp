@@ -14,6 +14,7 @@
 
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
 
 layout(local_size_x = 8, local_size_y = 8) in;
 // stage: what runs; level: the adaptive level it works at (interpolate); gather: the job list
@@ -273,35 +274,24 @@ bool wanted(uint q, uint list) {
         : kind == PX_TRACE && (list == 1u || is_block_sample(pixel_of(q), list));
 }
 
-// Stream compaction of the job list, in tile order: every workgroup (an 8x8 tile) writes its
-// jobs contiguously in invocation order, after one atomic per workgroup, so neighbouring
-// lanes of a tracing pass trace neighbouring pixels. The last workgroup to finish turns the
-// list's length into the tracing pass's indirect dispatch (and starts the next list at zero),
-// so no separate pass and barrier is needed for that. Called by every invocation of the
-// workgroup (it has barriers).
-shared uint subgroup_offsets[gl_WorkGroupSize.x * gl_WorkGroupSize.y];
-shared uint tile_base;
-
+// Stream compaction of the job list, in tile order: every subgroup writes its jobs
+// contiguously in invocation order after one atomic (a subgroup covers one or more rows of the
+// 8x8 tile), so neighbouring lanes of a tracing pass trace neighbouring pixels. The last
+// subgroup to finish turns the list's length into the tracing pass's indirect dispatch (and
+// starts the next list at zero), so no separate pass and barrier is needed for that. No
+// workgroup barrier: a CPU device (lavapipe) runs shaders with barrier() as coroutines, which
+// cost more than the atomics they would save.
 void append_job(bool take, uint q) {
     uint t = take ? 1u : 0u;
     uint within = subgroupExclusiveAdd(t);
     uint total = subgroupAdd(t);
+    uint base = 0u;
     if (subgroupElect()) {
-        subgroup_offsets[gl_SubgroupID] = total;
-    }
-    barrier();
-    if (gl_LocalInvocationIndex == 0u) {
-        uint sum = 0u;
-        for (uint s = 0u; s < gl_NumSubgroups; ++s) {
-            uint c = subgroup_offsets[s];
-            subgroup_offsets[s] = sum;
-            sum += c;
-        }
-        tile_base = sum > 0u ? atomicAdd(counters[C_JOBS], sum) : 0u;
-        // Every workgroup's share of the count is added before it counts itself done.
+        base = total > 0u ? atomicAdd(counters[C_JOBS], total) : 0u;
+        // This subgroup's share of the count is added before it counts itself done.
         memoryBarrierBuffer();
-        uint tiles = gl_NumWorkGroups.x * gl_NumWorkGroups.y;
-        if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == tiles) {
+        uint subgroups = gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumSubgroups;
+        if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == subgroups) {
             uint n = atomicExchange(counters[C_JOBS], 0u);
             dispatch_args[0] = (n + 63u) / 64u;
             dispatch_args[1] = 1u;
@@ -310,9 +300,9 @@ void append_job(bool take, uint q) {
             counters[C_TILES_DONE] = 0u;
         }
     }
-    barrier();
+    base = subgroupBroadcastFirst(base);
     if (take) {
-        jobs[tile_base + subgroup_offsets[gl_SubgroupID] + within] = q;
+        jobs[base + within] = q;
     }
 }
 
@@ -434,35 +424,20 @@ void interpolate(uint q) {
     }
 }
 
-// Statistics of the frame's final pixel states, summed per workgroup in shared memory and
-// added to the counters with one atomic per counter per workgroup (per-invocation atomics on
-// the same counters are what made this pass slow on a CPU device).
-const uint STAT_COUNTERS[9] = uint[9](C_REUSED, C_TRACED, C_INTERP, C_HOLES, C_REJECTED, C_VIEW_DEPENDENT,
-                                      C_EXPIRED, C_FRAMELESS, C_FILLED);
-shared uint stat_sums[9];
-
+// Statistics of the frame's final pixel states: summed per subgroup, one atomic per subgroup
+// and counter (no workgroup barrier, see append_job).
 void stats(uint q, bool inside) {
-    if (gl_LocalInvocationIndex < 9u) {
-        stat_sums[gl_LocalInvocationIndex] = 0u;
-    }
-    barrier();
-    if (inside) {
-        uint st = state[q];
-        uint kind = st & PX_KIND_MASK;
-        bool counted[9] = bool[9](kind == PX_REUSE, kind == PX_TRACED, kind == PX_INTERP, (st & PX_HOLE) != 0u,
-                                  (st & PX_REJECTED) != 0u, (st & PX_VIEW_DEPENDENT) != 0u, (st & PX_EXPIRED) != 0u,
-                                  (st & PX_FRAMELESS) != 0u, (st & PX_FILLED) != 0u && kind == PX_REUSE);
-        for (uint k = 0u; k < 9u; ++k) {
-            uint sum = subgroupAdd(counted[k] ? 1u : 0u);
-            if (subgroupElect() && sum != 0u) {
-                atomicAdd(stat_sums[k], sum);
-            }
-        }
-    }
-    barrier();
-    if (gl_LocalInvocationIndex < 9u && stat_sums[gl_LocalInvocationIndex] != 0u) {
-        atomicAdd(counters[STAT_COUNTERS[gl_LocalInvocationIndex]], stat_sums[gl_LocalInvocationIndex]);
-    }
+    uint st = inside ? state[q] : 0u;
+    uint kind = inside ? st & PX_KIND_MASK : 0u;
+    COUNTER_ADD(counters[C_REUSED], kind == PX_REUSE ? 1u : 0u);
+    COUNTER_ADD(counters[C_TRACED], kind == PX_TRACED ? 1u : 0u);
+    COUNTER_ADD(counters[C_INTERP], kind == PX_INTERP ? 1u : 0u);
+    COUNTER_ADD(counters[C_HOLES], (st & PX_HOLE) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_REJECTED], (st & PX_REJECTED) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_VIEW_DEPENDENT], (st & PX_VIEW_DEPENDENT) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_EXPIRED], (st & PX_EXPIRED) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_FRAMELESS], (st & PX_FRAMELESS) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_FILLED], (st & PX_FILLED) != 0u && kind == PX_REUSE ? 1u : 0u);
 }
 
 void main() {

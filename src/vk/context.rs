@@ -583,11 +583,13 @@ impl Context {
         if !subgroup
             .supported_stages
             .contains(vk::ShaderStageFlags::COMPUTE)
-            || !subgroup
-                .supported_operations
-                .contains(vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::ARITHMETIC)
+            || !subgroup.supported_operations.contains(
+                vk::SubgroupFeatureFlags::BASIC
+                    | vk::SubgroupFeatureFlags::ARITHMETIC
+                    | vk::SubgroupFeatureFlags::BALLOT,
+            )
         {
-            return Err(missing("subgroup arithmetic in compute shaders"));
+            return Err(missing("subgroup arithmetic and ballot in compute shaders"));
         }
 
         // SAFETY: as above.

@@ -229,14 +229,17 @@ pub(crate) fn describe_device(
     }
 
     // Ray and sample counters are summed per subgroup before one atomic per subgroup
-    // (shaders/common/counters.glsl).
-    let subgroup_ops = vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::ARITHMETIC;
+    // (shaders/common/counters.glsl); reprojection's job lists are compacted per subgroup
+    // (shaders/reproject.comp: prefix sums and a broadcast).
+    let subgroup_ops = vk::SubgroupFeatureFlags::BASIC
+        | vk::SubgroupFeatureFlags::ARITHMETIC
+        | vk::SubgroupFeatureFlags::BALLOT;
     if !subgroup
         .supported_stages
         .contains(vk::ShaderStageFlags::COMPUTE)
         || !subgroup.supported_operations.contains(subgroup_ops)
     {
-        missing.push("subgroup arithmetic in compute shaders".to_string());
+        missing.push("subgroup arithmetic and ballot in compute shaders".to_string());
     }
 
     // SAFETY: as above.
