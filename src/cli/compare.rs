@@ -213,7 +213,10 @@ fn time_backend(
     backend: Backend,
 ) -> Result<(BackendRun, Duration)> {
     let setup = Instant::now();
-    let renderer = Renderer::with_bvh_build(ctx, scene, backend, args.device.bvh_build(ctx))?;
+    let renderer = {
+        let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
+        Renderer::with_bvh_build(ctx, scene, backend, args.device.bvh_build(ctx))?
+    };
     // AOVs (primary ids) only where the backends are compared with each other.
     let aov = args.backends == Backends::All;
     let targets = |path: RenderPath, s: &RenderSettings, aov: bool| {
@@ -299,12 +302,15 @@ fn write_outputs(
     for run in runs {
         let (rt, hybrid, backend) = (&run.rt, &run.hybrid, run.backend);
         gpu_frames_ms += run.burst.gpu_ms_all_frames;
-        let diff = compare::compare(
-            settings.width,
-            settings.height,
-            &rt.last.rgba8,
-            &hybrid.last.rgba8,
-        );
+        let diff = {
+            let _spinner = super::progress::Spinner::start("FLIP");
+            compare::compare(
+                settings.width,
+                settings.height,
+                &rt.last.rgba8,
+                &hybrid.last.rgba8,
+            )
+        };
         let dir = if backend == first {
             args.output.clone()
         } else {
