@@ -19,7 +19,7 @@ work=target/report-html
 rm -rf "$work/compare" "$work/check.html"
 mkdir -p "$work" "$(dirname "$shot")"
 cargo build --quiet --bin rqr
-RQR_VALIDATION=1 target/debug/rqr compare --backends all --width 96 --height 64 --max-depth 2 \
+RQR_NO_AUTOTUNE=1 RQR_VALIDATION=1 target/debug/rqr compare --backends all --width 96 --height 64 --max-depth 2 \
   --repeat 1 -o "$work/compare" >/dev/null
 html="$work/compare/report.html"
 [ -s "$html" ] || { echo "test-report-html: FAIL: $html was not written" >&2; exit 1; }
