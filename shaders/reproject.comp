@@ -104,7 +104,7 @@ bool near_edge(ivec2 pix, CacheEntry e) {
 // visibility tests (the G-buffer; on the rt path the edge test or a primary ray), so a
 // disocclusion is not filled with whatever lies next to it.
 void fill(uint q) {
-    if (winner[q] != NO_SAMPLE) {
+    if (WINNER(q) != NO_SAMPLE) {
         return;
     }
     vec2 centre = vec2(pixel_of(q)) + 0.5;
@@ -117,7 +117,7 @@ void fill(uint q) {
             if ((dx == 0 && dy == 0) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
                 continue;
             }
-            uint w = winner[uint(n.y) * frame.width + uint(n.x)];
+            uint w = WINNER(uint(n.y) * frame.width + uint(n.x));
             uint target, key;
             vec2 film;
             if (w == NO_SAMPLE) {
@@ -139,7 +139,7 @@ void fill(uint q) {
     if (best != NO_SAMPLE) {
         // The fill pass reads neighbours' winners, so its choice waits in the depth key
         // (free on empty pixels); later stages read it through resolved_winner().
-        depth_key[q] = FILLED_KEY | best;
+        DEPTH_KEY(q) = FILLED_KEY | best;
     }
 }
 
@@ -162,7 +162,7 @@ void record_shown(uint q) {
 }
 
 bool is_filled(uint q) {
-    uint k = depth_key[q];
+    uint k = DEPTH_KEY(q);
     return k != NO_SAMPLE && k >= FILLED_KEY;
 }
 
@@ -462,9 +462,9 @@ void main() {
             vec2 film;
             if ((e.meta.x & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
                 if (pc.stage == STAGE_SCATTER) {
-                    atomicMin(depth_key[target], key);
-                } else if (depth_key[target] == key) {
-                    atomicMin(winner[target], q);
+                    atomicMin(DEPTH_KEY(target), key);
+                } else if (DEPTH_KEY(target) == key) {
+                    atomicMin(WINNER(target), q);
                 }
             }
             break;

@@ -190,6 +190,41 @@ fn bursts_give_the_images_and_statistics_of_single_frames() {
 }
 
 #[test]
+fn one_pass_and_two_pass_scatter_give_the_same_frames() {
+    let ctx = common::gpu();
+    assert!(
+        ctx.features().buffer_int64_atomics,
+        "the test device (lavapipe) has 64-bit buffer atomics, so both scatters are compared"
+    );
+    let scene = cornell();
+    let r = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let reuse = ReuseOptions {
+        reproject: true,
+        adaptive_subsample: true,
+        subsample_threshold: 0.2,
+        ..Default::default()
+    };
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        let mut one = sequence(&ctx, &r, &scene, path, reuse, false);
+        let mut two = sequence(&ctx, &r, &scene, path, reuse, false);
+        two.use_two_pass_scatter();
+        for k in 0..4 {
+            let (a, b) = (
+                one.render_frame(&ctx, k).unwrap(),
+                two.render_frame(&ctx, k).unwrap(),
+            );
+            assert!(a.output.rgba8 == b.output.rgba8, "{path:?} frame {k}");
+            assert_eq!(a.stats, b.stats, "{path:?} frame {k}");
+            assert_eq!(a.sources, b.sources, "{path:?} frame {k}");
+            if k > 0 {
+                assert!(a.stats.reused > 0, "{path:?} frame {k}: nothing reused");
+            }
+        }
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
 fn a_burst_longer_than_prepared_is_refused() {
     let ctx = common::gpu();
     let scene = cornell();

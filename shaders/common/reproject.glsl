@@ -2,8 +2,8 @@
 // parameters and the tests shared by reproject.comp, reproject_primary.comp and
 // reproject_trace.comp. Include after scene.glsl and frame.glsl.
 //
-// Bindings (one numbering for the three pipelines): 4 params, 5 previous cache, 6 next cache,
-// 7 scatter depth keys, 8 scatter winners, 9 pixel states, 10 colour, 11 job list,
+// Bindings (one numbering for the pipelines): 4 params, 5 previous cache, 6 next cache,
+// 7 scatter winners and depth keys (8 unused), 9 pixel states, 10 colour, 11 job list,
 // 12 counters, 13-19 G-buffer images (gbuffer.frag's layout), 20 indirect dispatch arguments,
 // 21 the sample each pixel shows (without its colour).
 #ifndef RQR_REPROJECT_GLSL
@@ -92,8 +92,15 @@ layout(set = 0, binding = 4, scalar) uniform Params {
 
 layout(set = 0, binding = 5, scalar) readonly buffer CachePrev { CacheEntry cache_prev[]; };
 layout(set = 0, binding = 6, scalar) buffer CacheNext { CacheEntry cache_next[]; };
-layout(set = 0, binding = 7, std430) buffer DepthKeys { uint depth_key[]; };
-layout(set = 0, binding = 8, std430) buffer Winners { uint winner[]; };
+// Per pixel, interleaved: word 2q is the index of the sample that won pixel q, word 2q + 1 its
+// depth key. Where the device has 64-bit atomics, one atomicMin of key << 32 | index on the
+// pair (little-endian: index in the low word) picks the nearest sample and breaks depth ties
+// by the lowest index in one pass (reproject_scatter64.comp); otherwise two 32-bit passes do.
+#ifndef RQR_KEY_WINNER_64
+layout(set = 0, binding = 7, std430) buffer KeyWinner { uint key_winner[]; };
+#define WINNER(q) key_winner[2u * (q)]
+#define DEPTH_KEY(q) key_winner[2u * (q) + 1u]
+#endif
 layout(set = 0, binding = 9, std430) buffer States { uint state[]; };
 layout(set = 0, binding = 10, scalar) buffer Colors { vec4 color[]; };
 layout(set = 0, binding = 11, std430) buffer Jobs { uint jobs[]; };
@@ -133,14 +140,16 @@ uint pixel_count() { return frame.width * frame.height; }
 // The sample shown at pixel q: the one the scatter chose, or, for a pixel no sample landed on,
 // the neighbour's sample the fill chose (kept in the depth key, whose own use ended with the
 // scatter). NO_SAMPLE when neither.
+#ifndef RQR_KEY_WINNER_64
 uint resolved_winner(uint q) {
-    uint w = winner[q];
+    uint w = WINNER(q);
     if (w != NO_SAMPLE) {
         return w;
     }
-    uint k = depth_key[q];
+    uint k = DEPTH_KEY(q);
     return (k != NO_SAMPLE && k >= FILLED_KEY) ? (k & ~FILLED_KEY) : NO_SAMPLE;
 }
+#endif
 uvec2 pixel_of(uint index) { return uvec2(index % frame.width, index / frame.width); }
 
 vec3 camera_forward() { return normalize(-frame.camera_to_world[2].xyz); }

@@ -327,8 +327,11 @@ pub struct Reprojector<'r> {
     frame: Buffer,
     params: Buffer,
     _caches: [Buffer; 2],
-    depth_key: Buffer,
-    winner: Buffer,
+    /// Per pixel: the winning sample's index and its depth key (interleaved u32 pairs).
+    key_winner: Buffer,
+    /// The one-pass scatter and its descriptor set per cache parity, where the device has
+    /// 64-bit buffer atomics.
+    scatter64: Option<(Arc<ComputePipeline>, Vec<DescriptorSet>)>,
     state: Buffer,
     color: Buffer,
     _jobs: Buffer,
@@ -393,8 +396,7 @@ impl<'r> Reprojector<'r> {
             storage("reproject cache 0", pixels * CACHE_ENTRY_BYTES)?,
             storage("reproject cache 1", pixels * CACHE_ENTRY_BYTES)?,
         ];
-        let depth_key = storage("reproject depth keys", pixels * 4)?;
-        let winner = storage("reproject winners", pixels * 4)?;
+        let key_winner = storage("reproject winners and depth keys", pixels * 8)?;
         let state = storage("reproject states", pixels * 4)?;
         let color = storage("reproject colour", pixels * 16)?;
         let shown = storage("reproject shown samples", pixels * SHOWN_BYTES)?;
@@ -444,7 +446,10 @@ impl<'r> Reprojector<'r> {
                 Binding::UniformBuffer,
                 Binding::UniformBuffer,
             ];
-            b.extend(std::iter::repeat_n(Binding::StorageBuffer, 8));
+            // 5..=12 storage buffers; 8 is unused (winners and depth keys share 7).
+            b.extend(std::iter::repeat_n(Binding::StorageBuffer, 3));
+            b.push(Binding::Unused);
+            b.extend(std::iter::repeat_n(Binding::StorageBuffer, 4));
             b.extend(std::iter::repeat_n(
                 Binding::StorageImage,
                 GBUFFER_FORMATS.len(),
@@ -475,7 +480,20 @@ impl<'r> Reprojector<'r> {
             &layout(pass.backend.binding()),
             0,
         )?;
+        // One pass instead of two for the scatter where the device has 64-bit atomics.
+        let scatter64 = if ctx.features().buffer_int64_atomics {
+            Some(ComputePipeline::cached(
+                ctx,
+                "reproject scatter (64-bit atomics)",
+                crate::shaders::REPROJECT_SCATTER64_COMP,
+                &layout(Binding::Unused),
+                0,
+            )?)
+        } else {
+            None
+        };
         let mut sets = Vec::with_capacity(2);
+        let mut scatter64_sets = Vec::with_capacity(2);
         for parity in 0..2 {
             let make = |pipeline: &ComputePipeline, rays: bool| -> VkResult<DescriptorSet> {
                 let set = pipeline.allocate_set()?;
@@ -489,8 +507,7 @@ impl<'r> Reprojector<'r> {
                     .buffer(4, &params, Binding::UniformBuffer)
                     .buffer(5, &caches[parity], Binding::StorageBuffer)
                     .buffer(6, &caches[1 - parity], Binding::StorageBuffer)
-                    .buffer(7, &depth_key, Binding::StorageBuffer)
-                    .buffer(8, &winner, Binding::StorageBuffer)
+                    .buffer(7, &key_winner, Binding::StorageBuffer)
                     .buffer(9, &state, Binding::StorageBuffer)
                     .buffer(10, &color, Binding::StorageBuffer)
                     .buffer(11, &jobs, Binding::StorageBuffer)
@@ -510,6 +527,9 @@ impl<'r> Reprojector<'r> {
                 make(&primary, true)?,
                 make(&trace, true)?,
             ]);
+            if let Some(p) = &scatter64 {
+                scatter64_sets.push(make(p, false)?);
+            }
         }
         let tonemap = TonemapPass::new(ctx, &color, pixels as u32)?;
         let readback = FrameRing::new(
@@ -538,8 +558,8 @@ impl<'r> Reprojector<'r> {
             frame,
             params,
             _caches: caches,
-            depth_key,
-            winner,
+            key_winner,
+            scatter64: scatter64.map(|p| (p, scatter64_sets)),
             state,
             color,
             _jobs: jobs,
@@ -628,6 +648,12 @@ impl<'r> Reprojector<'r> {
     /// The reuse options.
     pub fn options(&self) -> &ReuseOptions {
         &self.options
+    }
+
+    /// Scatters with two 32-bit atomic passes even where the device has 64-bit atomics (the
+    /// path of devices without them; both give the same images, which the tests check).
+    pub fn use_two_pass_scatter(&mut self) {
+        self.scatter64 = None;
     }
 
     /// Whether the next frame reuses cached samples (false at the start of a range).
@@ -738,8 +764,7 @@ impl<'r> Reprojector<'r> {
             .record_update(device, cmd, bytemuck::bytes_of(&params));
         // SAFETY: recording command buffer; the buffers are ours.
         unsafe {
-            device.cmd_fill_buffer(cmd, self.depth_key.raw(), 0, vk::WHOLE_SIZE, !0);
-            device.cmd_fill_buffer(cmd, self.winner.raw(), 0, vk::WHOLE_SIZE, !0);
+            device.cmd_fill_buffer(cmd, self.key_winner.raw(), 0, vk::WHOLE_SIZE, !0);
             device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0);
         }
         memory_barrier(device, cmd);
@@ -762,8 +787,16 @@ impl<'r> Reprojector<'r> {
         };
         if reuse {
             scope(&mut profiler, "scatter");
-            stage(cmd, STAGE_SCATTER, 0, GATHER_NONE);
-            stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
+            match &self.scatter64 {
+                Some((pipeline, sets)) => {
+                    pipeline.dispatch(cmd, Some(&sets[self.parity]), &[], tiles);
+                    memory_barrier(device, cmd);
+                }
+                None => {
+                    stage(cmd, STAGE_SCATTER, 0, GATHER_NONE);
+                    stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
+                }
+            }
             stage(cmd, STAGE_FILL, 0, GATHER_NONE);
         }
         // The stage that settles which pixels need a primary ray lists them right away.

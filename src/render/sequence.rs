@@ -835,6 +835,14 @@ impl<'r> Sequence<'r> {
         Ok(frames)
     }
 
+    /// Reprojection scatters with two 32-bit atomic passes, as on devices without 64-bit
+    /// atomics ([`Reprojector::use_two_pass_scatter`]).
+    pub fn use_two_pass_scatter(&mut self) {
+        if let Some(r) = self.reprojector.as_mut() {
+            r.use_two_pass_scatter();
+        }
+    }
+
     /// The longest burst [`Self::render_burst`] takes.
     pub fn burst_capacity(&self) -> u32 {
         self.burst.frames.slots()
