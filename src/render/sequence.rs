@@ -792,7 +792,7 @@ impl<'r> Sequence<'r> {
                 aov: false,
                 states: true,
             },
-            options.reference,
+            options.reference && options.reuse.any(),
         )?;
         Ok(Self {
             draws,
@@ -818,7 +818,7 @@ impl<'r> Sequence<'r> {
         max_ring_bytes: u64,
     ) -> crate::Result<u32> {
         let slot = FrameRing::slot_bytes(self.settings.pixels(), contents)
-            + if self.options.reference {
+            + if self.separate_references() {
                 FrameRing::slot_bytes(self.settings.pixels(), REFERENCE_CONTENTS)
             } else {
                 0
@@ -830,7 +830,7 @@ impl<'r> Sequence<'r> {
             &self.settings,
             frames,
             contents,
-            self.options.reference,
+            self.separate_references(),
         )?;
         Ok(frames)
     }
@@ -841,6 +841,12 @@ impl<'r> Sequence<'r> {
         if let Some(r) = self.reprojector.as_mut() {
             r.use_two_pass_scatter();
         }
+    }
+
+    /// Whether references are rendered apart from the frames (with reuse; without, a frame is
+    /// its own full render and needs no reference slots).
+    fn separate_references(&self) -> bool {
+        self.options.reference && self.reprojector.is_some()
     }
 
     /// The longest burst [`Self::render_burst`] takes.
@@ -893,7 +899,7 @@ impl<'r> Sequence<'r> {
         }
         let cameras: Vec<Camera> = frames.clone().map(|k| self.camera(k)).collect();
         let mut history = Vec::with_capacity(cameras.len());
-        let reference = self.options.reference && self.reprojector.is_some();
+        let reference = self.separate_references();
         let Self {
             draws,
             reprojector,
