@@ -17,45 +17,25 @@
 #extension GL_KHR_shader_subgroup_ballot : require
 
 layout(local_size_x = 8, local_size_y = 8) in;
-// stage: what runs; level: the adaptive level it works at (interpolate); gather: the job list
-// it appends to afterwards (GATHER_NONE, GATHER_VERIFY, or a trace level 1, 2, 4).
-layout(push_constant) uniform Push { uint stage; uint level; uint gather; } pc;
+// The stage that runs: a specialization constant, so that each stage's pipeline holds its own
+// code only (src/render/reproject.rs builds one pipeline per stage).
+layout(constant_id = 0) const uint STAGE = 0u;
+// level: the adaptive level the stage works at (interpolate); gather: the level whose pixels
+// to trace the stage lists (GATHER_NONE: it lists none).
+layout(push_constant) uniform Push { uint level; uint gather; } pc;
 
 #define STAGE_SCATTER 0u
 #define STAGE_RESOLVE 1u
 #define STAGE_CLASSIFY 2u
 #define STAGE_THRESHOLD 3u
 #define STAGE_SELECT 4u
-#define STAGE_COMMIT 6u
 #define STAGE_INTERPOLATE 7u
-#define STAGE_STATS 8u
 #define STAGE_FILL 9u
 
-// Job list selector (pc.gather): 0 = pixels to verify; 1, 2, 4 = pixels to trace at that level.
-#define GATHER_VERIFY 0u
+// pc.gather of the stages that list jobs: the adaptive level (1, 2, 4) whose pixels to trace
+// they list; GATHER_NONE for the others.
 #define GATHER_NONE 0xFFFFFFFFu
 
-CacheEntry empty_entry() {
-    return CacheEntry(vec4(0.0), vec4(0.0), vec4(0.0), uvec4(0u));
-}
-
-// Adaptive sub-sampling blocks of L x L pixels share their corners with their neighbours:
-// block b spans pixels [b L, min(b L + L, n - 1)], and pixel x belongs to block
-// min(x / L, blocks - 1) (so the last row/column closes the last block).
-uint block_count(uint n, uint l) { return max(1u, (n - 1u + l - 1u) / l); }
-
-uvec2 block_span(uint x, uint n, uint l) {
-    uint x0 = min(x / l, block_count(n, l) - 1u) * l;
-    return uvec2(x0, min(x0 + l, n - 1u));
-}
-
-bool is_block_sample(uvec2 pix, uint l) {
-    uvec2 sx = block_span(pix.x, frame.width, l);
-    uvec2 sy = block_span(pix.y, frame.height, l);
-    bool corner = (pix.x == sx.x || pix.x == sx.y) && (pix.y == sy.x || pix.y == sy.y);
-    bool centre = pix.x == (sx.x + sx.y) / 2u && pix.y == (sy.x + sy.y) / 2u;
-    return corner || centre;
-}
 
 vec3 color_at(uint x, uint y) { return color[y * frame.width + x].rgb; }
 
@@ -264,93 +244,6 @@ void select_frameless(uint q) {
     }
 }
 
-// Whether pixel q belongs on job list `list` (pc.gather).
-bool wanted(uint q, uint list) {
-    uint kind = state[q] & PX_KIND_MASK;
-    // With adaptive sub-sampling on the rt path, pixels to trace get their primary ray in the
-    // visibility pass too, so interpolated pixels know their hit and can be cached.
-    return list == GATHER_VERIFY
-        ? kind == PX_VERIFY || (kind == PX_TRACE && (params.flags & (RP_ADAPTIVE | RP_GBUFFER)) == RP_ADAPTIVE)
-        : kind == PX_TRACE && (list == 1u || is_block_sample(pixel_of(q), list));
-}
-
-// Stream compaction of the job list, in tile order: every subgroup writes its jobs
-// contiguously in invocation order after one atomic (a subgroup covers one or more rows of the
-// 8x8 tile), so neighbouring lanes of a tracing pass trace neighbouring pixels. The last
-// subgroup to finish turns the list's length into the tracing pass's indirect dispatch (and
-// starts the next list at zero), so no separate pass and barrier is needed for that. No
-// workgroup barrier: a CPU device (lavapipe) runs shaders with barrier() as coroutines, which
-// cost more than the atomics they would save.
-void append_job(bool take, uint q) {
-    uint t = take ? 1u : 0u;
-    uint within = subgroupExclusiveAdd(t);
-    uint total = subgroupAdd(t);
-    uint base = 0u;
-    if (subgroupElect()) {
-        base = total > 0u ? atomicAdd(counters[C_JOBS], total) : 0u;
-        // This subgroup's share of the count is added before it counts itself done.
-        memoryBarrierBuffer();
-        uint subgroups = gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumSubgroups;
-        if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == subgroups) {
-            uint n = atomicExchange(counters[C_JOBS], 0u);
-            dispatch_args[0] = (n + 63u) / 64u;
-            dispatch_args[1] = 1u;
-            dispatch_args[2] = 1u;
-            dispatch_args[3] = n;
-            counters[C_TILES_DONE] = 0u;
-        }
-    }
-    base = subgroupBroadcastFirst(base);
-    if (take) {
-        jobs[base + within] = q;
-    }
-}
-
-// Reused pixels take their sample's colour (a miss: the background seen along this pixel's
-// own ray) and carry the sample, one frame older, into the next cache. Every other pixel
-// starts the next cache empty; the tracing pass fills the ones it traces.
-void commit(uint q) {
-    uint st = state[q];
-    if ((st & PX_KIND_MASK) != PX_REUSE) {
-        cache_next[q] = empty_entry();
-        return;
-    }
-    CacheEntry e = cache_prev[resolved_winner(q)];
-    vec3 c = e.color.rgb;
-    if ((e.meta.x & CACHE_MISS) != 0u) {
-        c = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
-    }
-    color[q] = vec4(c, 1.0);
-    e.meta.w += 1u;
-    if ((st & PX_FILLED) != 0u && (e.meta.x & CACHE_MISS) != 0u) {
-        // A miss's colour is recomputed per pixel: the copy simply becomes this pixel's.
-        e.position = vec4(camera_ray(vec2(pixel_of(q)) + 0.5).dir, 0.0);
-    } else if ((st & PX_FILLED) != 0u) {
-        // A fill carries a copy of a neighbour's colour. Cached as it is, the copy would
-        // collide with its original next frame and leave the pixel empty again, so the
-        // sample density of a surface seen larger and larger would only fall. Instead it
-        // becomes this pixel's sample at this pixel's primary hit: the G-buffer's where
-        // there is one, else where this pixel's ray meets the copied sample's plane (the
-        // neighbourhood passed the edge test, so it is that smooth surface).
-        ivec2 pix = ivec2(pixel_of(q));
-        if ((params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u) {
-            e.position = vec4(imageLoad(g_position, pix).xyz, 1.0);
-            e.normal = vec4(imageLoad(g_geometric, pix).xyz, 0.0);
-        } else {
-            Ray r = camera_ray(vec2(pix) + 0.5);
-            float denom = dot(r.dir, e.normal.xyz);
-            if (abs(denom) > 1e-4) {
-                float t = dot(e.position.xyz - r.origin, e.normal.xyz) / denom;
-                if (t > 0.0) {
-                    e.position = vec4(r.origin + t * r.dir, 1.0);
-                }
-            }
-        }
-        e.meta.x = with_hops(e.meta.x, cache_hops(e) + 1u);
-    }
-    cache_next[q] = e;
-}
-
 // Compared as displayed, roughly (Reinhard, gamma 2.2): a linear difference that is
 // invisible in a bright region is a visible step in a dark one.
 vec3 display(vec3 c) {
@@ -372,10 +265,10 @@ float tent(float u, float c) {
 // the threshold is filled by interpolation: bilinear between the corners plus the centre's
 // deviation from it, fading out towards the block edges (quincunx). Other blocks stay for the
 // next level.
-void interpolate(uint q) {
+bool interpolate(uint q) {
     uint st = state[q];
     if ((st & PX_KIND_MASK) != PX_TRACE) {
-        return;
+        return false;
     }
     uvec2 pix = pixel_of(q);
     uint l = pc.level;
@@ -389,7 +282,7 @@ void interpolate(uint q) {
     d = max(d, max(max(differ(c10, c01), differ(c10, c11)), max(differ(c10, cc), differ(c01, c11))));
     d = max(d, max(differ(c01, cc), differ(c11, cc)));
     if (d > params.subsample_threshold) {
-        return;
+        return false;
     }
     vec2 span = vec2(max(sx.y - sx.x, 1u), max(sy.y - sy.x, 1u));
     vec2 uv = (vec2(pix) - vec2(sx.x, sy.x)) / span;
@@ -422,26 +315,32 @@ void interpolate(uint q) {
         }
         cache_next[q] = e;
     }
+    return true;
 }
 
-// Statistics of the frame's final pixel states: summed per subgroup, one atomic per subgroup
-// and counter (no workgroup barrier, see append_job).
-void stats(uint q, bool inside) {
-    uint st = inside ? state[q] : 0u;
-    uint kind = inside ? st & PX_KIND_MASK : 0u;
-    COUNTER_ADD(counters[C_REUSED], kind == PX_REUSE ? 1u : 0u);
-    COUNTER_ADD(counters[C_TRACED], kind == PX_TRACED ? 1u : 0u);
-    COUNTER_ADD(counters[C_INTERP], kind == PX_INTERP ? 1u : 0u);
-    COUNTER_ADD(counters[C_HOLES], (st & PX_HOLE) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_REJECTED], (st & PX_REJECTED) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_VIEW_DEPENDENT], (st & PX_VIEW_DEPENDENT) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_EXPIRED], (st & PX_EXPIRED) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_FRAMELESS], (st & PX_FRAMELESS) != 0u ? 1u : 0u);
-    COUNTER_ADD(counters[C_FILLED], (st & PX_FILLED) != 0u && kind == PX_REUSE ? 1u : 0u);
+// The stage that settles pixel q (classify, or with frameless the selection after it): a reused
+// pixel is committed now, every other pixel starts the next cache empty (the tracing passes
+// fill the ones they trace). Candidates wait for the visibility pass, which does the same for
+// them. Returns the state to count, 0 while the pixel is undecided.
+uint settle(uint q) {
+    uint st = state[q];
+    if ((st & PX_KIND_MASK) == PX_VERIFY) {
+        return 0u;
+    }
+    commit(q, st);
+    return st;
+}
+
+// Whether the visibility pass (rt path) looks at pixel q: candidates, and with adaptive
+// sub-sampling every pixel that needs new colour, so that interpolated pixels know their hit
+// and can be cached.
+bool wants_visibility(uint st) {
+    uint kind = st & PX_KIND_MASK;
+    return kind == PX_VERIFY || (kind == PX_TRACE && (params.flags & (RP_ADAPTIVE | RP_GBUFFER)) == RP_ADAPTIVE);
 }
 
 void main() {
-    if (pc.stage == STAGE_THRESHOLD) {
+    if (STAGE == STAGE_THRESHOLD) {
         if (gl_GlobalInvocationID.x == 0u && gl_GlobalInvocationID.y == 0u) {
             threshold();
         }
@@ -450,8 +349,12 @@ void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;
     bool inside = pix.x < frame.width && pix.y < frame.height;
     uint q = pix.y * frame.width + pix.x;
+    bool frameless = (params.flags & RP_FRAMELESS) != 0u;
+    bool settling = (STAGE == STAGE_CLASSIFY && !frameless) || STAGE == STAGE_SELECT;
+    uint settled = 0u;
+    bool interpolated = false;
     if (inside) {
-        switch (pc.stage) {
+        switch (STAGE) {
         case STAGE_SCATTER:
         case STAGE_RESOLVE: {
             // Thread q reprojects the sample cached at pixel q of the previous frame. Nearest
@@ -461,7 +364,7 @@ void main() {
             uint target, key;
             vec2 film;
             if ((e.meta.x & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
-                if (pc.stage == STAGE_SCATTER) {
+                if (STAGE == STAGE_SCATTER) {
                     atomicMin(DEPTH_KEY(target), key);
                 } else if (DEPTH_KEY(target) == key) {
                     atomicMin(WINNER(target), q);
@@ -475,15 +378,28 @@ void main() {
             break;
         case STAGE_CLASSIFY: classify(q); break;
         case STAGE_SELECT: select_frameless(q); break;
-        case STAGE_COMMIT: commit(q); break;
-        case STAGE_INTERPOLATE: interpolate(q); break;
+        case STAGE_INTERPOLATE: interpolated = interpolate(q); break;
         default: break;
         }
+        if (settling) {
+            settled = settle(q);
+        }
     }
-    if (pc.stage == STAGE_STATS) {
-        stats(q, inside);
-    }
-    if (pc.gather != GATHER_NONE) {
-        append_job(inside && wanted(q, pc.gather), q);
+    uint subgroups = gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumSubgroups;
+    if (settling) {
+        // Settled pixels are counted, and the pixels left for rays are listed: those the
+        // visibility pass looks at first, and the others to trace at the first level.
+        count_settled(settled);
+        uint st = inside ? state[q] : 0u;
+        bool look = inside && wants_visibility(st);
+        list_append(LIST_VERIFY, look, q);
+        list_append(LIST_TRACE, inside && !look && traced_at(st, pix, pc.gather), q);
+        lists_done(3u, subgroups);
+    } else if (STAGE == STAGE_INTERPOLATE) {
+        COUNTER_ADD(counters[C_INTERP], interpolated ? 1u : 0u);
+        if (pc.gather != GATHER_NONE) {
+            list_append(LIST_VERIFY, inside && traced_at(state[q], pix, pc.gather), q);
+            lists_done(1u, subgroups);
+        }
     }
 }

@@ -2,9 +2,10 @@
 #version 460
 // Temporal reprojection, rt path: primary visibility for the pixels that hold a candidate
 // sample but cannot trust it without a look (all candidates, or those next to a depth edge,
-// per --rt-visibility; and, with adaptive sub-sampling, every pixel that needs new colour). One primary ray per listed pixel; its hit goes to the G-buffer images
-// (gbuffer.frag's layout, so the tracing pass shades it without a second primary ray) and
-// decides between reusing the sample and tracing the pixel.
+// per --rt-visibility; and, with adaptive sub-sampling, every pixel that needs new colour).
+// One primary ray per listed pixel; its hit goes to the G-buffer images (gbuffer.frag's
+// layout, so the tracing pass shades it without a second primary ray) and decides between
+// reusing the sample (committed here) and tracing the pixel (listed here for the tracing pass).
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "trace.glsl"
@@ -14,38 +15,53 @@
 #include "reproject.glsl"
 
 layout(local_size_x = 64) in;
+// The adaptive level (1, 2, 4) whose pixels to trace this pass lists.
+layout(push_constant) uniform Push { uint level; } pc;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= job_count()) {
-        return;
+    bool listed = i < job_count(LIST_VERIFY);
+    uint q = listed ? job_at(LIST_VERIFY, i) : 0u;
+    uint settled = 0u;
+    bool trace = false;
+    if (listed) {
+        ivec2 pix = ivec2(pixel_of(q));
+        Ray r = camera_ray(vec2(pix) + 0.5);
+        Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
+        COUNTER_ADD(counters[0], 1u);
+        COUNTER_ADD(counters[C_VERIFY_RAYS], 1u);
+        uint w = resolved_winner(q);
+        CacheEntry e = cache_prev[w == NO_SAMPLE ? 0u : w];
+        uint st = state[q];
+        // Pixels already bound for tracing (adaptive sub-sampling on the rt path) only record
+        // their hit; candidates are judged.
+        bool candidate = (st & PX_KIND_MASK) == PX_VERIFY;
+        uint verdict;
+        if (hit_found(h)) {
+            Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
+            imageStore(g_position, pix, vec4(s.position, h.t));
+            imageStore(g_normal, pix, vec4(s.n, s.roughness));
+            imageStore(g_geometric, pix, vec4(s.ng_front, s.metallic));
+            imageStore(g_base, pix, vec4(s.base_color, s.alpha));
+            imageStore(g_emissive, pix, vec4(s.emissive, s.occlusion));
+            imageStore(g_ids, pix, uvec4(uint(h.instance), uint(h.primitive), s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission)));
+            imageStore(g_bary, pix, vec4(h.barycentrics, 0.0, 0.0));
+            verdict = judge_primary(e, true, s.position, s.ng_front, s.material, s.metallic, s.roughness, s.transmission, s.alpha);
+        } else {
+            imageStore(g_ids, pix, uvec4(0xFFFFFFFFu));
+            verdict = judge_primary(e, false, vec3(0.0), vec3(0.0), 0u, 0.0, 1.0, 0.0, 1.0);
+        }
+        st = candidate ? verdict | PX_VERIFIED | (st & PX_FILLED) : st | PX_VERIFIED;
+        state[q] = st;
+        if (candidate) {
+            // The stage before settled every other pixel; this pass settles the candidates
+            // (commit reads this invocation's own G-buffer writes at the pixel).
+            commit(q, st);
+            settled = st;
+        }
+        trace = traced_at(st, uvec2(pix), pc.level);
     }
-    uint q = jobs[i];
-    ivec2 pix = ivec2(pixel_of(q));
-    Ray r = camera_ray(vec2(pix) + 0.5);
-    Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
-    COUNTER_ADD(counters[0], 1u);
-    COUNTER_ADD(counters[C_VERIFY_RAYS], 1u);
-    uint w = resolved_winner(q);
-    CacheEntry e = cache_prev[w == NO_SAMPLE ? 0u : w];
-    uint st = state[q];
-    // Pixels already bound for tracing (adaptive sub-sampling on the rt path) only record
-    // their hit; candidates are judged.
-    bool candidate = (st & PX_KIND_MASK) == PX_VERIFY;
-    uint verdict;
-    if (hit_found(h)) {
-        Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
-        imageStore(g_position, pix, vec4(s.position, h.t));
-        imageStore(g_normal, pix, vec4(s.n, s.roughness));
-        imageStore(g_geometric, pix, vec4(s.ng_front, s.metallic));
-        imageStore(g_base, pix, vec4(s.base_color, s.alpha));
-        imageStore(g_emissive, pix, vec4(s.emissive, s.occlusion));
-        imageStore(g_ids, pix, uvec4(uint(h.instance), uint(h.primitive), s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission)));
-        imageStore(g_bary, pix, vec4(h.barycentrics, 0.0, 0.0));
-        verdict = judge_primary(e, true, s.position, s.ng_front, s.material, s.metallic, s.roughness, s.transmission, s.alpha);
-    } else {
-        imageStore(g_ids, pix, uvec4(0xFFFFFFFFu));
-        verdict = judge_primary(e, false, vec3(0.0), vec3(0.0), 0u, 0.0, 1.0, 0.0, 1.0);
-    }
-    state[q] = candidate ? verdict | PX_VERIFIED | (st & PX_FILLED) : st | PX_VERIFIED;
+    count_settled(settled);
+    list_append(LIST_TRACE, trace, q);
+    lists_done(1u << LIST_TRACE, gl_NumWorkGroups.x * gl_NumSubgroups);
 }

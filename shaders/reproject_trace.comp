@@ -18,15 +18,18 @@
 #include "reproject.glsl"
 
 layout(local_size_x = 64) in;
+// The job list this pass works through (LIST_TRACE first, then LIST_VERIFY for the later
+// adaptive levels).
+layout(push_constant) uniform Push { uint list; } pc;
 
 Surface unused_surface;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= job_count()) {
+    if (i >= job_count(pc.list)) {
         return;
     }
-    uint q = jobs[i];
+    uint q = job_at(pc.list, i);
     ivec2 pix = ivec2(pixel_of(q));
     uint st = state[q];
     Ray camera = camera_ray(vec2(pix) + 0.5);
@@ -113,4 +116,5 @@ void main() {
         COUNTER_ADD(counters[k], rays_by_kind[k]);
     }
     COUNTER_ADD(counters[C_SAMPLES], 1u);
+    COUNTER_ADD(counters[C_TRACED], 1u);
 }

@@ -3,11 +3,15 @@
 // reproject_trace.comp. Include after scene.glsl and frame.glsl.
 //
 // Bindings (one numbering for the pipelines): 4 params, 5 previous cache, 6 next cache,
-// 7 scatter winners and depth keys (8 unused), 9 pixel states, 10 colour, 11 job list,
+// 7 scatter winners and depth keys (8 unused), 9 pixel states, 10 colour, 11 job lists,
 // 12 counters, 13-19 G-buffer images (gbuffer.frag's layout), 20 indirect dispatch arguments,
 // 21 the sample each pixel shows (without its colour).
 #ifndef RQR_REPROJECT_GLSL
 #define RQR_REPROJECT_GLSL
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#include "counters.glsl"
 
 // A cached sample: the colour of one primary hit and where it was.
 #define CACHE_VALID 1u
@@ -47,7 +51,7 @@ uint with_hops(uint flags, uint hops) { return (flags & ~(255u << CACHE_HOPS_SHI
 
 // Counter slots (binding 12): rays by kind and samples as in raytrace.comp, then statistics.
 #define C_SAMPLES 4u
-#define C_JOBS 5u
+#define C_JOBS 5u  // length of job list 0 while a stage appends to it
 #define C_REUSED 6u
 #define C_TRACED 7u
 #define C_INTERP 8u
@@ -62,7 +66,8 @@ uint with_hops(uint flags, uint hops) { return (flags & ~(255u << CACHE_HOPS_SHI
 #define C_THRESHOLD_BIN 17u
 #define C_THRESHOLD_FRACTION 18u
 #define C_FILLED 19u
-#define C_TILES_DONE 20u  // workgroups that finished appending to the current job list
+#define C_TILES_DONE 20u  // subgroups that finished appending to the current job lists
+#define C_TRACE_JOBS 21u  // length of job list 1 (two passes append to it)
 #define C_HISTOGRAM 32u
 #define AGE_LEVELS 64u
 #define RANK_LEVELS 64u
@@ -103,6 +108,7 @@ layout(set = 0, binding = 7, std430) buffer KeyWinner { uint key_winner[]; };
 #endif
 layout(set = 0, binding = 9, std430) buffer States { uint state[]; };
 layout(set = 0, binding = 10, scalar) buffer Colors { vec4 color[]; };
+// Two job lists share one buffer: list k holds jobs[k n, k n + n), n = pixels.
 layout(set = 0, binding = 11, std430) buffer Jobs { uint jobs[]; };
 layout(set = 0, binding = 12, std430) buffer Counters { uint counters[]; };
 layout(set = 0, binding = 13, rgba32f) uniform image2D g_position;   // world position, t
@@ -112,9 +118,10 @@ layout(set = 0, binding = 16, rgba16f) uniform image2D g_base;       // base col
 layout(set = 0, binding = 17, rgba16f) uniform image2D g_emissive;   // emissive, occlusion
 layout(set = 0, binding = 18, rgba32ui) uniform uimage2D g_ids;      // instance, primitive, material | front << 31, transmission bits
 layout(set = 0, binding = 19, rgba32f) uniform image2D g_bary;       // barycentrics, motion
-// The tracing passes' dispatch (x, y, z workgroups) and their job count, written by
-// reproject.comp's ARGS stage from the job list that the gather before it compacted.
-layout(set = 0, binding = 20, std430) buffer DispatchArgs { uint dispatch_args[4]; };
+// Per job list k: the indirect dispatch of the pass that works through it (x, y, z
+// workgroups) and its job count, at dispatch_args[4 k, 4 k + 4); written by the last subgroup
+// of the pass that appended to the list (lists_done()).
+layout(set = 0, binding = 20, std430) buffer DispatchArgs { uint dispatch_args[8]; };
 
 // Per pixel, the cached sample it shows after the scatter and the fill (colour left out):
 // position, normal and meta of CacheEntry; meta.x = 0 where no sample landed. Written in
@@ -132,10 +139,73 @@ CacheEntry shown_entry(uint q) {
     return CacheEntry(vec4(0.0), s.position, s.normal, s.meta);
 }
 
-// Jobs of the current tracing pass (one per invocation, 64 per workgroup).
-uint job_count() { return dispatch_args[3]; }
-
 uint pixel_count() { return frame.width * frame.height; }
+
+// Job lists. The stage that settles the pixels lists those the visibility pass looks at (list
+// 0, rt path) and the first pixels to trace (list 1); the visibility pass adds the candidates
+// it rejects to list 1; each adaptive interpolation lists the next level's pixels in list 0,
+// whose visibility jobs are done by then. Tracing passes run one job per invocation, 64 per
+// workgroup.
+#define LIST_VERIFY 0u
+#define LIST_TRACE 1u
+uint job_count(uint list) { return dispatch_args[4u * list + 3u]; }
+uint job_at(uint list, uint i) { return jobs[list * pixel_count() + i]; }
+
+// Stream compaction into job list `list`, in tile order: every subgroup writes its jobs
+// contiguously in invocation order after one atomic (a subgroup covers one or more rows of an
+// 8x8 tile), so neighbouring lanes of a tracing pass trace neighbouring pixels. Call from every
+// invocation of the dispatch. No workgroup barrier: a CPU device (lavapipe) runs shaders with
+// barrier() as coroutines, which cost more than the atomics they would save.
+void list_append(uint list, bool take, uint q) {
+    uint t = take ? 1u : 0u;
+    uint within = subgroupExclusiveAdd(t);
+    uint total = subgroupAdd(t);
+    uint base = 0u;
+    if (subgroupElect() && total > 0u) {
+        base = atomicAdd(counters[list == LIST_VERIFY ? C_JOBS : C_TRACE_JOBS], total);
+    }
+    base = subgroupBroadcastFirst(base);
+    if (take) {
+        jobs[list * pixel_count() + base + within] = q;
+    }
+}
+
+// After every append of the dispatch (`subgroups` of them): the last subgroup to finish turns
+// the lengths of the lists in the bit set `lists` into their indirect dispatches, so no
+// separate pass and barrier is needed. List 0 restarts at zero for the next stage that lists
+// into it; list 1 keeps its length for the visibility pass, which appends to it.
+void lists_done(uint lists, uint subgroups) {
+    if (subgroupElect()) {
+        // This subgroup's appends are counted before it counts itself done.
+        memoryBarrierBuffer();
+        if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == subgroups) {
+            for (uint list = 0u; list < 2u; ++list) {
+                if ((lists & (1u << list)) != 0u) {
+                    uint n = list == LIST_VERIFY ? atomicExchange(counters[C_JOBS], 0u) : atomicAdd(counters[C_TRACE_JOBS], 0u);
+                    dispatch_args[4u * list] = (n + 63u) / 64u;
+                    dispatch_args[4u * list + 1u] = 1u;
+                    dispatch_args[4u * list + 2u] = 1u;
+                    dispatch_args[4u * list + 3u] = n;
+                }
+            }
+            counters[C_TILES_DONE] = 0u;
+        }
+    }
+}
+
+// Statistics of a settled pixel state (0: nothing to count). A pixel is counted once, by the
+// pass that settles it; the tracing and interpolation passes count the kinds they turn pixels
+// into. Call from every invocation: sums are per subgroup.
+void count_settled(uint st) {
+    uint kind = st & PX_KIND_MASK;
+    COUNTER_ADD(counters[C_REUSED], kind == PX_REUSE ? 1u : 0u);
+    COUNTER_ADD(counters[C_HOLES], (st & PX_HOLE) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_REJECTED], (st & PX_REJECTED) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_VIEW_DEPENDENT], (st & PX_VIEW_DEPENDENT) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_EXPIRED], (st & PX_EXPIRED) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_FRAMELESS], (st & PX_FRAMELESS) != 0u ? 1u : 0u);
+    COUNTER_ADD(counters[C_FILLED], (st & PX_FILLED) != 0u && kind == PX_REUSE ? 1u : 0u);
+}
 
 // The sample shown at pixel q: the one the scatter chose, or, for a pixel no sample landed on,
 // the neighbour's sample the fill chose (kept in the depth key, whose own use ended with the
@@ -149,8 +219,36 @@ uint resolved_winner(uint q) {
     uint k = DEPTH_KEY(q);
     return (k != NO_SAMPLE && k >= FILLED_KEY) ? (k & ~FILLED_KEY) : NO_SAMPLE;
 }
+
 #endif
 uvec2 pixel_of(uint index) { return uvec2(index % frame.width, index / frame.width); }
+
+// Adaptive sub-sampling blocks of L x L pixels share their corners with their neighbours:
+// block b spans pixels [b L, min(b L + L, n - 1)], and pixel x belongs to block
+// min(x / L, blocks - 1) (so the last row/column closes the last block).
+uint block_count(uint n, uint l) { return max(1u, (n - 1u + l - 1u) / l); }
+
+uvec2 block_span(uint x, uint n, uint l) {
+    uint x0 = min(x / l, block_count(n, l) - 1u) * l;
+    return uvec2(x0, min(x0 + l, n - 1u));
+}
+
+bool is_block_sample(uvec2 pix, uint l) {
+    uvec2 sx = block_span(pix.x, frame.width, l);
+    uvec2 sy = block_span(pix.y, frame.height, l);
+    bool corner = (pix.x == sx.x || pix.x == sx.y) && (pix.y == sy.x || pix.y == sy.y);
+    bool centre = pix.x == (sx.x + sx.y) / 2u && pix.y == (sy.x + sy.y) / 2u;
+    return corner || centre;
+}
+
+// Whether a pixel in state `st` is traced at adaptive level `level` (1: every pixel to trace).
+bool traced_at(uint st, uvec2 pix, uint level) {
+    return (st & PX_KIND_MASK) == PX_TRACE && (level == 1u || is_block_sample(pix, level));
+}
+
+CacheEntry empty_entry() {
+    return CacheEntry(vec4(0.0), vec4(0.0), vec4(0.0), uvec4(0u));
+}
 
 vec3 camera_forward() { return normalize(-frame.camera_to_world[2].xyz); }
 
@@ -234,5 +332,53 @@ uint judge_against_gbuffer(ivec2 pix, CacheEntry e) {
     vec4 base = imageLoad(g_base, pix);
     return judge_primary(e, true, p.xyz, ng.xyz, ids.z & 0x7FFFFFFFu, ng.w, n.w, uintBitsToFloat(ids.w), base.a);
 }
+
+#ifndef RQR_KEY_WINNER_64
+// Reused pixels take their sample's colour (a miss: the background seen along this pixel's
+// own ray) and carry the sample, one frame older, into the next cache. Every other pixel
+// starts the next cache empty; the tracing pass fills the ones it traces. Run by the pass
+// that settles pixel q (state `st`).
+void commit(uint q, uint st) {
+    if ((st & PX_KIND_MASK) != PX_REUSE) {
+        cache_next[q] = empty_entry();
+        return;
+    }
+    CacheEntry e = cache_prev[resolved_winner(q)];
+    vec3 c = e.color.rgb;
+    if ((e.meta.x & CACHE_MISS) != 0u) {
+        c = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
+    }
+    color[q] = vec4(c, 1.0);
+    e.meta.w += 1u;
+    if ((st & PX_FILLED) != 0u && (e.meta.x & CACHE_MISS) != 0u) {
+        // A miss's colour is recomputed per pixel: the copy simply becomes this pixel's.
+        e.position = vec4(camera_ray(vec2(pixel_of(q)) + 0.5).dir, 0.0);
+    } else if ((st & PX_FILLED) != 0u) {
+        // A fill carries a copy of a neighbour's colour. Cached as it is, the copy would
+        // collide with its original next frame and leave the pixel empty again, so the
+        // sample density of a surface seen larger and larger would only fall. Instead it
+        // becomes this pixel's sample at this pixel's primary hit: the G-buffer's where
+        // there is one, else where this pixel's ray meets the copied sample's plane (the
+        // neighbourhood passed the edge test, so it is that smooth surface).
+        ivec2 pix = ivec2(pixel_of(q));
+        if ((params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u) {
+            e.position = vec4(imageLoad(g_position, pix).xyz, 1.0);
+            e.normal = vec4(imageLoad(g_geometric, pix).xyz, 0.0);
+        } else {
+            Ray r = camera_ray(vec2(pix) + 0.5);
+            float denom = dot(r.dir, e.normal.xyz);
+            if (abs(denom) > 1e-4) {
+                float t = dot(e.position.xyz - r.origin, e.normal.xyz) / denom;
+                if (t > 0.0) {
+                    e.position = vec4(r.origin + t * r.dir, 1.0);
+                }
+            }
+        }
+        e.meta.x = with_hops(e.meta.x, cache_hops(e) + 1u);
+    }
+    cache_next[q] = e;
+}
+
+#endif
 
 #endif

@@ -250,14 +250,26 @@ const STAGE_RESOLVE: u32 = 1;
 const STAGE_CLASSIFY: u32 = 2;
 const STAGE_THRESHOLD: u32 = 3;
 const STAGE_SELECT: u32 = 4;
-const STAGE_COMMIT: u32 = 6;
 const STAGE_INTERPOLATE: u32 = 7;
-const STAGE_STATS: u32 = 8;
 const STAGE_FILL: u32 = 9;
-/// Job list a stage appends to: pixels to verify with a primary ray (rt path).
-const GATHER_VERIFY: u32 = 0;
-/// The stage appends to no job list.
+/// The stages of `reproject.comp`, each its own pipeline.
+const STAGES: [u32; 7] = [
+    STAGE_CLASSIFY,
+    STAGE_SCATTER,
+    STAGE_RESOLVE,
+    STAGE_THRESHOLD,
+    STAGE_SELECT,
+    STAGE_INTERPOLATE,
+    STAGE_FILL,
+];
+/// The stage lists no pixels to trace.
 const GATHER_NONE: u32 = u32::MAX;
+/// Job lists (`reproject.glsl`): list 0 holds the visibility pass's jobs, then each later
+/// adaptive level's; list 1 the first pixels to trace. Each has its indirect dispatch
+/// arguments (x, y, z, job count) at `16 * list` in the arguments buffer.
+const LIST_VERIFY: u32 = 0;
+const LIST_TRACE: u32 = 1;
+const JOB_LISTS: u64 = 2;
 
 const PX_KIND_MASK: u32 = 15;
 const PX_REUSE: u32 = 1;
@@ -279,8 +291,8 @@ const COUNTER_SLOTS: u64 = 32 + 64 * 64;
 
 /// Side of the 8x8-pixel workgroups of `reproject.comp`.
 const TILE: u32 = 8;
-/// Timestamp scopes one reprojected frame records (raster, scatter, classify, visibility,
-/// commit, three trace levels, two interpolations, stats, tonemap, and the frame itself), for
+/// Timestamp scopes one reprojected frame records (raster, scatter, fill, classify,
+/// visibility, three trace levels, two interpolations, tonemap, and the frame itself), for
 /// sizing a burst's profiler.
 pub const SCOPES_PER_FRAME: u32 = 16;
 
@@ -319,7 +331,8 @@ pub struct Reprojector<'r> {
     path: RenderPath,
     options: ReuseOptions,
     settings: RenderSettings,
-    stages: Arc<ComputePipeline>,
+    /// reproject.comp's pipelines, one per entry of [`STAGES`] (sharing one set layout).
+    stages: Vec<Arc<ComputePipeline>>,
     primary: Arc<ComputePipeline>,
     trace: Arc<ComputePipeline>,
     /// Per cache parity: descriptor sets of `stages`, `primary`, `trace`.
@@ -400,12 +413,12 @@ impl<'r> Reprojector<'r> {
         let state = storage("reproject states", pixels * 4)?;
         let color = storage("reproject colour", pixels * 16)?;
         let shown = storage("reproject shown samples", pixels * SHOWN_BYTES)?;
-        let jobs = storage("reproject jobs", pixels * 4)?;
+        let jobs = storage("reproject job lists", JOB_LISTS * pixels * 4)?;
         let counters = storage("reproject counters", COUNTER_SLOTS * 4)?;
         let args = Buffer::new(
             ctx,
             "reproject dispatch",
-            16,
+            JOB_LISTS * 16,
             vk::BufferUsageFlags::INDIRECT_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
@@ -459,26 +472,34 @@ impl<'r> Reprojector<'r> {
             b
         };
         let backend = pass.backend.kind();
-        let stages = ComputePipeline::cached(
-            ctx,
-            "reproject",
-            crate::shaders::REPROJECT_COMP,
-            &layout(Binding::Unused),
-            12,
-        )?;
+        // One pipeline per stage of reproject.comp (its specialization constant), so each
+        // compiles to that stage's code alone.
+        let stages = STAGES
+            .iter()
+            .map(|&stage| {
+                ComputePipeline::cached_specialized(
+                    ctx,
+                    "reproject",
+                    crate::shaders::REPROJECT_COMP,
+                    &layout(Binding::Unused),
+                    8,
+                    &[stage],
+                )
+            })
+            .collect::<VkResult<Vec<_>>>()?;
         let primary = ComputePipeline::cached(
             ctx,
             "reproject visibility",
             primary_spirv(backend),
             &layout(pass.backend.binding()),
-            0,
+            4,
         )?;
         let trace = ComputePipeline::cached(
             ctx,
             "reproject trace",
             trace_spirv(backend),
             &layout(pass.backend.binding()),
-            0,
+            4,
         )?;
         // One pass instead of two for the scatter where the device has 64-bit atomics.
         let scatter64 = if ctx.features().buffer_int64_atomics {
@@ -523,7 +544,7 @@ impl<'r> Reprojector<'r> {
                 Ok(set)
             };
             sets.push([
-                make(&stages, false)?,
+                make(&stages[0], false)?,
                 make(&primary, true)?,
                 make(&trace, true)?,
             ]);
@@ -717,32 +738,43 @@ impl<'r> Reprojector<'r> {
         let tiles = [s.width.div_ceil(TILE), s.height.div_ceil(TILE), 1];
         let [stages_set, primary_set, trace_set] = &self.sets[self.parity];
         let device = ctx.device();
-        // One pass of reproject.comp; `gather` names the job list it appends to.
+        // One pass of reproject.comp; `gather` names the level whose pixels to trace it lists.
         let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, gather: u32| {
-            let mut push = [0u8; 12];
-            push[..4].copy_from_slice(&stage.to_le_bytes());
-            push[4..8].copy_from_slice(&level.to_le_bytes());
-            push[8..].copy_from_slice(&gather.to_le_bytes());
+            let mut push = [0u8; 8];
+            push[..4].copy_from_slice(&level.to_le_bytes());
+            push[4..].copy_from_slice(&gather.to_le_bytes());
             let groups = if stage == STAGE_THRESHOLD {
                 [1, 1, 1]
             } else {
                 tiles
             };
-            self.stages.dispatch(cmd, Some(stages_set), &push, groups);
+            let index = STAGES
+                .iter()
+                .position(|&s| s == stage)
+                .expect("a stage of STAGES");
+            self.stages[index].dispatch(cmd, Some(stages_set), &push, groups);
             memory_barrier(device, cmd);
         };
-        // A tracing pass over the job list the stage before it compacted, sized by the list's
-        // length (written by that stage's last workgroup), so its cost follows its jobs.
+        // A tracing pass over job list `list`, sized by the list's length (written by the last
+        // subgroup of the pass that appended to it), so its cost follows its jobs.
         let traced = |cmd: vk::CommandBuffer,
                       pipeline: &ComputePipeline,
                       set: &DescriptorSet,
                       name: &str,
+                      push: u32,
+                      list: u32,
                       profiler: Option<&mut GpuProfiler>| {
             let mut profiler = profiler;
             if let Some(p) = profiler.as_deref_mut() {
                 p.begin(cmd, name);
             }
-            pipeline.dispatch_indirect(cmd, Some(set), &[], &self.args);
+            pipeline.dispatch_indirect_at(
+                cmd,
+                Some(set),
+                &push.to_le_bytes(),
+                &self.args,
+                16 * u64::from(list),
+            );
             memory_barrier(device, cmd);
             if let Some(p) = profiler {
                 p.end(cmd);
@@ -797,41 +829,41 @@ impl<'r> Reprojector<'r> {
                     stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
                 }
             }
+            scope(&mut profiler, "fill");
             stage(cmd, STAGE_FILL, 0, GATHER_NONE);
         }
-        // The stage that settles which pixels need a primary ray lists them right away.
-        let verify_list = if rt_verify {
-            GATHER_VERIFY
-        } else {
-            GATHER_NONE
-        };
+        // The stage that settles the pixels commits the reused ones, counts them, and lists
+        // the pixels left for rays: for the visibility pass (rt path) and for the first trace.
         scope(&mut profiler, "classify");
         if frameless {
             stage(cmd, STAGE_CLASSIFY, 0, GATHER_NONE);
             stage(cmd, STAGE_THRESHOLD, 0, GATHER_NONE);
-            stage(cmd, STAGE_SELECT, 0, verify_list);
+            stage(cmd, STAGE_SELECT, 0, levels[0]);
         } else {
-            stage(cmd, STAGE_CLASSIFY, 0, verify_list);
+            stage(cmd, STAGE_CLASSIFY, 0, levels[0]);
         }
         if rt_verify {
+            // Settles the candidates and lists the rejected ones for the first trace.
             traced(
                 cmd,
                 &self.primary,
                 primary_set,
                 "visibility",
+                levels[0],
+                LIST_VERIFY,
                 profiler.as_deref_mut(),
             );
         }
-        // Commit the reused pixels and list the first level's pixels to trace; each
-        // interpolation lists the next level's.
-        scope(&mut profiler, "commit");
-        stage(cmd, STAGE_COMMIT, 0, levels[0]);
+        // Each interpolation lists the next level's pixels to trace in list 0.
         for (i, &level) in levels.iter().enumerate() {
+            let list = if i == 0 { LIST_TRACE } else { LIST_VERIFY };
             traced(
                 cmd,
                 &self.trace,
                 trace_set,
                 "trace",
+                list,
+                list,
                 profiler.as_deref_mut(),
             );
             if let Some(&next) = levels.get(i + 1) {
@@ -839,8 +871,6 @@ impl<'r> Reprojector<'r> {
                 stage(cmd, STAGE_INTERPOLATE, level, next);
             }
         }
-        scope(&mut profiler, "stats");
-        stage(cmd, STAGE_STATS, 0, GATHER_NONE);
         if let Some(p) = profiler.as_deref_mut() {
             p.end(cmd);
         }

@@ -122,6 +122,21 @@ impl ComputePipeline {
         bindings: &[Binding],
         push_size: u32,
     ) -> VkResult<Self> {
+        Self::new_specialized(ctx, name, spirv, bindings, push_size, &[])
+    }
+
+    /// [`Self::new`] with specialization constants: `constants[i]` is `constant_id = i`. A
+    /// shader that holds several passes picks one this way, so the driver compiles only that
+    /// pass's code (on a CPU device, a big shader's unused stages still cost every
+    /// invocation).
+    pub fn new_specialized(
+        ctx: &Context,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[Binding],
+        push_size: u32,
+        constants: &[u32],
+    ) -> VkResult<Self> {
         let device = ctx.device();
         let limit = ctx.info().max_push_constants_size;
         if push_size > limit {
@@ -153,12 +168,23 @@ impl ComputePipeline {
         // SAFETY: `words` is valid SPIR-V produced by build.rs.
         let module =
             unsafe { device.create_shader_module(&module_info, None) }.call("vkCreateShaderModule");
+        let entries: Vec<_> = (0..constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry {
+                constant_id: i,
+                offset: i * 4,
+                size: 4,
+            })
+            .collect();
+        let spec = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(constants));
         let pipeline = module.and_then(|module| {
             const MAIN: &CStr = c"main";
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
-                .name(MAIN);
+                .name(MAIN)
+                .specialization_info(&spec);
             let info = vk::ComputePipelineCreateInfo::default()
                 .stage(stage)
                 .layout(layout);
@@ -203,12 +229,26 @@ impl ComputePipeline {
         bindings: &[Binding],
         push_size: u32,
     ) -> VkResult<Arc<Self>> {
-        let key = cache_key((name, spirv, format!("{bindings:?}"), push_size));
+        Self::cached_specialized(ctx, name, spirv, bindings, push_size, &[])
+    }
+
+    /// [`Self::new_specialized`], built once per context (as [`Self::cached`]).
+    pub fn cached_specialized(
+        ctx: &Context,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[Binding],
+        push_size: u32,
+        constants: &[u32],
+    ) -> VkResult<Arc<Self>> {
+        let key = cache_key((name, spirv, format!("{bindings:?}"), push_size, constants));
         let mut cache = ctx.pipelines.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(p) = cache.compute.get(&key) {
             return Ok(p.clone());
         }
-        let p = Arc::new(Self::new(ctx, name, spirv, bindings, push_size)?);
+        let p = Arc::new(Self::new_specialized(
+            ctx, name, spirv, bindings, push_size, constants,
+        )?);
         cache.compute.insert(key, p.clone());
         Ok(p)
     }
