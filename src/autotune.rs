@@ -1,7 +1,10 @@
 //! `--backend auto` and `--raster auto` decided by measurement: the first time rqr meets a
 //! device and driver version it times a small fixed workload (the built-in scene at
-//! [`MEASURE_SIZE`]², depth 1): the ray-traced frame on `hw` and on `bvh`, and the hybrid
-//! path's visibility pass on the graphics pipeline and on the compute rasterizer. The numbers
+//! [`MEASURE_SIZE`]², the default recursion depth, as `render` and `compare` run it): the
+//! ray-traced frame on `hw` and on `bvh`, frames of the two alternating so that a device whose
+//! speed drifts (a CPU device on a shared machine, a GPU changing clocks) slows both alike, and
+//! the hybrid path's visibility pass on the graphics pipeline and on the compute rasterizer.
+//! Each configuration keeps the median of its timed frames. The numbers
 //! are cached as JSON in the user's cache directory (`$XDG_CACHE_HOME/rqr/autotune.json`),
 //! keyed by device UUID and driver version, and every later run decides from them.
 //!
@@ -19,20 +22,22 @@ use crate::accel::Backend;
 use crate::render::raster_compute::RasterMode;
 use crate::vk::{Context, DeviceInfo};
 
-/// Format of the cache file; a file of another format is ignored and rewritten.
-pub const CACHE_FORMAT: u32 = 1;
+/// Format of the cache file; a file of another format is ignored and rewritten. Format 2: the
+/// frames are measured at the default depth (format 1 measured depth 1, where `hw` and `bvh`
+/// are close on lavapipe and a noisy minimum picked the slower one for `compare`).
+pub const CACHE_FORMAT: u32 = 2;
 /// Image side of the measured frames.
 pub const MEASURE_SIZE: u32 = 256;
-/// Timed frames per measured configuration (after one untimed warm-up frame); the minimum is kept.
-pub const MEASURE_FRAMES: u32 = 2;
+/// Timed frames per measured configuration (after one untimed warm-up frame); the median is kept.
+pub const MEASURE_FRAMES: u32 = 5;
 /// Environment variable that turns measurement off (`1`).
 pub const NO_AUTOTUNE_ENV: &str = "RQR_NO_AUTOTUNE";
 
-/// What the micro-benchmark measured on one device (GPU milliseconds, minimum of
+/// What the micro-benchmark measured on one device (GPU milliseconds, median of
 /// [`MEASURE_FRAMES`] frames).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Measurement {
-    /// Ray-traced frame (primary rays + shadow rays, depth 1) on `hw`; `None` without ray queries.
+    /// Ray-traced frame (default depth) on `hw`; `None` without ray queries.
     pub rt_hw_ms: Option<f64>,
     /// The same frame on `bvh`.
     pub rt_bvh_ms: f64,
@@ -92,7 +97,10 @@ pub fn rule(device: &DeviceInfo, why: &str) -> Decision {
 /// visibility pass (ties to graphics).
 pub fn decide(m: &Measurement, device: &DeviceInfo) -> Decision {
     let hw_ok = device.ray_query && device.acceleration_structure;
-    let size = format!("built-in scene, {MEASURE_SIZE}x{MEASURE_SIZE}, depth 1");
+    let size = format!(
+        "built-in scene, {MEASURE_SIZE}x{MEASURE_SIZE}, depth {}",
+        crate::render::RenderSettings::default().max_depth
+    );
     let (backend, backend_reason) = match m.rt_hw_ms {
         Some(hw) if hw_ok => {
             let backend = if hw <= m.rt_bvh_ms {
@@ -320,59 +328,70 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
     let settings = RenderSettings {
         width: MEASURE_SIZE,
         height: MEASURE_SIZE,
-        max_depth: 1,
         ..Default::default()
     };
-    // Minimum over timed frames of the summed scopes `pick` selects; frame 0 warms up.
-    let time = |render: &dyn Fn() -> crate::Result<crate::render::RenderOutput>,
-                pick: &dyn Fn(&str) -> bool|
-     -> crate::Result<f64> {
-        let mut best = f64::INFINITY;
-        for i in 0..=MEASURE_FRAMES {
-            let start = std::time::Instant::now();
-            let out = render()?;
-            let wall = start.elapsed().as_secs_f64() * 1e3;
-            let ms = if out.gpu_ms.is_empty() {
-                wall
-            } else {
-                out.gpu_ms
-                    .iter()
-                    .filter(|(n, _)| pick(n))
-                    .map(|(_, v)| v)
-                    .sum()
-            };
-            if i > 0 {
-                best = best.min(ms);
+    type Render<'a> = &'a dyn Fn() -> crate::Result<crate::render::RenderOutput>;
+    // The summed scopes `pick` selects (wall time where the device has no timestamps).
+    let timed = |render: Render, pick: &dyn Fn(&str) -> bool| -> crate::Result<f64> {
+        let start = std::time::Instant::now();
+        let out = render()?;
+        let wall = start.elapsed().as_secs_f64() * 1e3;
+        Ok(if out.gpu_ms.is_empty() {
+            wall
+        } else {
+            out.gpu_ms
+                .iter()
+                .filter(|(n, _)| pick(n))
+                .map(|(_, v)| v)
+                .sum()
+        })
+    };
+    // Median per configuration over timed frames of all of them in turn; round 0 warms up.
+    let alternate = |renders: &[Render], pick: &dyn Fn(&str) -> bool| -> crate::Result<Vec<f64>> {
+        let mut times = vec![Vec::new(); renders.len()];
+        for round in 0..=MEASURE_FRAMES {
+            for (render, t) in renders.iter().zip(&mut times) {
+                let ms = timed(*render, pick)?;
+                if round > 0 {
+                    t.push(ms);
+                }
             }
         }
-        Ok(best)
+        Ok(times
+            .into_iter()
+            .map(|mut t| {
+                t.sort_by(f64::total_cmp);
+                t[t.len() / 2]
+            })
+            .collect())
     };
     let frame = |name: &str| name != "tonemap";
-    let mut rt_hw_ms = None;
-    if ctx.features().ray_query {
-        let hw = Renderer::new(ctx, &scene, Backend::Hw)?;
-        rt_hw_ms = Some(time(
-            &|| hw.render_rt(ctx, &settings, &camera, false),
-            &frame,
-        )?);
-    }
     let bvh = Renderer::new(ctx, &scene, Backend::Bvh)?;
-    let rt_bvh_ms = time(&|| bvh.render_rt(ctx, &settings, &camera, false), &frame)?;
-    let visibility = |raster: RasterMode| {
+    let rt_bvh = || bvh.render_rt(ctx, &settings, &camera, false);
+    let (rt_hw_ms, rt_bvh_ms) = if ctx.features().ray_query {
+        let hw = Renderer::new(ctx, &scene, Backend::Hw)?;
+        let rt_hw = || hw.render_rt(ctx, &settings, &camera, false);
+        let t = alternate(&[&rt_hw, &rt_bvh], &frame)?;
+        (Some(t[0]), t[1])
+    } else {
+        (None, alternate(&[&rt_bvh], &frame)?[0])
+    };
+    let bvh = &bvh;
+    let (draws, camera) = (&draws, &camera);
+    let hybrid = |raster: RasterMode| {
         let s = RenderSettings {
             raster,
             ..settings.clone()
         };
-        time(
-            &|| bvh.render_hybrid(ctx, &draws, &s, &camera, false),
-            &|n| n == "gbuffer",
-        )
+        move || bvh.render_hybrid(ctx, draws, &s, camera, false)
     };
+    let (graphics, compute) = (hybrid(RasterMode::Graphics), hybrid(RasterMode::Compute));
+    let visibility = alternate(&[&graphics, &compute], &|n| n == "gbuffer")?;
     let m = Measurement {
         rt_hw_ms,
         rt_bvh_ms,
-        visibility_graphics_ms: visibility(RasterMode::Graphics)?,
-        visibility_compute_ms: visibility(RasterMode::Compute)?,
+        visibility_graphics_ms: visibility[0],
+        visibility_compute_ms: visibility[1],
     };
     log::info!("autotune measured {m:?}");
     Ok(m)

@@ -101,7 +101,8 @@ fn cache_round_trips_and_rejects_bad_files() {
     assert!(autotune::load(&path, &key).unwrap().is_some());
 
     let text = std::fs::read_to_string(&path).unwrap();
-    let other_format = text.replace("\"format\": 1", "\"format\": 99");
+    let this_format = format!("\"format\": {}", autotune::CACHE_FORMAT);
+    let other_format = text.replace(&this_format, "\"format\": 99");
     assert_ne!(text, other_format);
     std::fs::write(&path, other_format).unwrap();
     let err = autotune::load(&path, &key).unwrap_err();
