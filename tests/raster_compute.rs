@@ -86,6 +86,19 @@ fn compute_visibility_matches_graphics_on_the_builtin_scene() {
     assert!(covered > 0.5, "built-in scene covers {covered}");
 }
 
+/// Tile lists too small for the scene: the (triangle, tile) pairs that do not fit are
+/// rasterized by the binning invocation itself, and the image must not change.
+#[test]
+fn compute_visibility_survives_full_tile_bins() {
+    // Other tests of this binary may build rasterizers meanwhile with the small capacity
+    // too; their images must match graphics all the same.
+    std::env::set_var(rqr::render::raster_compute::BIN_CAPACITY_ENV, "1");
+    let scene = rqr::scene::load_default().unwrap();
+    let camera = default_camera(&scene);
+    assert_compute_matches_graphics("built-in, 1 bin entry", &scene, &camera, 96);
+    std::env::remove_var(rqr::render::raster_compute::BIN_CAPACITY_ENV);
+}
+
 /// Camera inside the room looking into a corner: walls, floor and ceiling run behind the
 /// camera, so their triangles cross the near plane and must be clipped; every pixel sees a
 /// surface.

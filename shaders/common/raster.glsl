@@ -13,8 +13,15 @@
 // atomicMin of the depth bits in one pass and, where a triangle's depth equals the minimum, an
 // atomicMin of its id in a second pass. Either way ties go to the lowest id, deterministically.
 //
+// Triangles that are not rasterized on the spot (bounding box over SMALL_TRIANGLE_PIXELS, or
+// clipped) are binned into 16x16-pixel screen tiles, as in Laine & Karras 2011 ("High-
+// Performance Software Rasterization on GPUs"): raster_bin.comp counts each queued triangle's
+// tiles, scans the counts into per-tile offsets and fills per-tile triangle lists;
+// raster_tiles.comp then runs one workgroup per tile, each invocation one pixel, walks the
+// tile's list with coverage and depth kept in registers, and writes one depth test per pixel.
+//
 // Bindings: 0-1 scene/textures, 3 frame, 4 depth|id per pixel, 5 draw table, 6 big-triangle
-// list, 7 visibility image (resolve only).
+// list, 7 visibility image (resolve only), 8 tile bins.
 #ifndef RQR_RASTER_GLSL
 #define RQR_RASTER_GLSL
 
@@ -42,8 +49,15 @@ struct RasterDraw {
 #define DRAW_MIRRORED 2u
 #define DRAW_ALPHA_TEST 4u
 layout(set = 0, binding = 5, scalar) readonly buffer Draws { RasterDraw draws[]; };
-// Triangles too big (or clipped) for one invocation: rasterized by a workgroup each.
+// Triangles too big (or clipped) for one invocation: binned into tiles.
 layout(set = 0, binding = 6, std430) buffer Big { uint big_count; uint big[]; };
+// Tile bins, for T tiles: [0, T) triangles per tile, [T, 2T) each tile's first entry,
+// [2T, 3T) fill cursors, [3T, ..) the entries (indices into big[]).
+layout(set = 0, binding = 8, std430) buffer Bins { uint bins[]; };
+#define TILE_SIZE 16
+uvec2 tile_grid() { return (uvec2(frame.width, frame.height) + uvec2(TILE_SIZE - 1)) / uvec2(TILE_SIZE); }
+uint tile_count_total() { uvec2 g = tile_grid(); return g.x * g.y; }
+uint bin_capacity() { return uint(bins.length()) - 3u * tile_count_total(); }
 
 layout(push_constant) uniform Push {
     uint triangle_count;
@@ -274,33 +288,27 @@ bool make_tri(Poly poly, uint k, out Tri t) {
     return first.x <= last.x && first.y <= last.y;
 }
 
-// Depth test and write of triangle `gid` at pixel `pix` with depth `depth`.
-void depth_write(Poly poly, uint gid, ivec2 pix, float depth, vec3 persp) {
-    uint index = uint(pix.y) * frame.width + uint(pix.x);
-    uint bits = floatBitsToUint(depth);
+// Whether depth `bits` of triangle `gid` can still win pixel `index` (an early out before the
+// alpha test's texture fetch).
+bool depth_may_win(uint index, uint bits, uint gid) {
 #ifdef RAY_BACKEND_ATOMIC64
-    uint64_t value = (uint64_t(bits) << 32) | uint64_t(gid);
-    // Early out on the depth half only: a plain 64-bit load racing with another invocation's
-    // atomicMin may tear, but either half-word it returns for the depth is one that was stored,
-    // hence >= the current minimum's, so skipping a strictly farther depth is always safe.
-    if (bits > uint(depth_id[index] >> 32)) {
-        return;
-    }
-    if ((poly.flags & DRAW_ALPHA_TEST) != 0u && !alpha_accepts(poly.instance, poly.prim, persp.yz)) {
-        return;
-    }
-    atomicMin(depth_id[index], value);
+    // A plain 64-bit load racing with another invocation's atomicMin may tear, but either
+    // half-word it returns for the depth is one that was stored, hence >= the current minimum's,
+    // so skipping a strictly farther depth is always safe.
+    return bits <= uint(depth_id[index] >> 32);
 #else
     if (pc.pass_kind == 0u) {
-        if (bits >= depth_id[index]) {
-            return;
-        }
-    } else if (bits != depth_id[index] || gid >= depth_id[frame.width * frame.height + index]) {
-        return;
+        return bits < depth_id[index];
     }
-    if ((poly.flags & DRAW_ALPHA_TEST) != 0u && !alpha_accepts(poly.instance, poly.prim, persp.yz)) {
-        return;
-    }
+    return bits == depth_id[index] && gid < depth_id[frame.width * frame.height + index];
+#endif
+}
+
+// The depth test's atomic: nearest depth wins, the lowest id on equal depths.
+void depth_store(uint index, uint bits, uint gid) {
+#ifdef RAY_BACKEND_ATOMIC64
+    atomicMin(depth_id[index], (uint64_t(bits) << 32) | uint64_t(gid));
+#else
     if (pc.pass_kind == 0u) {
         atomicMin(depth_id[index], bits);
     } else {
@@ -309,23 +317,78 @@ void depth_write(Poly poly, uint gid, ivec2 pix, float depth, vec3 persp) {
 #endif
 }
 
-// Coverage, depth and write of one pixel.
-void raster_pixel(Poly poly, Tri t, uint gid, ivec2 pix) {
+// Depth test and write of triangle `gid` at pixel `pix` with depth `depth`.
+void depth_write(Poly poly, uint gid, ivec2 pix, float depth, vec3 persp) {
+    uint index = uint(pix.y) * frame.width + uint(pix.x);
+    uint bits = floatBitsToUint(depth);
+    if (!depth_may_win(index, bits, gid)) {
+        return;
+    }
+    if ((poly.flags & DRAW_ALPHA_TEST) != 0u && !alpha_accepts(poly.instance, poly.prim, persp.yz)) {
+        return;
+    }
+    depth_store(index, bits, gid);
+}
+
+// Coverage and depth of fan triangle `t` at pixel `pix`: false when the pixel centre is not
+// covered or the depth is beyond the far plane; else its depth and perspective-correct
+// barycentrics of the original triangle.
+bool raster_cover(Tri t, ivec2 pix, out float depth, out vec3 persp) {
+    depth = 0.0;
+    persp = vec3(0.0);
     ivec2 p = pix * SUBPIXEL + SUBPIXEL_HALF;
     int64_t e0 = edge(t.v1, t.v2, p);
     int64_t e1 = edge(t.v2, t.v0, p);
     int64_t e2 = edge(t.v0, t.v1, p);
     if (e0 + int64_t(t.bias.x) < 0l || e1 + int64_t(t.bias.y) < 0l || e2 + int64_t(t.bias.z) < 0l) {
-        return;
+        return false;
     }
     precise vec3 l = vec3(float(e0), float(e1), float(e2)) / float(t.area);
-    precise float depth = max(dot(l, t.z), 0.0);
-    if (depth > 1.0) {
-        return;
+    precise float d = max(dot(l, t.z), 0.0);
+    if (d > 1.0) {
+        return false;
     }
+    depth = d;
     vec3 pw = l * t.inv_w;
-    vec3 persp = (pw.x * t.b0 + pw.y * t.b1 + pw.z * t.b2) / (pw.x + pw.y + pw.z);
-    depth_write(poly, gid, pix, depth, persp);
+    persp = (pw.x * t.b0 + pw.y * t.b1 + pw.z * t.b2) / (pw.x + pw.y + pw.z);
+    return true;
+}
+
+// Coverage, depth and write of one pixel.
+void raster_pixel(Poly poly, Tri t, uint gid, ivec2 pix) {
+    float depth;
+    vec3 persp;
+    if (raster_cover(t, pix, depth, persp)) {
+        depth_write(poly, gid, pix, depth, persp);
+    }
+}
+
+// A queued triangle clipped and ready: its polygon, and the tiles its fan triangles' pixel
+// bounding boxes touch (inclusive tile coordinates). False when no pixel centre can be covered.
+bool big_setup(uint gid, out Poly poly, out ivec4 tiles) {
+    vec4 clip[3];
+    bool needs_clip;
+    tiles = ivec4(0, 0, -1, -1);
+    if (!triangle_clip(gid, poly, clip, needs_clip)) {
+        return false;
+    }
+    if (needs_clip) {
+        poly_clip(poly, clip);
+    } else {
+        poly_from_triangle(poly, clip);
+    }
+    ivec4 box = ivec4(0x7FFFFFFF, 0x7FFFFFFF, -1, -1);
+    for (uint k = 1u; k + 1u < poly.count; ++k) {
+        Tri t;
+        if (make_tri(poly, k, t)) {
+            box = ivec4(min(box.xy, t.bbox.xy), max(box.zw, t.bbox.zw));
+        }
+    }
+    if (box.z < 0) {
+        return false;
+    }
+    tiles = ivec4(box.xy / TILE_SIZE, box.zw / TILE_SIZE);
+    return true;
 }
 
 #endif

@@ -3,12 +3,17 @@
 //! the graphics pipeline, for GPUs whose graphics units are scarce next to their compute units
 //! (H100/H200 run graphics on 2 of 66 TPCs).
 //!
-//! Three stages (`shaders/raster_*.comp`, rules in `shaders/common/raster.glsl`):
+//! Stages (`shaders/raster_*.comp`, rules in `shaders/common/raster.glsl`), tile-binned as in
+//! Laine & Karras 2011 ("High-Performance Software Rasterization on GPUs") for every triangle
+//! that is not small:
 //! 1. `raster_triangles`: one invocation per scene triangle transforms, culls and sets it up;
 //!    small unclipped triangles are rasterized on the spot, the others are queued;
-//! 2. `raster_big`: one workgroup per queued triangle clips it (near plane, guard band) and
-//!    covers its bounding box in 16×16-pixel tiles;
-//! 3. `raster_resolve`: per pixel, the winning global triangle id becomes (instance, primitive).
+//! 2. `raster_bin` (three pipelines of one shader): count the 16×16-pixel tiles each queued
+//!    triangle's bounding box touches (after near-plane and guard-band clipping), scan the
+//!    counts into per-tile offsets, fill per-tile triangle lists;
+//! 3. `raster_tiles`: one workgroup per tile, one invocation per pixel, walks the tile's list
+//!    with coverage and depth in registers and makes one depth test per pixel;
+//! 4. `raster_resolve`: per pixel, the winning global triangle id becomes (instance, primitive).
 //!
 //! The depth test is a per-pixel atomic minimum of `depth bits << 32 | triangle id` where the
 //! device has `shaderBufferInt64Atomics`, else two passes of 32-bit atomics (depth, then the
@@ -115,20 +120,37 @@ struct RasterDraw {
 const DRAW_CULL_BACK: u32 = 1;
 const DRAW_MIRRORED: u32 = 2;
 const DRAW_ALPHA_TEST: u32 = 4;
-/// Workgroups of `raster_big.comp` (each loops over the queue).
-const BIG_WORKGROUPS: u32 = 512;
+/// Workgroups of `raster_bin.comp`'s count and fill stages (256 invocations each, looping over
+/// the queue).
+const BIN_WORKGROUPS: u32 = 128;
+/// Side of a screen tile of the binned stages (`TILE_SIZE` in raster.glsl).
+const TILE_SIZE: u32 = 16;
+/// Entries of the per-tile triangle lists. A (triangle, tile) pair beyond it is rasterized by
+/// the binning invocation itself (correct, slower), so this bounds memory, not the scene.
+const BIN_CAPACITY: u64 = 1 << 21;
+/// Environment variable that lowers [`BIN_CAPACITY`] (tests of the overflow path).
+pub const BIN_CAPACITY_ENV: &str = "RQR_RASTER_BIN_CAPACITY";
+/// `raster_bin.comp`'s stages (its specialization constant).
+const BIN_COUNT: u32 = 0;
+const BIN_SCAN: u32 = 1;
+const BIN_FILL: u32 = 2;
 /// Most workgroups of `raster_triangles.comp` (grid-stride beyond).
 const MAX_TRIANGLE_WORKGROUPS: u32 = 65_535;
 
 /// The compute rasterizer's pipelines and buffers for one image size and scene.
 pub struct ComputeRaster {
     triangles: Arc<ComputePipeline>,
-    big: Arc<ComputePipeline>,
+    /// `raster_bin.comp`: count, scan, fill.
+    bin: [Arc<ComputePipeline>; 3],
+    tiles: Arc<ComputePipeline>,
     resolve: Arc<ComputePipeline>,
-    sets: [DescriptorSet; 3],
+    /// Per pipeline: triangles, count, scan, fill, tiles, resolve.
+    sets: [DescriptorSet; 6],
     depth_ids: Buffer,
     _draws: Buffer,
     queue: Buffer,
+    bins: Buffer,
+    tile_grid: [u32; 2],
     triangle_count: u32,
     draw_count: u32,
     atomics: DepthAtomics,
@@ -184,7 +206,17 @@ impl ComputeRaster {
         let pixels = u64::from(extent.width) * u64::from(extent.height);
         let depth_bytes = pixels * 8;
         let queue_bytes = (u64::from(triangle_count) + 1) * 4;
-        ctx.check_memory("compute rasterizer", depth_bytes + queue_bytes)?;
+        let tile_grid = [
+            extent.width.div_ceil(TILE_SIZE),
+            extent.height.div_ceil(TILE_SIZE),
+        ];
+        let tile_count = u64::from(tile_grid[0]) * u64::from(tile_grid[1]);
+        let capacity = std::env::var(BIN_CAPACITY_ENV)
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+            .map_or(BIN_CAPACITY, |c| c.clamp(1, BIN_CAPACITY));
+        let bin_bytes = (3 * tile_count + capacity) * 4;
+        ctx.check_memory("compute rasterizer", depth_bytes + queue_bytes + bin_bytes)?;
         let depth_ids = Buffer::new(
             ctx,
             "raster depth|id",
@@ -196,6 +228,13 @@ impl ComputeRaster {
             ctx,
             "raster big-triangle queue",
             queue_bytes,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::GpuOnly,
+        )?;
+        let bins = Buffer::new(
+            ctx,
+            "raster tile bins",
+            bin_bytes,
             vk::BufferUsageFlags::empty(),
             MemoryLocation::GpuOnly,
         )?;
@@ -219,23 +258,34 @@ impl ComputeRaster {
             Binding::StorageBuffer,
             Binding::StorageBuffer,
             Binding::StorageImage,
+            Binding::StorageBuffer,
         ];
         use crate::shaders as s;
-        let (tri_spv, big_spv, resolve_spv) = match atomics {
+        let (tri_spv, bin_spv, tiles_spv, resolve_spv) = match atomics {
             DepthAtomics::Int64 => (
                 s::RASTER_TRIANGLES_COMP_ATOMIC64,
-                s::RASTER_BIG_COMP_ATOMIC64,
+                s::RASTER_BIN_COMP_ATOMIC64,
+                s::RASTER_TILES_COMP_ATOMIC64,
                 s::RASTER_RESOLVE_COMP_ATOMIC64,
             ),
             DepthAtomics::Int32 => (
                 s::RASTER_TRIANGLES_COMP_ATOMIC32,
-                s::RASTER_BIG_COMP_ATOMIC32,
+                s::RASTER_BIN_COMP_ATOMIC32,
+                s::RASTER_TILES_COMP_ATOMIC32,
                 s::RASTER_RESOLVE_COMP_ATOMIC32,
             ),
         };
         let make = |name: &str, spv: &[u8]| ComputePipeline::cached(ctx, name, spv, &bindings, 12);
+        let bin_stage = |stage: u32| {
+            ComputePipeline::cached_specialized(ctx, "raster bin", bin_spv, &bindings, 12, &[stage])
+        };
         let triangles = make("raster triangles", tri_spv)?;
-        let big = make("raster big triangles", big_spv)?;
+        let bin = [
+            bin_stage(BIN_COUNT)?,
+            bin_stage(BIN_SCAN)?,
+            bin_stage(BIN_FILL)?,
+        ];
+        let tiles = make("raster tiles", tiles_spv)?;
         let resolve = make("raster resolve", resolve_spv)?;
         let bind = |p: &ComputePipeline| -> VkResult<DescriptorSet> {
             let set = p.allocate_set()?;
@@ -245,18 +295,29 @@ impl ComputeRaster {
                 .buffer(4, &depth_ids, Binding::StorageBuffer)
                 .buffer(5, &draws_buffer, Binding::StorageBuffer)
                 .buffer(6, &queue, Binding::StorageBuffer)
-                .storage_image(7, visibility.view());
+                .storage_image(7, visibility.view())
+                .buffer(8, &bins, Binding::StorageBuffer);
             Ok(set)
         };
-        let sets = [bind(&triangles)?, bind(&big)?, bind(&resolve)?];
+        let sets = [
+            bind(&triangles)?,
+            bind(&bin[0])?,
+            bind(&bin[1])?,
+            bind(&bin[2])?,
+            bind(&tiles)?,
+            bind(&resolve)?,
+        ];
         Ok(Self {
             triangles,
-            big,
+            bin,
+            tiles,
             resolve,
             sets,
             depth_ids,
             _draws: draws_buffer,
             queue,
+            bins,
+            tile_grid,
             triangle_count,
             draw_count: table.len() as u32,
             atomics,
@@ -276,6 +337,9 @@ impl ComputeRaster {
         unsafe {
             device.cmd_fill_buffer(cmd, self.depth_ids.raw(), 0, vk::WHOLE_SIZE, u32::MAX);
             device.cmd_fill_buffer(cmd, self.queue.raw(), 0, 4, 0);
+            // The per-tile counts start at zero (offsets and cursors are written by the scan).
+            let counts = 4 * u64::from(self.tile_grid[0]) * u64::from(self.tile_grid[1]);
+            device.cmd_fill_buffer(cmd, self.bins.raw(), 0, counts, 0);
         }
         memory_barrier(device, cmd);
         let passes: &[u32] = match self.atomics {
@@ -295,8 +359,28 @@ impl ComputeRaster {
                 self.triangles
                     .dispatch(cmd, Some(&self.sets[0]), &push, [triangle_groups, 1, 1]);
                 memory_barrier(device, cmd);
-                self.big
-                    .dispatch(cmd, Some(&self.sets[1]), &push, [BIG_WORKGROUPS, 1, 1]);
+                // The id pass of the atomic32 path keeps the depth pass's counts but fills the
+                // lists again: the pairs over capacity are rasterized by the fill itself, and
+                // must be in this pass too.
+                let first_stage = if pass_kind == 0 { 0 } else { 1 };
+                for (stage, groups) in [(0, BIN_WORKGROUPS), (1, 1), (2, BIN_WORKGROUPS)]
+                    .into_iter()
+                    .skip(first_stage)
+                {
+                    self.bin[stage].dispatch(
+                        cmd,
+                        Some(&self.sets[1 + stage]),
+                        &push,
+                        [groups, 1, 1],
+                    );
+                    memory_barrier(device, cmd);
+                }
+                self.tiles.dispatch(
+                    cmd,
+                    Some(&self.sets[4]),
+                    &push,
+                    [self.tile_grid[0], self.tile_grid[1], 1],
+                );
                 memory_barrier(device, cmd);
             }
         }
@@ -306,7 +390,7 @@ impl ComputeRaster {
             .collect();
         self.resolve.dispatch(
             cmd,
-            Some(&self.sets[2]),
+            Some(&self.sets[5]),
             &push,
             [
                 self.extent.width.div_ceil(8),
