@@ -102,6 +102,17 @@ fn cache_key(parts: impl Hash) -> u64 {
     h.finish()
 }
 
+/// Map entries of 32-bit specialization constants: `constants[i]` is `constant_id = i`.
+fn specialization_entries(constants: &[u32]) -> Vec<vk::SpecializationMapEntry> {
+    (0..constants.len() as u32)
+        .map(|i| vk::SpecializationMapEntry {
+            constant_id: i,
+            offset: i * 4,
+            size: 4,
+        })
+        .collect()
+}
+
 /// A compute pipeline with one descriptor set layout and an optional push-constant block.
 pub struct ComputePipeline {
     shared: Arc<Shared>,
@@ -168,13 +179,7 @@ impl ComputePipeline {
         // SAFETY: `words` is valid SPIR-V produced by build.rs.
         let module =
             unsafe { device.create_shader_module(&module_info, None) }.call("vkCreateShaderModule");
-        let entries: Vec<_> = (0..constants.len() as u32)
-            .map(|i| vk::SpecializationMapEntry {
-                constant_id: i,
-                offset: i * 4,
-                size: 4,
-            })
-            .collect();
+        let entries = specialization_entries(constants);
         let spec = vk::SpecializationInfo::default()
             .map_entries(&entries)
             .data(bytemuck::cast_slice(constants));
@@ -647,13 +652,7 @@ impl GraphicsPipeline {
             }
         }
         const MAIN: &CStr = c"main";
-        let entries: Vec<_> = (0..fragment_constants.len() as u32)
-            .map(|i| vk::SpecializationMapEntry {
-                constant_id: i,
-                offset: i * 4,
-                size: 4,
-            })
-            .collect();
+        let entries = specialization_entries(fragment_constants);
         let spec = vk::SpecializationInfo::default()
             .map_entries(&entries)
             .data(bytemuck::cast_slice(fragment_constants));
