@@ -21,6 +21,16 @@ pub const WARM_UP_TOLERANCE: f64 = 0.03;
 /// Warm-up gives up (and the report says so) after this many bursts.
 pub const WARM_UP_MAX_BURSTS: u32 = 8;
 
+/// Whether two consecutive warm-up bursts agree: every mean frame time (one per target) within
+/// [`WARM_UP_TOLERANCE`] of the other burst's.
+pub fn bursts_agree(previous: &[f64], last: &[f64]) -> bool {
+    previous.len() == last.len()
+        && previous
+            .iter()
+            .zip(last)
+            .all(|(a, b)| (a - b).abs() <= WARM_UP_TOLERANCE * a.max(*b))
+}
+
 /// How the frames were timed, for reports.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct BurstReport {
@@ -117,15 +127,12 @@ pub fn time_alternating(
             // No timestamps: nothing to settle.
             break;
         }
-        if let Some(prev) = &last {
-            if prev
-                .iter()
-                .zip(&means)
-                .all(|(a, b)| (a - b).abs() <= WARM_UP_TOLERANCE * a.max(*b))
-            {
-                report.warm_up_settled = true;
-                break;
-            }
+        if last
+            .as_deref()
+            .is_some_and(|prev| bursts_agree(prev, &means))
+        {
+            report.warm_up_settled = true;
+            break;
         }
         last = Some(means);
     }

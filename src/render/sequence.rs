@@ -1093,7 +1093,7 @@ impl<'r> Sequence<'r> {
                 burst.iter().map(|f| f.frame_gpu_ms).sum::<f64>() / burst.len().max(1) as f64;
             w.burst_mean_ms.push(mean);
             if let [.., a, b] = w.burst_mean_ms[..] {
-                if (a - b).abs() <= WARM_UP_TOLERANCE * a.max(b) {
+                if super::burst::bursts_agree(&[a], &[b]) {
                     w.settled = true;
                     break;
                 }
