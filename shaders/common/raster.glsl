@@ -13,8 +13,8 @@
 // atomicMin of the depth bits in one pass and, where a triangle's depth equals the minimum, an
 // atomicMin of its id in a second pass. Either way ties go to the lowest id, deterministically.
 //
-// Bindings: 0-1 scene/textures, 3 frame, 4 depth|id per pixel, 5 draw table, 6 big-triangle
-// list, 7 visibility image (resolve only).
+// Bindings (src/interface/passes.rs): scene, textures, frame, BINDING_RASTER_DEPTH_IDS (depth|id
+// per pixel), _DRAWS (draw table), _BIG (big-triangle list), _VISIBILITY (resolve only).
 #ifndef RQR_RASTER_GLSL
 #define RQR_RASTER_GLSL
 
@@ -24,33 +24,22 @@
 #endif
 #include "scene.glsl"
 #include "frame.glsl"
+#include "interface_passes.glsl"
 
 #ifdef RAY_BACKEND_ATOMIC64
-layout(set = 0, binding = 4, std430) buffer DepthIds { uint64_t depth_id[]; };
+layout(set = 0, binding = BINDING_RASTER_DEPTH_IDS, std430) buffer DepthIds { uint64_t depth_id[]; };
 #else
 // [0, pixels): depth bits; [pixels, 2 pixels): global triangle id.
-layout(set = 0, binding = 4, std430) buffer DepthIds { uint depth_id[]; };
+layout(set = 0, binding = BINDING_RASTER_DEPTH_IDS, std430) buffer DepthIds { uint depth_id[]; };
 #endif
 
-// One entry per drawn instance, in instance order (src/render/raster_compute.rs: RasterDraw).
-struct RasterDraw {
-    uint first_triangle;
-    uint instance;
-    uint flags;
-};
-#define DRAW_CULL_BACK 1u
-#define DRAW_MIRRORED 2u
-#define DRAW_ALPHA_TEST 4u
-layout(set = 0, binding = 5, scalar) readonly buffer Draws { RasterDraw draws[]; };
+// RasterDraw (one entry per drawn instance, in instance order) and its DRAW_* flags are
+// declared in src/interface/passes.rs.
+layout(set = 0, binding = BINDING_RASTER_DRAWS, scalar) readonly buffer Draws { RasterDraw draws[]; };
 // Triangles too big (or clipped) for one invocation: rasterized by a workgroup each.
-layout(set = 0, binding = 6, std430) buffer Big { uint big_count; uint big[]; };
+layout(set = 0, binding = BINDING_RASTER_BIG, std430) buffer Big { uint big_count; uint big[]; };
 
-layout(push_constant) uniform Push {
-    uint triangle_count;
-    uint draw_count;
-    // atomic32 only: 0 = depth pass, 1 = id pass.
-    uint pass_kind;
-} pc;
+layout(push_constant) uniform Push { RasterPush pc; };
 
 #define SUBPIXEL 256
 #define SUBPIXEL_HALF 128

@@ -17,7 +17,6 @@
 use std::sync::Arc;
 
 use ash::vk;
-use bytemuck::{Pod, Zeroable};
 
 use super::gbuffer::Draw;
 use super::PassContext;
@@ -103,18 +102,11 @@ impl DepthAtomics {
     }
 }
 
-/// `raster.glsl`'s `RasterDraw`: one entry per drawn instance.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct RasterDraw {
-    first_triangle: u32,
-    instance: u32,
-    flags: u32,
-}
+use crate::interface::{
+    self as io, bindings, push_bytes, RasterDraw, RasterPush, DRAW_ALPHA_TEST, DRAW_CULL_BACK,
+    DRAW_MIRRORED,
+};
 
-const DRAW_CULL_BACK: u32 = 1;
-const DRAW_MIRRORED: u32 = 2;
-const DRAW_ALPHA_TEST: u32 = 4;
 /// Workgroups of `raster_big.comp` (each loops over the queue).
 const BIG_WORKGROUPS: u32 = 512;
 /// Most workgroups of `raster_triangles.comp` (grid-stride beyond).
@@ -210,16 +202,18 @@ impl ComputeRaster {
         } else {
             Buffer::from_slice(ctx, "raster draws", &table, vk::BufferUsageFlags::empty())?
         };
-        let bindings = [
-            Binding::UniformBuffer,
-            Binding::SampledImages(pass.texture_capacity()),
-            Binding::Unused,
-            Binding::UniformBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageImage,
-        ];
+        let layout = bindings(&[
+            (io::BINDING_SCENE, Binding::UniformBuffer),
+            (
+                io::BINDING_TEXTURES,
+                Binding::SampledImages(pass.texture_capacity()),
+            ),
+            (io::BINDING_FRAME, Binding::UniformBuffer),
+            (io::BINDING_RASTER_DEPTH_IDS, Binding::StorageBuffer),
+            (io::BINDING_RASTER_DRAWS, Binding::StorageBuffer),
+            (io::BINDING_RASTER_BIG, Binding::StorageBuffer),
+            (io::BINDING_RASTER_VISIBILITY, Binding::StorageImage),
+        ]);
         use crate::shaders as s;
         let (tri_spv, big_spv, resolve_spv) = match atomics {
             DepthAtomics::Int64 => (
@@ -233,19 +227,29 @@ impl ComputeRaster {
                 s::RASTER_RESOLVE_COMP_ATOMIC32,
             ),
         };
-        let make = |name: &str, spv: &[u8]| ComputePipeline::cached(ctx, name, spv, &bindings, 12);
+        let push_size = std::mem::size_of::<RasterPush>() as u32;
+        let make =
+            |name: &str, spv: &[u8]| ComputePipeline::cached(ctx, name, spv, &layout, push_size);
         let triangles = make("raster triangles", tri_spv)?;
         let big = make("raster big triangles", big_spv)?;
         let resolve = make("raster resolve", resolve_spv)?;
         let bind = |p: &ComputePipeline| -> VkResult<DescriptorSet> {
             let set = p.allocate_set()?;
             pass.scene.bind(&set);
-            set.sampled_images(1, pass.textures)
-                .buffer(3, frame, Binding::UniformBuffer)
-                .buffer(4, &depth_ids, Binding::StorageBuffer)
-                .buffer(5, &draws_buffer, Binding::StorageBuffer)
-                .buffer(6, &queue, Binding::StorageBuffer)
-                .storage_image(7, visibility.view());
+            set.sampled_images(io::BINDING_TEXTURES, pass.textures)
+                .buffer(io::BINDING_FRAME, frame, Binding::UniformBuffer)
+                .buffer(
+                    io::BINDING_RASTER_DEPTH_IDS,
+                    &depth_ids,
+                    Binding::StorageBuffer,
+                )
+                .buffer(
+                    io::BINDING_RASTER_DRAWS,
+                    &draws_buffer,
+                    Binding::StorageBuffer,
+                )
+                .buffer(io::BINDING_RASTER_BIG, &queue, Binding::StorageBuffer)
+                .storage_image(io::BINDING_RASTER_VISIBILITY, visibility.view());
             Ok(set)
         };
         let sets = [bind(&triangles)?, bind(&big)?, bind(&resolve)?];
@@ -287,27 +291,30 @@ impl ComputeRaster {
             .div_ceil(64)
             .clamp(1, MAX_TRIANGLE_WORKGROUPS);
         for &pass_kind in passes {
-            let push: Vec<u8> = [self.triangle_count, self.draw_count, pass_kind]
-                .iter()
-                .flat_map(|v| v.to_le_bytes())
-                .collect();
+            let push = RasterPush {
+                triangle_count: self.triangle_count,
+                draw_count: self.draw_count,
+                pass_kind,
+            };
+            let push = push_bytes(&push);
             if self.triangle_count > 0 {
                 self.triangles
-                    .dispatch(cmd, Some(&self.sets[0]), &push, [triangle_groups, 1, 1]);
+                    .dispatch(cmd, Some(&self.sets[0]), push, [triangle_groups, 1, 1]);
                 memory_barrier(device, cmd);
                 self.big
-                    .dispatch(cmd, Some(&self.sets[1]), &push, [BIG_WORKGROUPS, 1, 1]);
+                    .dispatch(cmd, Some(&self.sets[1]), push, [BIG_WORKGROUPS, 1, 1]);
                 memory_barrier(device, cmd);
             }
         }
-        let push: Vec<u8> = [self.triangle_count, self.draw_count, 0]
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect();
+        let push = RasterPush {
+            triangle_count: self.triangle_count,
+            draw_count: self.draw_count,
+            pass_kind: 0,
+        };
         self.resolve.dispatch(
             cmd,
             Some(&self.sets[2]),
-            &push,
+            push_bytes(&push),
             [
                 self.extent.width.div_ceil(8),
                 self.extent.height.div_ceil(8),
