@@ -3,7 +3,10 @@
 //!
 //! A shader whose first line is `// variants: A B` is compiled once per name with
 //! `#define RAY_BACKEND_A` (etc.) and gets constants `NAME_EXT_A`, `NAME_EXT_B`.
-//! `#include "x.glsl"` resolves against `shaders/common/` then `shaders/`.
+//! `#include "x.glsl"` resolves against `shaders/common/`, then `shaders/`, then the generated
+//! interface headers: `build/interface.rs` translates every `src/interface/NAME.rs`
+//! (binding numbers, flags, counter slots, push-constant and uniform structs) into
+//! `$OUT_DIR/glsl/interface_NAME.glsl`, so the Rust file is the one source of both sides.
 //!
 //! The compiler is the `glslc` executable (shaderc's command-line front end; `$GLSLC` or `PATH`),
 //! not the `shaderc` crate: that crate's `shaderc-sys` build script picks a native library from
@@ -16,6 +19,9 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+
+#[path = "build/interface.rs"]
+mod interface;
 
 fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -46,7 +52,10 @@ fn main() {
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     println!("cargo:rerun-if-changed=shaders");
     println!("cargo:rerun-if-env-changed=GLSLC");
+    println!("cargo:rerun-if-changed=build/interface.rs");
     let glslc = std::env::var_os("GLSLC").unwrap_or_else(|| "glslc".into());
+    let generated_dir = out_dir.join("glsl");
+    let interface_headers = interface::generate(&root, &generated_dir);
 
     let mut files = Vec::new();
     walk(&shader_dir, &mut files);
@@ -101,7 +110,9 @@ fn main() {
             .arg("-I")
             .arg(shader_dir.join("common"))
             .arg("-I")
-            .arg(&shader_dir);
+            .arg(&shader_dir)
+            .arg("-I")
+            .arg(&generated_dir);
         if let Some(v) = &job.variant {
             cmd.arg(format!("-DRAY_BACKEND_{}=1", v.to_uppercase()));
         }
@@ -168,5 +179,16 @@ fn main() {
             failures.join("\n")
         );
     }
+    generated.push_str(
+        "/// The generated interface headers (`$OUT_DIR/glsl`): file name and GLSL text.\npub const INTERFACE_GLSL: &[(&str, &str)] = &[\n",
+    );
+    for name in &interface_headers {
+        writeln!(
+            generated,
+            "    (\"{name}\", include_str!(concat!(env!(\"OUT_DIR\"), \"/glsl/{name}\"))),"
+        )
+        .unwrap();
+    }
+    generated.push_str("];\n");
     std::fs::write(out_dir.join("shaders.rs"), generated).unwrap();
 }

@@ -8,7 +8,8 @@
 #include "frame.glsl"
 #include "surface.glsl"
 
-layout(push_constant) uniform Push { uint instance; } pc;
+#include "interface_passes.glsl"
+layout(push_constant) uniform Push { DrawPush pc; };
 // Only alpha-MASK draws use the pipeline with the test: a shader that can discard disables
 // early depth testing (on lavapipe it then shades every overdrawn fragment).
 layout(constant_id = 0) const bool ALPHA_TEST = true;
@@ -16,13 +17,13 @@ layout(constant_id = 0) const bool ALPHA_TEST = true;
 layout(location = 0) in vec3 in_bary;
 layout(location = 1) flat in uint in_prim;
 
-layout(location = 0) out vec4 g_position;   // world position, t along the camera ray
-layout(location = 1) out vec4 g_normal;     // shading normal (facing the camera), roughness
-layout(location = 2) out vec4 g_geometric;  // geometric normal of the glTF front face, metallic
-layout(location = 3) out vec4 g_base;       // base colour, alpha
-layout(location = 4) out vec4 g_emissive;   // emissive, occlusion
-layout(location = 5) out uvec4 g_ids;       // instance, primitive, material | front << 31, transmission bits
-layout(location = 6) out vec4 g_bary;       // barycentrics (b1, b2), motion vector in pixels
+layout(location = GBUFFER_POSITION) out vec4 g_position;   // world position, t along the camera ray
+layout(location = GBUFFER_NORMAL) out vec4 g_normal;     // shading normal (facing the camera), roughness
+layout(location = GBUFFER_GEOMETRIC) out vec4 g_geometric;  // geometric normal of the glTF front face, metallic
+layout(location = GBUFFER_BASE) out vec4 g_base;       // base colour, alpha
+layout(location = GBUFFER_EMISSIVE) out vec4 g_emissive;   // emissive, occlusion
+layout(location = GBUFFER_IDS) out uvec4 g_ids;       // instance, primitive, material | front << 31, transmission bits
+layout(location = GBUFFER_BARY) out vec4 g_bary;       // barycentrics (b1, b2), motion vector in pixels
 
 void main() {
     vec2 bary = in_bary.yz;

@@ -5,7 +5,8 @@
 #include "scene.glsl"
 #include "frame.glsl"
 
-layout(push_constant) uniform Push { uint instance; } pc;
+#include "interface_passes.glsl"
+layout(push_constant) uniform Push { DrawPush pc; };
 
 layout(location = 0) out vec3 out_bary;
 layout(location = 1) flat out uint out_prim;

@@ -10,10 +10,8 @@
 #extension GL_GOOGLE_include_directive : require
 #include "raster.glsl"
 
+// RASTER_BIN_COUNT, _SCAN or _FILL (src/interface/passes.rs).
 layout(constant_id = 0) const uint STAGE = 0u;
-#define STAGE_COUNT 0u
-#define STAGE_SCAN 1u
-#define STAGE_FILL 2u
 
 layout(local_size_x = 256) in;
 
@@ -47,7 +45,7 @@ void scan() {
 }
 
 void main() {
-    if (STAGE == STAGE_SCAN) {
+    if (STAGE == RASTER_BIN_SCAN) {
         scan();
         return;
     }
@@ -65,7 +63,7 @@ void main() {
         for (int ty = box.y; ty <= box.w; ++ty) {
             for (int tx = box.x; tx <= box.z; ++tx) {
                 uint tile = uint(ty) * grid.x + uint(tx);
-                if (STAGE == STAGE_COUNT) {
+                if (STAGE == RASTER_BIN_COUNT) {
                     atomicAdd(bins[tile], 1u);
                     continue;
                 }

@@ -6,7 +6,7 @@
 #include "raster.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(set = 0, binding = 7, rg32ui) uniform writeonly uimage2D visibility;
+layout(set = 0, binding = BINDING_RASTER_VISIBILITY, rg32ui) uniform writeonly uimage2D visibility;
 
 void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;

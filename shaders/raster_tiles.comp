@@ -9,7 +9,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "raster.glsl"
 
-layout(local_size_x = TILE_SIZE, local_size_y = TILE_SIZE) in;
+layout(local_size_x = RASTER_TILE_SIZE, local_size_y = RASTER_TILE_SIZE) in;
 
 void main() {
     uvec2 grid = tile_grid();

@@ -9,13 +9,14 @@
 #include "frame.glsl"
 #include "sampling.glsl"
 #include "counters.glsl"
+#include "interface_passes.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(push_constant) uniform Push { uint mode; } pc;
+layout(push_constant) uniform Push { RaybenchPush pc; };
 // Per pixel: (hit position, instance bits), (primary direction, primitive bits); instance -1 on
 // a miss.
-layout(set = 0, binding = 4, scalar) buffer Hits { vec4 hits[]; };
-layout(set = 0, binding = 5, std430) buffer Counters { uint counters[]; }; // rays traced, rays that hit
+layout(set = 0, binding = BINDING_RAYBENCH_HITS, scalar) buffer Hits { vec4 hits[]; };
+layout(set = 0, binding = BINDING_RAYBENCH_COUNTERS, std430) buffer Counters { uint counters[]; }; // rays traced, rays that hit
 
 // No barriers or shared memory: on a CPU Vulkan (lavapipe) a barrier turns every invocation
 // into a coroutine; counters are summed per subgroup (counters.glsl). The geometric normal of the primary hit
@@ -26,7 +27,7 @@ void main() {
         return;
     }
     uint i = pix.y * frame.width + pix.x;
-    if (pc.mode == 0u) {
+    if (pc.mode == RAYBENCH_PRIMARY) {
         Ray r = camera_ray(vec2(pix) + 0.5);
         Hit h = trace_closest(r.origin, r.dir, 0.0, 3.0e38);
         COUNTER_ADD(counters[0], 1u);

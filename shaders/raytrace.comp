@@ -1,8 +1,8 @@
 // variants: hw bvh
 #version 460
 // Pure ray-traced path: one thread per pixel, all of its samples; Whitted trace/shade.
-// Bindings: 0-2 scene/textures/ray backend, 3 frame, 4 colour out, 5 AOVs, 6 ray counters,
-// 7 adaptive corner samples ((w+1) x (h+1)).
+// Bindings (src/interface/passes.rs): the shared ones, BINDING_RT_COLOR out, _AOV, _COUNTERS,
+// _CORNERS (adaptive corner samples, (w+1) x (h+1)).
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "trace.glsl"
@@ -11,20 +11,16 @@
 #include "brdf.glsl"
 #include "shade.glsl"
 #include "counters.glsl"
+#include "aov.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 // FLAG_ADAPTIVE_CORNERS selects the corner pass; FLAG_WRITE_AOV enables AOV output.
-layout(push_constant) uniform Push { uint flags; } pc;
+layout(push_constant) uniform Push { RaytracePush pc; };
 
-layout(set = 0, binding = 4, scalar) writeonly buffer ColorOut { vec4 color_out[]; };
-struct Aov {
-    vec4 normal_depth;   // xyz geometric normal (glTF front face), w = t (0 on a miss)
-    vec4 position_inst;  // xyz world position, w = instance (-1 on a miss)
-    vec4 bary_prim;      // xy barycentrics, z = primitive (-1 on a miss), w = samples used
-};
-layout(set = 0, binding = 5, scalar) writeonly buffer AovOut { Aov aov_out[]; };
-layout(set = 0, binding = 6, std430) buffer Counters { uint counters[]; };  // by RAY_* kind, then samples
-layout(set = 0, binding = 7, scalar) buffer Corners { vec4 corners[]; };
+layout(set = 0, binding = BINDING_RT_COLOR, scalar) writeonly buffer ColorOut { vec4 color_out[]; };
+layout(set = 0, binding = BINDING_RT_AOV, scalar) writeonly buffer AovOut { Aov aov_out[]; };
+layout(set = 0, binding = BINDING_RT_COUNTERS, std430) buffer Counters { uint counters[]; };  // by RAY_* kind, then samples
+layout(set = 0, binding = BINDING_RT_CORNERS, scalar) buffer Corners { vec4 corners[]; };
 
 PrimaryInfo no_info() {
     PrimaryInfo i;
@@ -59,7 +55,7 @@ void flush_counters(uint samples) {
     for (uint k = 0u; k < 4u; ++k) {
         COUNTER_ADD(counters[k], rays_by_kind[k]);
     }
-    COUNTER_ADD(counters[4], samples);
+    COUNTER_ADD(counters[COUNTER_SAMPLES], samples);
 }
 
 void main() {
@@ -165,11 +161,7 @@ void main() {
         uint index = pix.y * frame.width + pix.x;
         color_out[index] = vec4(adaptive ? sum : (weight_sum > 0.0 ? sum / weight_sum : vec3(0.0)), 1.0);
         if ((pc.flags & FLAG_WRITE_AOV) != 0u) {
-            Aov a;
-            a.normal_depth = vec4(info.normal, info.hit ? info.t : 0.0);
-            a.position_inst = vec4(info.position, float(info.hit ? info.instance : -1));
-            a.bary_prim = vec4(info.bary, float(info.hit ? info.primitive : -1), float(samples));
-            aov_out[index] = a;
+            aov_out[index] = primary_aov(info, samples);
         }
     }
     flush_counters(samples);

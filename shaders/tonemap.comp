@@ -3,9 +3,10 @@
 // sRGB transfer. One thread per pixel.
 #extension GL_EXT_scalar_block_layout : require
 layout(local_size_x = 64) in;
-layout(set = 0, binding = 0, scalar) readonly buffer In { vec4 color_in[]; };
-layout(set = 0, binding = 1, std430) writeonly buffer Out { uint pixels[]; };
-layout(push_constant) uniform Push { uint count; uint op; float scale; } pc;
+#include "interface_passes.glsl"
+layout(set = 0, binding = BINDING_TONEMAP_IN, scalar) readonly buffer In { vec4 color_in[]; };
+layout(set = 0, binding = BINDING_TONEMAP_OUT, std430) writeonly buffer Out { uint pixels[]; };
+layout(push_constant) uniform Push { TonemapPush pc; };
 
 vec3 aces(vec3 x) {
     // Narkowicz 2015 fit of the ACES filmic curve.
@@ -39,8 +40,8 @@ void main() {
     // Colour buffers may hold (weighted sum, weight sum) from accumulation: resolve first.
     vec4 v = color_in[i];
     vec3 c = max(v.a > 0.0 ? v.rgb / v.a : v.rgb, vec3(0.0)) * pc.scale;
-    if (pc.op == 1u) c = aces(c);
-    else if (pc.op == 2u) c = khronos_neutral(c);
+    if (pc.op == TONEMAP_ACES) c = aces(c);
+    else if (pc.op == TONEMAP_KHRONOS_NEUTRAL) c = khronos_neutral(c);
     uvec3 b = uvec3(round(vec3(srgb(c.r), srgb(c.g), srgb(c.b)) * 255.0));
     pixels[i] = b.r | (b.g << 8) | (b.b << 16) | (255u << 24);
 }

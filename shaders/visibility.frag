@@ -7,7 +7,8 @@
 #include "frame.glsl"
 #include "surface.glsl"
 
-layout(push_constant) uniform Push { uint instance; } pc;
+#include "interface_passes.glsl"
+layout(push_constant) uniform Push { DrawPush pc; };
 // Only alpha-MASK draws use the pipeline with the test: a shader that can discard disables
 // early depth testing.
 layout(constant_id = 0) const bool ALPHA_TEST = true;

@@ -3,11 +3,14 @@
 //! `VK_KHR_ray_query` where the device has them, otherwise through rqr's own BVH traversed in
 //! compute shaders.
 //!
-//! Modules: [`vk`] (Vulkan plumbing), [`accel`] (ray backends), [`scene`] (glTF loading and
-//! texture upload), [`shaders`] (embedded SPIR-V), [`autotune`] (what `auto` picks, measured).
+//! Modules: [`vk`] (Vulkan plumbing), [`interface`] (the host/shader interface, one source for
+//! Rust and GLSL), [`accel`] (ray backends), [`scene`] (glTF loading and texture upload),
+//! [`render`] (passes and drivers), [`shaders`] (embedded SPIR-V), [`autotune`] (what `auto`
+//! picks, measured).
 
 pub mod accel;
 pub mod autotune;
+pub mod interface;
 pub mod render;
 pub mod scene;
 pub mod vk;

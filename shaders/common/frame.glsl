@@ -1,44 +1,13 @@
-// Per-render parameters (src/render/frame.rs: GpuFrame), set 0 binding 3, and camera rays.
+// Per-render parameters (GpuFrame, declared in src/interface/shared.rs) and camera rays.
 // Pixel convention: row 0 is the top row; pixel (x, y) covers [x, x+1) x [y, y+1) and its
 // centre is (x + 0.5, y + 0.5).
 #ifndef RQR_FRAME_GLSL
 #define RQR_FRAME_GLSL
 
-#define FLAG_NO_SPECULAR 1u
-#define FLAG_SKY 2u
-#define FLAG_WRITE_AOV 4u
-#define FLAG_ADAPTIVE_CORNERS 8u
+#extension GL_EXT_scalar_block_layout : require
+#include "interface_shared.glsl"
 
-layout(set = 0, binding = 3, scalar) uniform Frame {
-    mat4 camera_to_world;
-    mat4 view;
-    mat4 proj;
-    mat4 view_proj;
-    mat4 prev_view_proj;
-    vec2 jitter;
-    vec2 pad1;
-    vec3 camera_pos;
-    float tan_half_fov_y;
-    float aspect;
-    uint ortho;
-    vec2 ortho_half;
-    uint width;
-    uint height;
-    uint spp;
-    uint sampler_kind;
-    uint filter_kind;
-    uint max_depth;
-    uint flags;
-    uint seed;
-    float min_weight;
-    float epsilon;
-    float adaptive_threshold;
-    uint adaptive_depth;
-    vec3 ambient;
-    float pixel_spread;
-    vec3 background;
-    float pad0;
-} frame;
+layout(set = 0, binding = BINDING_FRAME, scalar) uniform Frame { GpuFrame frame; };
 
 struct Ray {
     vec3 origin;

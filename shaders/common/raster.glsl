@@ -20,8 +20,9 @@
 // raster_tiles.comp then runs one workgroup per tile, each invocation one pixel, walks the
 // tile's list with coverage and depth kept in registers, and writes one depth test per pixel.
 //
-// Bindings: 0-1 scene/textures, 3 frame, 4 depth|id per pixel, 5 draw table, 6 big-triangle
-// list, 7 visibility image (resolve only), 8 tile bins.
+// Bindings (src/interface/passes.rs): scene, textures, frame, BINDING_RASTER_DEPTH_IDS (depth|id
+// per pixel), _DRAWS (draw table), _BIG (big-triangle list), _VISIBILITY (resolve only), _BINS
+// (tile bins).
 #ifndef RQR_RASTER_GLSL
 #define RQR_RASTER_GLSL
 
@@ -31,40 +32,29 @@
 #endif
 #include "scene.glsl"
 #include "frame.glsl"
+#include "interface_passes.glsl"
 
 #ifdef RAY_BACKEND_ATOMIC64
-layout(set = 0, binding = 4, std430) buffer DepthIds { uint64_t depth_id[]; };
+layout(set = 0, binding = BINDING_RASTER_DEPTH_IDS, std430) buffer DepthIds { uint64_t depth_id[]; };
 #else
 // [0, pixels): depth bits; [pixels, 2 pixels): global triangle id.
-layout(set = 0, binding = 4, std430) buffer DepthIds { uint depth_id[]; };
+layout(set = 0, binding = BINDING_RASTER_DEPTH_IDS, std430) buffer DepthIds { uint depth_id[]; };
 #endif
 
-// One entry per drawn instance, in instance order (src/render/raster_compute.rs: RasterDraw).
-struct RasterDraw {
-    uint first_triangle;
-    uint instance;
-    uint flags;
-};
-#define DRAW_CULL_BACK 1u
-#define DRAW_MIRRORED 2u
-#define DRAW_ALPHA_TEST 4u
-layout(set = 0, binding = 5, scalar) readonly buffer Draws { RasterDraw draws[]; };
+// RasterDraw (one entry per drawn instance, in instance order) and its DRAW_* flags are
+// declared in src/interface/passes.rs.
+layout(set = 0, binding = BINDING_RASTER_DRAWS, scalar) readonly buffer Draws { RasterDraw draws[]; };
 // Triangles too big (or clipped) for one invocation: binned into tiles.
-layout(set = 0, binding = 6, std430) buffer Big { uint big_count; uint big[]; };
+layout(set = 0, binding = BINDING_RASTER_BIG, std430) buffer Big { uint big_count; uint big[]; };
 // Tile bins, for T tiles: [0, T) triangles per tile, [T, 2T) each tile's first entry,
 // [2T, 3T) fill cursors, [3T, ..) the entries (indices into big[]).
-layout(set = 0, binding = 8, std430) buffer Bins { uint bins[]; };
-#define TILE_SIZE 16
-uvec2 tile_grid() { return (uvec2(frame.width, frame.height) + uvec2(TILE_SIZE - 1)) / uvec2(TILE_SIZE); }
+layout(set = 0, binding = BINDING_RASTER_BINS, std430) buffer Bins { uint bins[]; };
+#define TILE_SIZE int(RASTER_TILE_SIZE)
+uvec2 tile_grid() { return (uvec2(frame.width, frame.height) + uvec2(RASTER_TILE_SIZE - 1u)) / uvec2(RASTER_TILE_SIZE); }
 uint tile_count_total() { uvec2 g = tile_grid(); return g.x * g.y; }
 uint bin_capacity() { return uint(bins.length()) - 3u * tile_count_total(); }
 
-layout(push_constant) uniform Push {
-    uint triangle_count;
-    uint draw_count;
-    // atomic32 only: 0 = depth pass, 1 = id pass.
-    uint pass_kind;
-} pc;
+layout(push_constant) uniform Push { RasterPush pc; };
 
 #define SUBPIXEL 256
 #define SUBPIXEL_HALF 128

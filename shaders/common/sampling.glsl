@@ -2,16 +2,9 @@
 #ifndef RQR_SAMPLING_GLSL
 #define RQR_SAMPLING_GLSL
 
-#define SAMPLER_CENTER 0u
-#define SAMPLER_GRID 1u
-#define SAMPLER_JITTER 2u
-#define SAMPLER_HALTON 3u
-#define SAMPLER_SOBOL 4u
-#define SAMPLER_BLUENOISE 5u
-#define SAMPLER_ADAPTIVE 6u
+// SAMPLER_* and FILTER_* codes.
+#include "interface_shared.glsl"
 
-#define FILTER_BOX 0u
-#define FILTER_TENT 1u
 
 
 uint hash_u32(uint x) {

@@ -1,6 +1,7 @@
 // Scene records on the GPU; byte layout equals src/scene/layout.rs (scalar block layout).
-// Set 0: binding 0 = SceneRefs uniform, binding 1 = bindless textures, binding 2 = ray backend
-// (TLAS for hw, BvhRefs for bvh). Pass-specific bindings start at 3.
+// Set 0 (src/interface/shared.rs): BINDING_SCENE = SceneRefs uniform, BINDING_TEXTURES =
+// bindless textures, BINDING_RAY_BACKEND = ray backend (TLAS for hw, BvhRefs for bvh).
+// Pass-specific bindings follow BINDING_FRAME.
 #ifndef RQR_SCENE_GLSL
 #define RQR_SCENE_GLSL
 
@@ -9,6 +10,7 @@
 #extension GL_EXT_scalar_block_layout : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_EXT_nonuniform_qualifier : require
+#include "interface_shared.glsl"
 
 struct GpuVertex {
     vec3 normal;
@@ -124,7 +126,7 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer Ins
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer MaterialBuf { GpuMaterial v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer LightBuf { GpuLight v[]; };
 
-layout(set = 0, binding = 0, scalar) uniform SceneRefs {
+layout(set = 0, binding = BINDING_SCENE, scalar) uniform SceneRefs {
     uint64_t positions;
     uint64_t attributes;
     uint64_t indices;
@@ -142,7 +144,7 @@ layout(set = 0, binding = 0, scalar) uniform SceneRefs {
     uint pad;
 } scene;
 
-layout(set = 0, binding = 1) uniform sampler2D textures[];
+layout(set = 0, binding = BINDING_TEXTURES) uniform sampler2D textures[];
 
 GpuInstance scene_instance(uint i) { return InstanceBuf(scene.instances).v[i]; }
 GpuGeometry scene_geometry(uint i) { return GeometryBuf(scene.geometries).v[i]; }

@@ -19,10 +19,8 @@ float eps_offset() { return frame.epsilon; }
 
 float max3(vec3 v) { return max(v.x, max(v.y, v.z)); }
 
-#define RAY_PRIMARY 0u
-#define RAY_SHADOW 1u
-#define RAY_REFLECTION 2u
-#define RAY_REFRACTION 3u
+// RAY_* kinds (also the counter slots).
+#include "interface_shared.glsl"
 
 #define STACK_SIZE 20
 

@@ -2,7 +2,7 @@
 // in the BLAS; MASK/BLEND geometry produces candidates that alpha_accepts() confirms.
 #extension GL_EXT_ray_query : require
 
-layout(set = 0, binding = 2) uniform accelerationStructureEXT tlas;
+layout(set = 0, binding = BINDING_RAY_BACKEND) uniform accelerationStructureEXT tlas;
 
 Hit trace_closest(vec3 origin, vec3 dir, float tmin, float tmax) {
     rayQueryEXT q;

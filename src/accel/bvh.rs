@@ -413,7 +413,11 @@ impl GpuBvh {
 
     /// Binds the `BvhRefs` uniform at set 0, binding 2 (the ray backend's binding).
     pub fn bind(&self, set: &DescriptorSet) {
-        set.buffer(2, &self.refs, Binding::UniformBuffer);
+        set.buffer(
+            crate::interface::BINDING_RAY_BACKEND,
+            &self.refs,
+            Binding::UniformBuffer,
+        );
     }
 
     /// Build statistics.

@@ -48,6 +48,15 @@ pub struct BackendUnavailable {
     pub device: String,
 }
 
+/// `rqr probe` reports what the choice resolves to on each device.
+impl crate::vk::BackendPolicy for BackendChoice {
+    fn decide(&self, device: &DeviceInfo) -> Result<(String, String), String> {
+        self.resolve(device)
+            .map(|(backend, reason)| (backend.as_str().to_string(), reason))
+            .map_err(|e| e.to_string())
+    }
+}
+
 impl BackendChoice {
     /// Resolves the choice for a device, with a human-readable reason.
     pub fn resolve(self, device: &DeviceInfo) -> Result<(Backend, String), BackendUnavailable> {
@@ -126,7 +135,7 @@ impl RayBackend {
     pub fn bind(&self, set: &crate::vk::DescriptorSet) {
         match self {
             Self::Hw(a) => {
-                set.acceleration_structure(2, a.tlas());
+                set.acceleration_structure(crate::interface::BINDING_RAY_BACKEND, a.tlas());
             }
             Self::Bvh(b) => b.bind(set),
         }

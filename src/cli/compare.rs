@@ -12,8 +12,8 @@ use rqr::accel::Backend;
 use rqr::render::burst::{self, BurstReport};
 use rqr::render::sequence::{pass_spreads, Spread};
 use rqr::render::{
-    compare, gbuffer, label, merge_scopes, output, FrameTargets, RenderOutput, RenderPath,
-    RenderSettings, Renderer,
+    compare, gbuffer, label, merge_scopes, output, FrameTargets, PassScope, RenderOutput,
+    RenderPath, RenderSettings, Renderer,
 };
 use rqr::vk::FrameTiming;
 use serde_json::json;
@@ -345,7 +345,8 @@ fn write_outputs(
             sbs.height,
             sbs.rgb,
         )?;
-        for (name, r, shading) in [("rt", rt, "rt"), ("hybrid", hybrid, "hybrid shading")] {
+        for (path, r) in [(RenderPath::RayTraced, rt), (RenderPath::Hybrid, hybrid)] {
+            let (name, shading) = (path.as_str(), PassScope::shading(path).name());
             let get = |k: &str| {
                 r.timing
                     .median(k)

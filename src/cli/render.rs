@@ -6,9 +6,9 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use rqr::render::reproject::{
-    PixelSource, RenderPath, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
+    PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
 };
 use rqr::render::sequence::SequenceFrame;
 use rqr::render::sequence::{
@@ -16,22 +16,12 @@ use rqr::render::sequence::{
     SequenceSummary,
 };
 use rqr::render::targets::RingContents;
+use rqr::render::RenderPath;
 use rqr::render::{gbuffer, output, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
 
 use super::common::{check_output_file, CameraArgs, DeviceArgs, ImageArgs, SceneArgs};
 use super::{out, outln};
-
-/// Which rendering path.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Mode {
-    /// Pure ray tracing: primary, shadow, reflection and refraction rays.
-    #[default]
-    Rt,
-    /// Raster G-buffer for primary visibility, ray-traced shadows/reflections/refractions.
-    Hybrid,
-}
 
 /// `rqr render` arguments.
 #[derive(Args, Debug)]
@@ -45,8 +35,8 @@ pub struct RenderArgs {
     #[command(flatten)]
     image: ImageArgs,
     /// Rendering path.
-    #[arg(long, value_enum, default_value_t = Mode::Rt)]
-    mode: Mode,
+    #[arg(long, value_enum, default_value_t = RenderPath::RayTraced)]
+    mode: RenderPath,
     /// Output: .png (tonemapped sRGB) or .exr (linear HDR).
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
@@ -245,7 +235,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
     let (raster, raster_reason) = args.device.raster(&ctx);
-    if matches!(args.mode, Mode::Hybrid) {
+    if matches!(args.mode, RenderPath::Hybrid) {
         log::info!("visibility pass: {} ({raster_reason})", raster.as_str());
     }
     settings.raster = raster;
@@ -255,8 +245,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     };
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
-        Mode::Rt => renderer.render_rt(&ctx, &settings, &camera, write_aov)?,
-        Mode::Hybrid => {
+        RenderPath::RayTraced => renderer.render_rt(&ctx, &settings, &camera, write_aov)?,
+        RenderPath::Hybrid => {
             renderer.render_hybrid(&ctx, &gbuffer::draws(&scene), &settings, &camera, write_aov)?
         }
     };
@@ -279,9 +269,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "sampler": settings.sampler,
             "mean_spp": out.mean_spp(),
             "max_depth": settings.max_depth,
-            "gbuffer": matches!(args.mode, Mode::Hybrid).then_some(settings.gbuffer),
-            "raster": matches!(args.mode, Mode::Hybrid).then_some(settings.raster),
-            "raster_reason": matches!(args.mode, Mode::Hybrid).then_some(raster_reason),
+            "gbuffer": matches!(args.mode, RenderPath::Hybrid).then_some(settings.gbuffer),
+            "raster": matches!(args.mode, RenderPath::Hybrid).then_some(settings.raster),
+            "raster_reason": matches!(args.mode, RenderPath::Hybrid).then_some(raster_reason),
             "gpu_ms": out.gpu_ms.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
             "total_gpu_ms": out.total_ms(),
             "rays": out.rays,
@@ -299,10 +289,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             settings.width,
             settings.height,
             settings.spp,
-            match args.mode {
-                Mode::Rt => "ray traced",
-                Mode::Hybrid => "hybrid",
-            },
+            args.mode.label(),
             backend.as_str(),
             out.total_ms(),
             out.rays.total(),
@@ -377,10 +364,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
         Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?
     };
-    let render_path = match args.mode {
-        Mode::Rt => RenderPath::RayTraced,
-        Mode::Hybrid => RenderPath::Hybrid,
-    };
+    let render_path = args.mode;
     let mut sequence = Sequence::new(
         &ctx,
         &renderer,
@@ -482,10 +466,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
             args.scene.name(),
             settings.width,
             settings.height,
-            match args.mode {
-                Mode::Rt => "rt",
-                Mode::Hybrid => "hybrid",
-            },
+            args.mode.as_str(),
             seq.camera_path
         );
         let chart = sequence::plot(&summaries, &title);

@@ -1,6 +1,5 @@
 //! Render settings and the `Frame` uniform shared with `shaders/common/frame.glsl`.
 
-use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 
 use crate::scene::{Camera, Projection};
@@ -27,8 +26,18 @@ pub enum SamplerKind {
 }
 
 impl SamplerKind {
-    fn code(self) -> u32 {
-        self as u32
+    /// The shaders' `SAMPLER_*` code.
+    pub fn code(self) -> u32 {
+        use crate::interface as i;
+        match self {
+            Self::Center => i::SAMPLER_CENTER,
+            Self::Grid => i::SAMPLER_GRID,
+            Self::Jitter => i::SAMPLER_JITTER,
+            Self::Halton => i::SAMPLER_HALTON,
+            Self::Sobol => i::SAMPLER_SOBOL,
+            Self::Bluenoise => i::SAMPLER_BLUENOISE,
+            Self::Adaptive => i::SAMPLER_ADAPTIVE,
+        }
     }
 }
 
@@ -41,6 +50,16 @@ pub enum FilterKind {
     Box,
     /// Samples within one pixel of the centre, weighted (1-|dx|)(1-|dy|).
     Tent,
+}
+
+impl FilterKind {
+    /// The shaders' `FILTER_*` code.
+    pub fn code(self) -> u32 {
+        match self {
+            Self::Box => crate::interface::FILTER_BOX,
+            Self::Tent => crate::interface::FILTER_TENT,
+        }
+    }
 }
 
 /// Tonemapping operator for PNG output (`--tonemap`).
@@ -205,13 +224,36 @@ impl RenderSettings {
     }
 }
 
-/// Which rendering path a memory estimate is for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which rendering path (`--mode`; also what memory estimates and frame loops are for).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 pub enum RenderPath {
-    /// [`super::Renderer::render_rt`].
+    /// Pure ray tracing: primary, shadow, reflection and refraction rays.
+    #[default]
+    #[value(name = "rt")]
+    #[serde(rename = "rt")]
     RayTraced,
-    /// [`super::Renderer::render_hybrid`] (one G-buffer per sample).
+    /// Raster G-buffer for primary visibility, ray-traced shadows/reflections/refractions.
+    #[value(name = "hybrid")]
+    #[serde(rename = "hybrid")]
     Hybrid,
+}
+
+impl RenderPath {
+    /// The `--mode` name (`rt`, `hybrid`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::RayTraced => "rt",
+            Self::Hybrid => "hybrid",
+        }
+    }
+
+    /// Human-readable name (`ray traced`, `hybrid`).
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::RayTraced => "ray traced",
+            Self::Hybrid => "hybrid",
+        }
+    }
 }
 
 /// Bytes per texel of the formats the passes allocate.
@@ -334,76 +376,9 @@ impl RenderSettings {
     }
 }
 
-/// Frame flag: no GGX lobe in direct light.
-pub const FLAG_NO_SPECULAR: u32 = 1;
-/// Frame flag: sky gradient background.
-pub const FLAG_SKY: u32 = 2;
-/// Frame flag: write AOVs.
-pub const FLAG_WRITE_AOV: u32 = 4;
-/// Frame flag: the adaptive corner pass.
-pub const FLAG_ADAPTIVE_CORNERS: u32 = 8;
-
-/// The `Frame` uniform (set 0, binding 3).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuFrame {
-    /// Camera to world.
-    pub camera_to_world: [f32; 16],
-    /// World to camera.
-    pub view: [f32; 16],
-    /// Projection (Vulkan clip space: y down, depth 0..1).
-    pub proj: [f32; 16],
-    /// proj × view.
-    pub view_proj: [f32; 16],
-    /// proj × view of the previous frame (motion vectors, reprojection).
-    pub prev_view_proj: [f32; 16],
-    /// Sub-pixel offset of the raster pass, in pixels (sample position − pixel centre).
-    pub jitter: [f32; 2],
-    /// Padding.
-    pub pad1: [f32; 2],
-    /// Camera position.
-    pub camera_pos: [f32; 3],
-    /// tan(yfov / 2).
-    pub tan_half_fov_y: f32,
-    /// Width / height.
-    pub aspect: f32,
-    /// 1 for orthographic.
-    pub ortho: u32,
-    /// Orthographic half extents.
-    pub ortho_half: [f32; 2],
-    /// Width.
-    pub width: u32,
-    /// Height.
-    pub height: u32,
-    /// Samples per pixel.
-    pub spp: u32,
-    /// SamplerKind code.
-    pub sampler_kind: u32,
-    /// FilterKind code.
-    pub filter_kind: u32,
-    /// Max path segments.
-    pub max_depth: u32,
-    /// FLAG_* bits.
-    pub flags: u32,
-    /// Sampler seed.
-    pub seed: u32,
-    /// Path weight cut-off.
-    pub min_weight: f32,
-    /// Ray offset.
-    pub epsilon: f32,
-    /// Adaptive threshold.
-    pub adaptive_threshold: f32,
-    /// Adaptive depth.
-    pub adaptive_depth: u32,
-    /// Ambient radiance.
-    pub ambient: [f32; 3],
-    /// Ray-cone spread angle per pixel (radians).
-    pub pixel_spread: f32,
-    /// Background radiance.
-    pub background: [f32; 3],
-    /// Padding.
-    pub pad0: f32,
-}
+pub use crate::interface::{
+    GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_NO_SPECULAR, FLAG_SKY, FLAG_WRITE_AOV,
+};
 
 /// Near plane used when the camera has none that fits.
 const DEFAULT_ZNEAR: f32 = 0.01;
@@ -501,7 +476,7 @@ impl GpuFrame {
             height: settings.height,
             spp: settings.spp,
             sampler_kind: settings.sampler.code(),
-            filter_kind: settings.filter as u32,
+            filter_kind: settings.filter.code(),
             max_depth: settings.max_depth,
             flags,
             seed: settings.seed,

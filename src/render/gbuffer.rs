@@ -9,6 +9,7 @@ use ash::vk;
 
 use super::raster_compute::{ComputeRaster, DepthAtomics, RasterMode};
 use super::PassContext;
+use crate::interface::{self as io, bindings, push_bytes, DrawPush};
 use crate::scene::Scene;
 use crate::vk::{
     Binding, Buffer, Context, DescriptorSet, GpuProfiler, GraphicsPipeline, GraphicsTargets, Image,
@@ -44,7 +45,7 @@ impl GbufferLayout {
 pub const VISIBILITY_FORMATS: [vk::Format; 1] = [vk::Format::R32G32_UINT];
 
 /// Full G-buffer attachment formats, in location order (see `gbuffer.frag` for the contents).
-pub const GBUFFER_FORMATS: [vk::Format; 7] = [
+pub const GBUFFER_FORMATS: [vk::Format; io::GBUFFER_IMAGES as usize] = [
     vk::Format::R32G32B32A32_SFLOAT, // position, t
     vk::Format::R32G32B32A32_SFLOAT, // shading normal, roughness
     vk::Format::R32G32B32A32_SFLOAT, // geometric normal, metallic
@@ -143,12 +144,14 @@ impl GbufferPass {
                     .into(),
             ));
         }
-        let bindings = [
-            Binding::UniformBuffer,
-            Binding::SampledImages(pass.texture_capacity()),
-            Binding::Unused,
-            Binding::UniformBuffer,
-        ];
+        let set_layout = bindings(&[
+            (io::BINDING_SCENE, Binding::UniformBuffer),
+            (
+                io::BINDING_TEXTURES,
+                Binding::SampledImages(pass.texture_capacity()),
+            ),
+            (io::BINDING_FRAME, Binding::UniformBuffer),
+        ]);
         let targets = GraphicsTargets {
             color_formats: layout.formats(),
             depth_format: vk::Format::D32_SFLOAT,
@@ -161,8 +164,8 @@ impl GbufferPass {
                     GbufferLayout::Visibility => crate::shaders::VISIBILITY_FRAG,
                     GbufferLayout::Full => crate::shaders::GBUFFER_FRAG,
                 },
-                &bindings,
-                4,
+                &set_layout,
+                std::mem::size_of::<DrawPush>() as u32,
                 &targets,
                 &[alpha_test],
             )
@@ -171,8 +174,8 @@ impl GbufferPass {
         let bind = |p: &GraphicsPipeline| -> VkResult<DescriptorSet> {
             let set = p.allocate_set()?;
             pass.scene.bind(&set);
-            set.sampled_images(1, pass.textures);
-            set.buffer(3, frame, Binding::UniformBuffer);
+            set.sampled_images(io::BINDING_TEXTURES, pass.textures);
+            set.buffer(io::BINDING_FRAME, frame, Binding::UniformBuffer);
             Ok(set)
         };
         let (set, masked_set) = (bind(&pipeline)?, bind(&masked_pipeline)?);
@@ -240,7 +243,7 @@ impl GbufferPass {
         let device = ctx.device();
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, "gbuffer");
+            p.begin(cmd, super::PassScope::Gbuffer.name());
         }
         for image in &self.images {
             image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
@@ -342,7 +345,12 @@ impl GbufferPass {
             } else {
                 &self.pipeline
             };
-            p.push(cmd, &d.instance.to_le_bytes());
+            p.push(
+                cmd,
+                push_bytes(&DrawPush {
+                    instance: d.instance,
+                }),
+            );
             // SAFETY: inside the rendering scope; dynamic states declared by the pipeline.
             unsafe {
                 device.cmd_set_cull_mode(

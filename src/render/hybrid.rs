@@ -9,12 +9,10 @@ use ash::vk;
 use super::gbuffer::{GbufferLayout, GbufferPass};
 use super::PassContext;
 use crate::accel::Backend;
+use crate::interface::{self as io, bindings, push_bytes, scene_bindings, HybridPush};
 use crate::vk::{Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, VkResult};
 
-/// `hybrid.comp` push flag: overwrite the accumulation (first sample).
-pub const HYBRID_FIRST_SAMPLE: u32 = 1;
-/// `hybrid.comp` push flag: write AOVs.
-pub const HYBRID_WRITE_AOV: u32 = 4;
+pub use crate::interface::{HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
 
 /// Pipeline and descriptor set of the hybrid shading pass.
 pub struct HybridPass {
@@ -42,34 +40,36 @@ impl HybridPass {
         counters: &Buffer,
         gbuffer: &GbufferPass,
     ) -> VkResult<Self> {
-        let mut bindings = vec![
-            Binding::UniformBuffer,
-            Binding::SampledImages(pass.texture_capacity()),
-            pass.backend.binding(),
-            Binding::UniformBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-        ];
-        bindings.extend(std::iter::repeat_n(
-            Binding::StorageImage,
-            gbuffer.images.len(),
-        ));
+        let mut entries = scene_bindings(pass.texture_capacity(), pass.backend.binding()).to_vec();
+        entries.extend([
+            (io::BINDING_HYBRID_ACCUM, Binding::StorageBuffer),
+            (io::BINDING_HYBRID_AOV, Binding::StorageBuffer),
+            (io::BINDING_HYBRID_COUNTERS, Binding::StorageBuffer),
+        ]);
+        entries.extend(
+            (0..gbuffer.images.len() as u32)
+                .map(|i| (io::BINDING_HYBRID_GBUFFER + i, Binding::StorageImage)),
+        );
         let pipeline = ComputePipeline::cached(
             ctx,
-            "hybrid shading",
+            super::PassScope::HybridShading.name(),
             spirv(pass.backend.kind(), gbuffer.layout()),
-            &bindings,
-            8,
+            &bindings(&entries),
+            std::mem::size_of::<HybridPush>() as u32,
         )?;
         let set = pipeline.allocate_set()?;
         pass.bind_scene(&set);
-        set.buffer(3, frame, Binding::UniformBuffer)
-            .buffer(4, accum, Binding::StorageBuffer)
-            .buffer(5, aov, Binding::StorageBuffer)
-            .buffer(6, counters, Binding::StorageBuffer);
-        for (i, image) in gbuffer.images.iter().enumerate() {
-            set.storage_image(7 + i as u32, image.view());
+        set.buffer(io::BINDING_FRAME, frame, Binding::UniformBuffer)
+            .buffer(io::BINDING_HYBRID_ACCUM, accum, Binding::StorageBuffer)
+            .buffer(io::BINDING_HYBRID_AOV, aov, Binding::StorageBuffer)
+            .buffer(
+                io::BINDING_HYBRID_COUNTERS,
+                counters,
+                Binding::StorageBuffer,
+            );
+        // The images in `GBUFFER_*` order (one, the visibility image, without a G-buffer).
+        for (i, image) in (0u32..).zip(&gbuffer.images) {
+            set.storage_image(io::BINDING_HYBRID_GBUFFER + i, image.view());
         }
         Ok(Self { pipeline, set })
     }
@@ -83,17 +83,15 @@ impl HybridPass {
         weight: f32,
         profiler: Option<&mut GpuProfiler>,
     ) {
-        let mut push = [0u8; 8];
-        push[..4].copy_from_slice(&flags.to_le_bytes());
-        push[4..].copy_from_slice(&weight.to_le_bytes());
+        let push = HybridPush { flags, weight };
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, "hybrid shading");
+            p.begin(cmd, super::PassScope::HybridShading.name());
         }
         self.pipeline.dispatch(
             cmd,
             Some(&self.set),
-            &push,
+            push_bytes(&push),
             [extent.width.div_ceil(8), extent.height.div_ceil(8), 1],
         );
         if let Some(p) = profiler {

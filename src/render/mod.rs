@@ -18,27 +18,16 @@ pub mod targets;
 pub mod tonemap;
 
 use ash::vk;
-use bytemuck::{Pod, Zeroable};
 
 use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{Context, DescriptorSet};
+pub use frame::RenderPath;
 pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
-pub use reproject::RenderPath;
 pub use targets::FrameTargets;
 
-/// Per-pixel arbitrary output variables of the primary hit (`raytrace.comp`'s `Aov`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct Aov {
-    /// xyz: geometric world normal of the glTF front face; w: hit distance (0 on a miss).
-    pub normal_depth: [f32; 4],
-    /// xyz: world position; w: instance index (-1 on a miss).
-    pub position_inst: [f32; 4],
-    /// xy: barycentrics; z: primitive index (-1 on a miss); w: samples traced for the pixel.
-    pub bary_prim: [f32; 4],
-}
+pub use crate::interface::Aov;
 
 impl Aov {
     /// Hit distance along the unit primary ray (0 on a miss).
@@ -52,6 +41,40 @@ impl Aov {
     /// Primitive index, -1 on a miss.
     pub fn primitive(&self) -> i32 {
         self.bary_prim[2] as i32
+    }
+}
+
+/// GPU timestamp scopes of the single-frame passes: their names key `RenderOutput::gpu_ms`,
+/// reports and the CLI's tables, so code that looks a pass up uses these instead of strings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassScope {
+    /// The ray-traced pass (`raytrace.comp`).
+    RayTraced,
+    /// The raster G-buffer or visibility pass.
+    Gbuffer,
+    /// The hybrid shading pass.
+    HybridShading,
+    /// The tonemap pass.
+    Tonemap,
+}
+
+impl PassScope {
+    /// The scope's name in timings.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::RayTraced => "rt",
+            Self::Gbuffer => "gbuffer",
+            Self::HybridShading => "hybrid shading",
+            Self::Tonemap => "tonemap",
+        }
+    }
+
+    /// The scope that shades the image on `path`.
+    pub const fn shading(path: RenderPath) -> Self {
+        match path {
+            RenderPath::RayTraced => Self::RayTraced,
+            RenderPath::Hybrid => Self::HybridShading,
+        }
     }
 }
 
@@ -91,10 +114,10 @@ impl PassContext<'_> {
         (self.textures.len() as u32).max(1)
     }
 
-    /// Writes set-0 bindings 0 (scene), 1 (textures) and 2 (ray backend).
+    /// Writes the set-0 bindings of the scene, the textures and the ray backend.
     pub fn bind_scene(&self, set: &DescriptorSet) {
         self.scene.bind(set);
-        set.sampled_images(1, self.textures);
+        set.sampled_images(crate::interface::BINDING_TEXTURES, self.textures);
         self.backend.bind(set);
     }
 }

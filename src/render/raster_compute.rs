@@ -22,7 +22,6 @@
 use std::sync::Arc;
 
 use ash::vk;
-use bytemuck::{Pod, Zeroable};
 
 use super::gbuffer::Draw;
 use super::PassContext;
@@ -108,32 +107,21 @@ impl DepthAtomics {
     }
 }
 
-/// `raster.glsl`'s `RasterDraw`: one entry per drawn instance.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct RasterDraw {
-    first_triangle: u32,
-    instance: u32,
-    flags: u32,
-}
+use crate::interface::{
+    self as io, bindings, push_bytes, RasterDraw, RasterPush, DRAW_ALPHA_TEST, DRAW_CULL_BACK,
+    DRAW_MIRRORED,
+};
 
-const DRAW_CULL_BACK: u32 = 1;
-const DRAW_MIRRORED: u32 = 2;
-const DRAW_ALPHA_TEST: u32 = 4;
 /// Workgroups of `raster_bin.comp`'s count and fill stages (256 invocations each, looping over
 /// the queue).
 const BIN_WORKGROUPS: u32 = 128;
-/// Side of a screen tile of the binned stages (`TILE_SIZE` in raster.glsl).
-const TILE_SIZE: u32 = 16;
+/// Side of a screen tile of the binned stages.
+const TILE_SIZE: u32 = io::RASTER_TILE_SIZE;
 /// Entries of the per-tile triangle lists. A (triangle, tile) pair beyond it is rasterized by
 /// the binning invocation itself (correct, slower), so this bounds memory, not the scene.
 const BIN_CAPACITY: u64 = 1 << 21;
 /// Environment variable that lowers [`BIN_CAPACITY`] (tests of the overflow path).
 pub const BIN_CAPACITY_ENV: &str = "RQR_RASTER_BIN_CAPACITY";
-/// `raster_bin.comp`'s stages (its specialization constant).
-const BIN_COUNT: u32 = 0;
-const BIN_SCAN: u32 = 1;
-const BIN_FILL: u32 = 2;
 /// Most workgroups of `raster_triangles.comp` (grid-stride beyond).
 const MAX_TRIANGLE_WORKGROUPS: u32 = 65_535;
 
@@ -249,17 +237,19 @@ impl ComputeRaster {
         } else {
             Buffer::from_slice(ctx, "raster draws", &table, vk::BufferUsageFlags::empty())?
         };
-        let bindings = [
-            Binding::UniformBuffer,
-            Binding::SampledImages(pass.texture_capacity()),
-            Binding::Unused,
-            Binding::UniformBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageImage,
-            Binding::StorageBuffer,
-        ];
+        let layout = bindings(&[
+            (io::BINDING_SCENE, Binding::UniformBuffer),
+            (
+                io::BINDING_TEXTURES,
+                Binding::SampledImages(pass.texture_capacity()),
+            ),
+            (io::BINDING_FRAME, Binding::UniformBuffer),
+            (io::BINDING_RASTER_DEPTH_IDS, Binding::StorageBuffer),
+            (io::BINDING_RASTER_DRAWS, Binding::StorageBuffer),
+            (io::BINDING_RASTER_BIG, Binding::StorageBuffer),
+            (io::BINDING_RASTER_VISIBILITY, Binding::StorageImage),
+            (io::BINDING_RASTER_BINS, Binding::StorageBuffer),
+        ]);
         use crate::shaders as s;
         let (tri_spv, bin_spv, tiles_spv, resolve_spv) = match atomics {
             DepthAtomics::Int64 => (
@@ -275,28 +265,45 @@ impl ComputeRaster {
                 s::RASTER_RESOLVE_COMP_ATOMIC32,
             ),
         };
-        let make = |name: &str, spv: &[u8]| ComputePipeline::cached(ctx, name, spv, &bindings, 12);
+        let push_size = std::mem::size_of::<RasterPush>() as u32;
+        let make =
+            |name: &str, spv: &[u8]| ComputePipeline::cached(ctx, name, spv, &layout, push_size);
         let bin_stage = |stage: u32| {
-            ComputePipeline::cached_specialized(ctx, "raster bin", bin_spv, &bindings, 12, &[stage])
+            ComputePipeline::cached_specialized(
+                ctx,
+                "raster bin",
+                bin_spv,
+                &layout,
+                push_size,
+                &[stage],
+            )
         };
         let triangles = make("raster triangles", tri_spv)?;
         let bin = [
-            bin_stage(BIN_COUNT)?,
-            bin_stage(BIN_SCAN)?,
-            bin_stage(BIN_FILL)?,
+            bin_stage(io::RASTER_BIN_COUNT)?,
+            bin_stage(io::RASTER_BIN_SCAN)?,
+            bin_stage(io::RASTER_BIN_FILL)?,
         ];
         let tiles = make("raster tiles", tiles_spv)?;
         let resolve = make("raster resolve", resolve_spv)?;
         let bind = |p: &ComputePipeline| -> VkResult<DescriptorSet> {
             let set = p.allocate_set()?;
             pass.scene.bind(&set);
-            set.sampled_images(1, pass.textures)
-                .buffer(3, frame, Binding::UniformBuffer)
-                .buffer(4, &depth_ids, Binding::StorageBuffer)
-                .buffer(5, &draws_buffer, Binding::StorageBuffer)
-                .buffer(6, &queue, Binding::StorageBuffer)
-                .storage_image(7, visibility.view())
-                .buffer(8, &bins, Binding::StorageBuffer);
+            set.sampled_images(io::BINDING_TEXTURES, pass.textures)
+                .buffer(io::BINDING_FRAME, frame, Binding::UniformBuffer)
+                .buffer(
+                    io::BINDING_RASTER_DEPTH_IDS,
+                    &depth_ids,
+                    Binding::StorageBuffer,
+                )
+                .buffer(
+                    io::BINDING_RASTER_DRAWS,
+                    &draws_buffer,
+                    Binding::StorageBuffer,
+                )
+                .buffer(io::BINDING_RASTER_BIG, &queue, Binding::StorageBuffer)
+                .storage_image(io::BINDING_RASTER_VISIBILITY, visibility.view())
+                .buffer(io::BINDING_RASTER_BINS, &bins, Binding::StorageBuffer);
             Ok(set)
         };
         let sets = [
@@ -351,13 +358,15 @@ impl ComputeRaster {
             .div_ceil(64)
             .clamp(1, MAX_TRIANGLE_WORKGROUPS);
         for &pass_kind in passes {
-            let push: Vec<u8> = [self.triangle_count, self.draw_count, pass_kind]
-                .iter()
-                .flat_map(|v| v.to_le_bytes())
-                .collect();
+            let push = RasterPush {
+                triangle_count: self.triangle_count,
+                draw_count: self.draw_count,
+                pass_kind,
+            };
+            let push = push_bytes(&push);
             if self.triangle_count > 0 {
                 self.triangles
-                    .dispatch(cmd, Some(&self.sets[0]), &push, [triangle_groups, 1, 1]);
+                    .dispatch(cmd, Some(&self.sets[0]), push, [triangle_groups, 1, 1]);
                 memory_barrier(device, cmd);
                 // The id pass of the atomic32 path keeps the depth pass's counts but fills the
                 // lists again: the pairs over capacity are rasterized by the fill itself, and
@@ -370,7 +379,7 @@ impl ComputeRaster {
                     self.bin[stage].dispatch(
                         cmd,
                         Some(&self.sets[1 + stage]),
-                        &push,
+                        push,
                         [groups, 1, 1],
                     );
                     memory_barrier(device, cmd);
@@ -378,20 +387,21 @@ impl ComputeRaster {
                 self.tiles.dispatch(
                     cmd,
                     Some(&self.sets[4]),
-                    &push,
+                    push,
                     [self.tile_grid[0], self.tile_grid[1], 1],
                 );
                 memory_barrier(device, cmd);
             }
         }
-        let push: Vec<u8> = [self.triangle_count, self.draw_count, 0]
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect();
+        let push = RasterPush {
+            triangle_count: self.triangle_count,
+            draw_count: self.draw_count,
+            pass_kind: 0,
+        };
         self.resolve.dispatch(
             cmd,
             Some(&self.sets[5]),
-            &push,
+            push_bytes(&push),
             [
                 self.extent.width.div_ceil(8),
                 self.extent.height.div_ceil(8),

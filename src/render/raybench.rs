@@ -8,6 +8,7 @@ use ash::vk;
 use super::frame::GpuFrame;
 use super::PassContext;
 use crate::accel::Backend;
+use crate::interface::{self as io, bindings, push_bytes, scene_bindings, RaybenchPush};
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler,
     MemoryLocation, VkResult,
@@ -53,15 +54,18 @@ impl RayBench {
             Backend::Hw => crate::shaders::RAYBENCH_COMP_HW,
             Backend::Bvh => crate::shaders::RAYBENCH_COMP_BVH,
         };
-        let bindings = [
-            Binding::UniformBuffer,
-            Binding::SampledImages(pass.texture_capacity()),
-            pass.backend.binding(),
-            Binding::UniformBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-        ];
-        let pipeline = ComputePipeline::cached(ctx, "ray bench", spirv, &bindings, 4)?;
+        let mut entries = scene_bindings(pass.texture_capacity(), pass.backend.binding()).to_vec();
+        entries.extend([
+            (io::BINDING_RAYBENCH_HITS, Binding::StorageBuffer),
+            (io::BINDING_RAYBENCH_COUNTERS, Binding::StorageBuffer),
+        ]);
+        let pipeline = ComputePipeline::cached(
+            ctx,
+            "ray bench",
+            spirv,
+            &bindings(&entries),
+            std::mem::size_of::<RaybenchPush>() as u32,
+        )?;
         let pixels = u64::from(frame.width) * u64::from(frame.height);
         let none = vk::BufferUsageFlags::empty();
         let hits = Buffer::new(
@@ -80,9 +84,13 @@ impl RayBench {
         )?;
         let set = pipeline.allocate_set()?;
         pass.bind_scene(&set);
-        set.buffer(3, &frame_buf, Binding::UniformBuffer)
-            .buffer(4, &hits, Binding::StorageBuffer)
-            .buffer(5, &counters, Binding::StorageBuffer);
+        set.buffer(io::BINDING_FRAME, &frame_buf, Binding::UniformBuffer)
+            .buffer(io::BINDING_RAYBENCH_HITS, &hits, Binding::StorageBuffer)
+            .buffer(
+                io::BINDING_RAYBENCH_COUNTERS,
+                &counters,
+                Binding::StorageBuffer,
+            );
         Ok(Self {
             pipeline,
             set,
@@ -114,7 +122,13 @@ impl RayBench {
             self.pipeline.dispatch(
                 cmd,
                 Some(&self.set),
-                &u32::from(incoherent).to_le_bytes(),
+                push_bytes(&RaybenchPush {
+                    mode: if incoherent {
+                        io::RAYBENCH_BOUNCE
+                    } else {
+                        io::RAYBENCH_PRIMARY
+                    },
+                }),
                 [self.width.div_ceil(8), self.height.div_ceil(8), 1],
             );
             profiler.end(cmd);

@@ -4,16 +4,20 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::frame::{GpuFrame, RenderSettings, SamplerKind, FLAG_ADAPTIVE_CORNERS, FLAG_WRITE_AOV};
+use super::frame::{GpuFrame, RenderSettings, SamplerKind};
 use super::{Aov, PassContext};
 use crate::accel::Backend;
+use crate::interface::{
+    self as io, bindings, push_bytes, scene_bindings, RaytracePush, FLAG_ADAPTIVE_CORNERS,
+    FLAG_WRITE_AOV,
+};
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler,
     MemoryLocation, VkResult,
 };
 
 /// Ray counter slots: primary, shadow, reflection, refraction, samples.
-pub const COUNTER_SLOTS: usize = 5;
+pub const COUNTER_SLOTS: usize = io::COUNTER_SLOTS as usize;
 
 /// Pipeline and per-resolution buffers of the ray-traced pass.
 pub struct RaytracedPass {
@@ -50,18 +54,25 @@ impl RaytracedPass {
         frame_buf: Buffer,
         write_aov: bool,
     ) -> VkResult<Self> {
-        let bindings = [
-            Binding::UniformBuffer,
-            Binding::SampledImages(pass.texture_capacity()),
-            pass.backend.binding(),
-            Binding::UniformBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-            Binding::StorageBuffer,
-        ];
-        let pipeline =
-            ComputePipeline::cached(ctx, "raytrace", spirv(pass.backend.kind()), &bindings, 4)?;
+        let layout = bindings(
+            &[
+                &scene_bindings(pass.texture_capacity(), pass.backend.binding())[..],
+                &[
+                    (io::BINDING_RT_COLOR, Binding::StorageBuffer),
+                    (io::BINDING_RT_AOV, Binding::StorageBuffer),
+                    (io::BINDING_RT_COUNTERS, Binding::StorageBuffer),
+                    (io::BINDING_RT_CORNERS, Binding::StorageBuffer),
+                ],
+            ]
+            .concat(),
+        );
+        let pipeline = ComputePipeline::cached(
+            ctx,
+            "raytrace",
+            spirv(pass.backend.kind()),
+            &layout,
+            std::mem::size_of::<RaytracePush>() as u32,
+        )?;
         let pixels = settings.pixels();
         let none = vk::BufferUsageFlags::empty();
         let color = Buffer::new(ctx, "rt colour", pixels * 16, none, MemoryLocation::GpuOnly)?;
@@ -94,11 +105,11 @@ impl RaytracedPass {
         )?;
         let set = pipeline.allocate_set()?;
         pass.bind_scene(&set);
-        set.buffer(3, &frame_buf, Binding::UniformBuffer)
-            .buffer(4, &color, Binding::StorageBuffer)
-            .buffer(5, &aov, Binding::StorageBuffer)
-            .buffer(6, &counters, Binding::StorageBuffer)
-            .buffer(7, &corners, Binding::StorageBuffer);
+        set.buffer(io::BINDING_FRAME, &frame_buf, Binding::UniformBuffer)
+            .buffer(io::BINDING_RT_COLOR, &color, Binding::StorageBuffer)
+            .buffer(io::BINDING_RT_AOV, &aov, Binding::StorageBuffer)
+            .buffer(io::BINDING_RT_COUNTERS, &counters, Binding::StorageBuffer)
+            .buffer(io::BINDING_RT_CORNERS, &corners, Binding::StorageBuffer);
         Ok(Self {
             pipeline,
             set,
@@ -136,19 +147,24 @@ impl RaytracedPass {
         memory_barrier(device, cmd);
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, "rt");
+            p.begin(cmd, super::PassScope::RayTraced.name());
         }
-        if f.sampler_kind == SamplerKind::Adaptive as u32 {
-            let push = FLAG_ADAPTIVE_CORNERS.to_le_bytes();
+        if f.sampler_kind == SamplerKind::Adaptive.code() {
+            let push = RaytracePush {
+                flags: FLAG_ADAPTIVE_CORNERS,
+            };
             let groups = [(f.width + 1).div_ceil(8), (f.height + 1).div_ceil(8), 1];
-            self.pipeline.dispatch(cmd, Some(&self.set), &push, groups);
+            self.pipeline
+                .dispatch(cmd, Some(&self.set), push_bytes(&push), groups);
             memory_barrier(device, cmd);
         }
-        let push = if self.write_aov { FLAG_WRITE_AOV } else { 0 }.to_le_bytes();
+        let push = RaytracePush {
+            flags: if self.write_aov { FLAG_WRITE_AOV } else { 0 },
+        };
         self.pipeline.dispatch(
             cmd,
             Some(&self.set),
-            &push,
+            push_bytes(&push),
             [f.width.div_ceil(8), f.height.div_ceil(8), 1],
         );
         if let Some(p) = profiler {

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::frame::Tonemap;
+use crate::interface::{self as io, bindings, push_bytes, TonemapPush};
 use crate::vk::{
     Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, MemoryLocation, VkResult,
 };
@@ -25,8 +26,11 @@ impl TonemapPass {
             ctx,
             "tonemap",
             crate::shaders::TONEMAP_COMP,
-            &[Binding::StorageBuffer, Binding::StorageBuffer],
-            12,
+            &bindings(&[
+                (io::BINDING_TONEMAP_IN, Binding::StorageBuffer),
+                (io::BINDING_TONEMAP_OUT, Binding::StorageBuffer),
+            ]),
+            std::mem::size_of::<TonemapPush>() as u32,
         )?;
         let output = Buffer::new(
             ctx,
@@ -36,8 +40,8 @@ impl TonemapPass {
             MemoryLocation::GpuOnly,
         )?;
         let set = pipeline.allocate_set()?;
-        set.buffer(0, color, Binding::StorageBuffer)
-            .buffer(1, &output, Binding::StorageBuffer);
+        set.buffer(io::BINDING_TONEMAP_IN, color, Binding::StorageBuffer)
+            .buffer(io::BINDING_TONEMAP_OUT, &output, Binding::StorageBuffer);
         Ok(Self {
             pipeline,
             set,
@@ -54,21 +58,25 @@ impl TonemapPass {
         op: Tonemap,
         exposure: f32,
     ) {
-        let mut push = Vec::with_capacity(12);
-        push.extend_from_slice(&self.count.to_le_bytes());
-        let code: u32 = match op {
-            Tonemap::None => 0,
-            Tonemap::Aces => 1,
-            Tonemap::KhronosNeutral => 2,
+        let push = TonemapPush {
+            count: self.count,
+            op: match op {
+                Tonemap::None => io::TONEMAP_NONE,
+                Tonemap::Aces => io::TONEMAP_ACES,
+                Tonemap::KhronosNeutral => io::TONEMAP_KHRONOS_NEUTRAL,
+            },
+            scale: exposure.exp2(),
         };
-        push.extend_from_slice(&code.to_le_bytes());
-        push.extend_from_slice(&exposure.exp2().to_le_bytes());
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, "tonemap");
+            p.begin(cmd, super::PassScope::Tonemap.name());
         }
-        self.pipeline
-            .dispatch(cmd, Some(&self.set), &push, [self.count.div_ceil(64), 1, 1]);
+        self.pipeline.dispatch(
+            cmd,
+            Some(&self.set),
+            push_bytes(&push),
+            [self.count.div_ceil(64), 1, 1],
+        );
         if let Some(p) = profiler {
             p.end(cmd);
         }

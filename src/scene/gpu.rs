@@ -296,6 +296,10 @@ impl GpuScene {
 
     /// Writes set-0 binding 0 (`SceneRefs`) of a pass's descriptor set.
     pub fn bind(&self, set: &DescriptorSet) {
-        set.buffer(0, &self.refs, Binding::UniformBuffer);
+        set.buffer(
+            crate::interface::BINDING_SCENE,
+            &self.refs,
+            Binding::UniformBuffer,
+        );
     }
 }

@@ -1,4 +1,8 @@
-use std::ffi::{c_void, CStr, CString};
+//! [`Context`]: the opened device with its queue, allocator, submission with fence timeouts,
+//! validation-message log and pipeline cache. Requirements come from
+//! [`super::requirements`], device facts from [`super::probe`].
+
+use std::ffi::{c_void, CStr};
 use std::mem::ManuallyDrop;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -7,48 +11,12 @@ use std::time::Duration;
 use ash::{ext, khr, vk};
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
+use super::instance::{create_instance, device_name, load_entry, select_device, DeviceSelector};
 use super::probe::{describe_device, DeviceInfo};
 use super::{CallExt, VkError, VkResult};
 
 /// Fence timeout used unless [`ContextOptions::fence_timeout`] says otherwise.
 pub const DEFAULT_FENCE_TIMEOUT: Duration = Duration::from_secs(60);
-
-const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
-
-/// Which physical device to use.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub enum DeviceSelector {
-    /// discrete > integrated > virtual > CPU > other, first of each kind.
-    #[default]
-    Auto,
-    /// Index into the enumeration order (as `rqr probe` lists it).
-    Index(usize),
-    /// Case-insensitive substring of the device name.
-    Name(String),
-}
-
-impl std::str::FromStr for DeviceSelector {
-    type Err = std::convert::Infallible;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Ok(if s.eq_ignore_ascii_case("auto") {
-            Self::Auto
-        } else if let Ok(i) = s.parse() {
-            Self::Index(i)
-        } else {
-            Self::Name(s.to_string())
-        })
-    }
-}
-
-impl std::fmt::Display for DeviceSelector {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Auto => write!(f, "auto"),
-            Self::Index(i) => write!(f, "{i}"),
-            Self::Name(n) => write!(f, "{n}"),
-        }
-    }
-}
 
 /// How to create a [`Context`].
 #[derive(Clone, Debug)]
@@ -198,6 +166,9 @@ struct Submission {
     abandoned: Vec<(vk::CommandBuffer, vk::Fence)>,
 }
 
+/// [`Context`]'s cache of built objects (see its `pipelines` field).
+pub(crate) type ObjectCache = std::collections::HashMap<u64, Arc<dyn std::any::Any + Send + Sync>>;
+
 /// An opened Vulkan device with one graphics+compute queue.
 pub struct Context {
     pub(crate) shared: Arc<Shared>,
@@ -208,9 +179,11 @@ pub struct Context {
     features: Features,
     fence_timeout: Duration,
     validation: bool,
-    /// Pipelines built once and shared by every pass that asks for the same shader (see
-    /// [`super::ComputePipeline::cached`]); dropped with the context.
-    pub(crate) pipelines: Mutex<super::pipeline::PipelineCache>,
+    /// Objects built once and shared by every user that asks for the same one, keyed by a hash
+    /// of what built them: the pipelines of [`super::ComputePipeline::cached`] and
+    /// [`super::GraphicsPipeline::cached`]; dropped with the context. Typed as `Any` so that
+    /// this module does not depend on the pipeline module that depends on it.
+    pub(crate) pipelines: Mutex<ObjectCache>,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -244,158 +217,10 @@ unsafe extern "system" fn debug_callback(
     vk::FALSE
 }
 
-pub(crate) fn load_entry() -> VkResult<ash::Entry> {
-    // SAFETY: loading the system Vulkan loader; no Vulkan calls are in flight.
-    unsafe { ash::Entry::load() }.map_err(|e| VkError::Loader(e.to_string()))
-}
-
-/// Whether the Khronos validation layer is installed.
-pub fn validation_layer_available(entry: &ash::Entry) -> bool {
-    // SAFETY: plain enumeration call.
-    unsafe { entry.enumerate_instance_layer_properties() }
-        .map(|layers| {
-            layers
-                .iter()
-                .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER))
-        })
-        .unwrap_or(false)
-}
-
-/// Whether the validation layer provides instance extension `name` (`VK_EXT_validation_features`
-/// comes with the layer, not with the loader).
-fn layer_has_extension(entry: &ash::Entry, name: &CStr) -> bool {
-    // SAFETY: plain enumeration call with a NUL-terminated layer name.
-    unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
-        .map(|exts| {
-            exts.iter()
-                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
-        })
-        .unwrap_or(false)
-}
-
-/// Creates the instance; `sync` adds synchronization validation to `validation`. Returns
-/// whether validation is active.
-pub(crate) fn create_instance(
-    entry: &ash::Entry,
-    validation: bool,
-    sync: bool,
-) -> VkResult<(ash::Instance, bool)> {
-    let app_name = CString::new("rqr").unwrap();
-    let app = vk::ApplicationInfo::default()
-        .application_name(&app_name)
-        .application_version(1)
-        .engine_name(&app_name)
-        .api_version(vk::API_VERSION_1_3);
-    let available_ext: Vec<CString> =
-        // SAFETY: plain enumeration call.
-        unsafe { entry.enumerate_instance_extension_properties(None) }
-            .call("vkEnumerateInstanceExtensionProperties")?
-            .iter()
-            .filter_map(|e| e.extension_name_as_c_str().ok().map(CStr::to_owned))
-            .collect();
-    let has_utils = available_ext
-        .iter()
-        .any(|e| e.as_c_str() == ext::debug_utils::NAME);
-    let mut extensions = Vec::new();
-    if has_utils {
-        extensions.push(ext::debug_utils::NAME.as_ptr());
-    }
-    let use_validation = validation && validation_layer_available(entry);
-    if validation && !use_validation {
-        log::warn!("validation requested but VK_LAYER_KHRONOS_validation is not installed (apt install vulkan-validationlayers)");
-    }
-    let layers = if use_validation {
-        vec![VALIDATION_LAYER.as_ptr()]
-    } else {
-        vec![]
-    };
-    let sync_validation =
-        use_validation && sync && layer_has_extension(entry, ext::validation_features::NAME);
-    if sync && !sync_validation {
-        log::warn!("synchronization validation requested but unavailable (needs the validation layer with VK_EXT_validation_features)");
-    }
-    if sync_validation {
-        extensions.push(ext::validation_features::NAME.as_ptr());
-    }
-    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
-    let mut info = vk::InstanceCreateInfo::default()
-        .application_info(&app)
-        .enabled_extension_names(&extensions)
-        .enabled_layer_names(&layers);
-    if sync_validation {
-        info = info.push_next(&mut features);
-    }
-    log::debug!("synchronization validation: {sync_validation}");
-    // SAFETY: all pointers in `info` point to locals alive for this call.
-    let instance =
-        unsafe { entry.create_instance(&info, None) }.map_err(|result| match result {
-            vk::Result::ERROR_INCOMPATIBLE_DRIVER => VkError::NoDevice,
-            result => VkError::Call {
-                call: "vkCreateInstance",
-                result,
-            },
-        })?;
-    Ok((instance, use_validation && has_utils))
-}
-
-/// Orders devices for automatic selection: lower is better.
-fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
-    match t {
-        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
-        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
-        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
-        vk::PhysicalDeviceType::CPU => 3,
-        _ => 4,
-    }
-}
-
-/// Picks a device index from `(name, type)` pairs.
-pub(crate) fn select_device(
-    devices: &[(String, vk::PhysicalDeviceType)],
-    selector: &DeviceSelector,
-) -> VkResult<usize> {
-    if devices.is_empty() {
-        return Err(VkError::NoDevice);
-    }
-    let found = match selector {
-        DeviceSelector::Auto => (0..devices.len()).min_by_key(|&i| (type_rank(devices[i].1), i)),
-        DeviceSelector::Index(i) => (*i < devices.len()).then_some(*i),
-        DeviceSelector::Name(n) => {
-            let n = n.to_lowercase();
-            devices
-                .iter()
-                .position(|(name, _)| name.to_lowercase().contains(&n))
-        }
-    };
-    found.ok_or_else(|| VkError::NoMatchingDevice {
-        selector: selector.to_string(),
-        available: devices
-            .iter()
-            .enumerate()
-            .map(|(i, (n, _))| format!("{i}: {n}"))
-            .collect::<Vec<_>>()
-            .join(", "),
-    })
-}
-
-pub(crate) fn device_name(
-    instance: &ash::Instance,
-    pd: vk::PhysicalDevice,
-) -> (String, vk::PhysicalDeviceType) {
-    // SAFETY: `pd` comes from this instance.
-    let props = unsafe { instance.get_physical_device_properties(pd) };
-    let name = props
-        .device_name_as_c_str()
-        .map(|c| c.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    (name, props.device_type)
-}
-
 impl Context {
-    /// Opens a device. Fails with [`VkError::MissingFeature`] when the device lacks Vulkan 1.3,
-    /// buffer device address, descriptor indexing, scalar block layout, timeline semaphores,
-    /// dynamic rendering or synchronization2.
+    /// Opens a device. Fails with [`VkError::MissingFeature`], naming every missing one, when
+    /// the device lacks a requirement of [`super::requirements::REQUIREMENTS`] (the table
+    /// `rqr probe` reports from).
     pub fn new(opts: &ContextOptions) -> VkResult<Self> {
         let entry = load_entry()?;
         let validation = opts
@@ -522,22 +347,20 @@ impl Context {
         physical: vk::PhysicalDevice,
         info: &DeviceInfo,
     ) -> VkResult<(ash::Device, u32, Features)> {
-        let missing = |feature: &str| VkError::MissingFeature {
-            device: info.name.clone(),
-            feature: feature.to_string(),
-        };
+        // The probe's list of missing requirements (one table: super::requirements).
+        super::requirements::check(&info.name, &info.missing_features)?;
         // SAFETY: `physical` comes from `instance`.
         let props = unsafe { instance.get_physical_device_properties(physical) };
-        if props.api_version < vk::API_VERSION_1_3 {
-            return Err(missing("Vulkan 1.3"));
-        }
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let wanted = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
         let queue_family = families
             .iter()
             .position(|f| f.queue_flags.contains(wanted))
-            .ok_or_else(|| missing("a graphics+compute queue"))? as u32;
+            .ok_or_else(|| VkError::MissingFeature {
+                device: info.name.clone(),
+                feature: "a graphics+compute queue".into(),
+            })? as u32;
         let timestamps = families[queue_family as usize].timestamp_valid_bits > 0
             && props.limits.timestamp_compute_and_graphics == vk::TRUE;
 
@@ -555,43 +378,6 @@ impl Context {
             unsafe { instance.get_physical_device_features2(physical, &mut f2) };
             f2.features
         };
-        let required = [
-            (f12.buffer_device_address, "bufferDeviceAddress"),
-            (f12.descriptor_indexing, "descriptorIndexing"),
-            (f12.runtime_descriptor_array, "runtimeDescriptorArray"),
-            (
-                f12.descriptor_binding_partially_bound,
-                "descriptorBindingPartiallyBound",
-            ),
-            (
-                f12.shader_sampled_image_array_non_uniform_indexing,
-                "shaderSampledImageArrayNonUniformIndexing",
-            ),
-            (f12.scalar_block_layout, "scalarBlockLayout"),
-            (f12.timeline_semaphore, "timelineSemaphore"),
-            (f13.dynamic_rendering, "dynamicRendering"),
-            (f13.synchronization2, "synchronization2"),
-            (base.shader_int64, "shaderInt64"),
-        ];
-        if let Some((_, name)) = required.iter().find(|(v, _)| *v != vk::TRUE) {
-            return Err(missing(name));
-        }
-        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
-        // SAFETY: as above; a core 1.1 property struct.
-        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
-        if !subgroup
-            .supported_stages
-            .contains(vk::ShaderStageFlags::COMPUTE)
-            || !subgroup.supported_operations.contains(
-                vk::SubgroupFeatureFlags::BASIC
-                    | vk::SubgroupFeatureFlags::ARITHMETIC
-                    | vk::SubgroupFeatureFlags::BALLOT,
-            )
-        {
-            return Err(missing("subgroup arithmetic and ballot in compute shaders"));
-        }
-
         // SAFETY: as above.
         let exts = unsafe { instance.enumerate_device_extension_properties(physical) }
             .call("vkEnumerateDeviceExtensionProperties")?;

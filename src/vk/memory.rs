@@ -1,3 +1,6 @@
+//! Device memory: [`Buffer`] and [`Image`] allocated through `gpu-allocator`, uploads and
+//! read-backs, and barriers around host reads.
+
 use std::sync::Arc;
 
 use ash::vk;

@@ -5,24 +5,25 @@
 //! [`Buffer`], [`Image`], [`Sampler`], [`ComputePipeline`] and [`GpuProfiler`].
 
 mod context;
+mod instance;
 mod memory;
 mod pipeline;
 mod probe;
 mod profiler;
+pub mod requirements;
 mod sampler;
 
 pub(crate) use context::Shared;
-pub use context::{
-    Context, ContextOptions, DeviceSelector, Features, ABANDONED_WORK_GRACE, DEFAULT_FENCE_TIMEOUT,
-};
+pub use context::{Context, ContextOptions, Features, ABANDONED_WORK_GRACE, DEFAULT_FENCE_TIMEOUT};
+pub use instance::{validation_layer_available, DeviceSelector};
 pub use memory::{host_read_barrier, Buffer, Image};
 pub use pipeline::{
     memory_barrier, spirv_words, Binding, ComputePipeline, DescriptorSet, GraphicsPipeline,
     GraphicsTargets,
 };
 pub use probe::{
-    largest_device_heap, probe_devices, AsProperties, DeviceInfo, MemoryHeapInfo, ProbeReport,
-    TimestampInfo,
+    largest_device_heap, probe_devices, AsProperties, AutotuneMeasurement, BackendPolicy,
+    DeviceInfo, MemoryHeapInfo, ProbeReport, TimestampInfo,
 };
 pub use profiler::{FrameTiming, GpuProfiler};
 pub use sampler::Sampler;

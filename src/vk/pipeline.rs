@@ -1,4 +1,6 @@
-use std::collections::HashMap;
+//! Compute and graphics pipelines with one descriptor set layout each ([`Binding`] per binding
+//! number), their descriptor sets, and the per-context pipeline cache.
+
 use std::ffi::CStr;
 use std::hash::{Hash, Hasher};
 use std::sync::Arc;
@@ -86,16 +88,10 @@ pub(crate) fn create_set_layout(
     unsafe { device.create_descriptor_set_layout(&info, None) }.call("vkCreateDescriptorSetLayout")
 }
 
-/// Pipelines of a [`Context`], keyed by a hash of everything that defines them. Creating a
-/// pipeline costs lavapipe 50-200 ms of CPU even when its JIT cache hits (SPIR-V to NIR and
-/// NIR optimisation), and passes are built per frame, so every pass reuses one pipeline per
-/// shader for the context's lifetime.
-#[derive(Default)]
-pub(crate) struct PipelineCache {
-    compute: HashMap<u64, Arc<ComputePipeline>>,
-    graphics: HashMap<u64, Arc<GraphicsPipeline>>,
-}
-
+/// Key of a pipeline in its [`Context`]'s cache: a hash of everything that defines it.
+/// Creating a pipeline costs lavapipe 50-200 ms of CPU even when its JIT cache hits (SPIR-V to
+/// NIR and NIR optimisation), and passes are built per frame, so every pass reuses one pipeline
+/// per shader for the context's lifetime.
 fn cache_key(parts: impl Hash) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     parts.hash(&mut h);
@@ -246,15 +242,25 @@ impl ComputePipeline {
         push_size: u32,
         constants: &[u32],
     ) -> VkResult<Arc<Self>> {
-        let key = cache_key((name, spirv, format!("{bindings:?}"), push_size, constants));
+        let key = cache_key((
+            "compute",
+            name,
+            spirv,
+            format!("{bindings:?}"),
+            push_size,
+            constants,
+        ));
         let mut cache = ctx.pipelines.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(p) = cache.compute.get(&key) {
-            return Ok(p.clone());
+        if let Some(p) = cache
+            .get(&key)
+            .and_then(|p| p.clone().downcast::<Self>().ok())
+        {
+            return Ok(p);
         }
         let p = Arc::new(Self::new_specialized(
             ctx, name, spirv, bindings, push_size, constants,
         )?);
-        cache.compute.insert(key, p.clone());
+        cache.insert(key, p.clone());
         Ok(p)
     }
 
@@ -561,6 +567,7 @@ impl GraphicsPipeline {
         fragment_constants: &[u32],
     ) -> VkResult<Arc<Self>> {
         let key = cache_key((
+            "graphics",
             vertex,
             fragment,
             format!("{bindings:?}"),
@@ -569,8 +576,11 @@ impl GraphicsPipeline {
             fragment_constants,
         ));
         let mut cache = ctx.pipelines.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(p) = cache.graphics.get(&key) {
-            return Ok(p.clone());
+        if let Some(p) = cache
+            .get(&key)
+            .and_then(|p| p.clone().downcast::<Self>().ok())
+        {
+            return Ok(p);
         }
         let p = Arc::new(Self::new(
             ctx,
@@ -581,7 +591,7 @@ impl GraphicsPipeline {
             targets,
             fragment_constants,
         )?);
-        cache.graphics.insert(key, p.clone());
+        cache.insert(key, p.clone());
         Ok(p)
     }
 

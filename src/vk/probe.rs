@@ -1,11 +1,37 @@
+//! `rqr probe`: what every physical device offers, read without opening it ([`DeviceInfo`]),
+//! including what it lacks of [`super::requirements::REQUIREMENTS`]. The ray-backend fields are
+//! filled by a [`BackendPolicy`] the caller passes (`accel::BackendChoice`), so this module
+//! knows nothing of the layers above it.
+
 use std::ffi::CStr;
 
 use ash::{khr, vk};
 use serde::Serialize;
 
-use super::context::{create_instance, device_name, load_entry, select_device};
-use super::{CallExt, DeviceSelector, VkResult};
-use crate::accel::BackendChoice;
+use super::instance::{create_instance, device_name, load_entry, select_device, DeviceSelector};
+use super::requirements::{self, DeviceSupport};
+use super::{CallExt, VkResult};
+
+/// Decides the ray backend a device would use; implemented above this module (by
+/// `accel::BackendChoice`), so that the probe can report the decision without depending on it.
+pub trait BackendPolicy {
+    /// The backend's name (`hw`, `bvh`) and why, or why none is available.
+    fn decide(&self, device: &DeviceInfo) -> Result<(String, String), String>;
+}
+
+/// What the micro-benchmark measured on one device (GPU milliseconds, median of
+/// `autotune::MEASURE_FRAMES` frames).
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct AutotuneMeasurement {
+    /// Ray-traced frame (default depth) on `hw`; `None` without ray queries.
+    pub rt_hw_ms: Option<f64>,
+    /// The same frame on `bvh`.
+    pub rt_bvh_ms: f64,
+    /// Hybrid visibility pass on the graphics pipeline.
+    pub visibility_graphics_ms: f64,
+    /// Hybrid visibility pass on the compute rasterizer.
+    pub visibility_compute_ms: f64,
+}
 
 /// Acceleration-structure limits (present when the extension is supported).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -94,7 +120,7 @@ pub struct DeviceInfo {
     /// Why that visibility pass.
     pub raster_reason: String,
     /// The autotune numbers behind `backend`/`raster` (`null`: the feature rule decided).
-    pub autotune: Option<crate::autotune::Measurement>,
+    pub autotune: Option<AutotuneMeasurement>,
 }
 
 /// Size of the largest device-local heap (of the largest heap when none is device-local):
@@ -205,50 +231,19 @@ pub(crate) fn describe_device(
     let acceleration_structure = has_as && fas.acceleration_structure == vk::TRUE;
     let ray_query = acceleration_structure && has_rq && frq.ray_query == vk::TRUE;
 
-    let mut missing = Vec::new();
-    if props.api_version < vk::API_VERSION_1_3 {
-        missing.push("Vulkan 1.3".to_string());
-    }
-    for (ok, name) in [
-        (f12.buffer_device_address, "bufferDeviceAddress"),
-        (f12.descriptor_indexing, "descriptorIndexing"),
-        (f12.runtime_descriptor_array, "runtimeDescriptorArray"),
-        (
-            f12.descriptor_binding_partially_bound,
-            "descriptorBindingPartiallyBound",
-        ),
-        (f12.scalar_block_layout, "scalarBlockLayout"),
-        (f12.timeline_semaphore, "timelineSemaphore"),
-        (f13.dynamic_rendering, "dynamicRendering"),
-        (f13.synchronization2, "synchronization2"),
-        (base_features.shader_int64, "shaderInt64"),
-    ] {
-        if ok != vk::TRUE {
-            missing.push(name.to_string());
-        }
-    }
-
-    // Ray and sample counters are summed per subgroup before one atomic per subgroup
-    // (shaders/common/counters.glsl); reprojection's job lists are compacted per subgroup
-    // (shaders/reproject.comp: prefix sums and a broadcast).
-    let subgroup_ops = vk::SubgroupFeatureFlags::BASIC
-        | vk::SubgroupFeatureFlags::ARITHMETIC
-        | vk::SubgroupFeatureFlags::BALLOT;
-    if !subgroup
-        .supported_stages
-        .contains(vk::ShaderStageFlags::COMPUTE)
-        || !subgroup.supported_operations.contains(subgroup_ops)
-    {
-        missing.push("subgroup arithmetic and ballot in compute shaders".to_string());
-    }
-
     // SAFETY: as above.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
     let wanted = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
     let family = families.iter().find(|f| f.queue_flags.contains(wanted));
-    if family.is_none() {
-        missing.push("a graphics+compute queue".to_string());
-    }
+    let support = DeviceSupport::from_vulkan(
+        props.api_version,
+        &base_features,
+        &f12,
+        &f13,
+        &subgroup,
+        family.is_some(),
+    );
+    let missing = requirements::missing(&support);
     let timestamps = TimestampInfo {
         supported: family.is_some_and(|f| f.timestamp_valid_bits > 0)
             && props.limits.timestamp_compute_and_graphics == vk::TRUE,
@@ -264,7 +259,7 @@ pub(crate) fn describe_device(
         })
         .collect();
     let (name, device_type) = device_name(instance, pd);
-    let mut info = DeviceInfo {
+    DeviceInfo {
         index,
         name,
         vendor_id: props.vendor_id,
@@ -305,30 +300,31 @@ pub(crate) fn describe_device(
         raster: "graphics".into(),
         raster_reason: "auto (feature rule): graphics pipeline".into(),
         autotune: None,
-    };
-    info.set_backend(BackendChoice::Auto);
-    info
+    }
 }
 
 impl DeviceInfo {
-    /// Fills `backend`/`backend_reason` with what `choice` resolves to on this device.
-    pub fn set_backend(&mut self, choice: BackendChoice) {
-        match choice.resolve(self) {
+    /// Fills `backend`/`backend_reason` with what `policy` decides for this device.
+    pub fn set_backend(&mut self, policy: &impl BackendPolicy) {
+        match policy.decide(self) {
             Ok((backend, reason)) => {
-                self.backend = Some(backend.as_str().to_string());
+                self.backend = Some(backend);
                 self.backend_reason = reason;
             }
-            Err(e) => {
+            Err(why) => {
                 self.backend = None;
-                self.backend_reason = e.to_string();
+                self.backend_reason = why;
             }
         }
     }
 }
 
-/// Describes every physical device without opening any. `choice` fills each device's
+/// Describes every physical device without opening any. `policy` fills each device's
 /// `backend` field; `selector` picks `selected`.
-pub fn probe_devices(selector: &DeviceSelector, choice: BackendChoice) -> VkResult<ProbeReport> {
+pub fn probe_devices(
+    selector: &DeviceSelector,
+    policy: impl BackendPolicy,
+) -> VkResult<ProbeReport> {
     let entry = load_entry()?;
     let (instance, _) = create_instance(&entry, false, false)?;
     // SAFETY: plain enumeration call on a live instance.
@@ -345,7 +341,7 @@ pub fn probe_devices(selector: &DeviceSelector, choice: BackendChoice) -> VkResu
             .enumerate()
             .map(|(i, &p)| {
                 let mut info = describe_device(&instance, p, i);
-                info.set_backend(choice);
+                info.set_backend(&policy);
                 info
             })
             .collect();

@@ -1,3 +1,6 @@
+//! GPU timestamps: named scopes recorded into command buffers and read back as milliseconds
+//! ([`GpuProfiler`]), grouped by frame for bursts ([`FrameTiming`]).
+
 use std::sync::Arc;
 
 use ash::vk;

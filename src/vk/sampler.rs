@@ -1,3 +1,5 @@
+//! Texture samplers owned like buffers and images (destroyed with their last user).
+
 use std::sync::Arc;
 
 use ash::vk;

@@ -1,0 +1,125 @@
+//! The host/shader interface, one source for both sides.
+//!
+//! Every binding number, flag, stage id, counter slot, AOV and push-constant struct that Rust
+//! and GLSL share is declared once, in the Rust files of this folder. `build.rs`
+//! (`build/interface.rs`) translates each file into a GLSL header, `interface_<file>.glsl`,
+//! generated into `$OUT_DIR/glsl` and found by every shader's `#include`:
+//!
+//! | Rust file | header | for |
+//! |---|---|---|
+//! | `shared.rs` | `interface_shared.glsl` | set-0 bindings 0-3, `Frame` ([`GpuFrame`]), sampler/filter codes, ray kinds and counter slots |
+//! | `passes.rs` | `interface_passes.glsl` | ray-traced, hybrid, G-buffer, compute-raster, tonemap and ray-bench passes, [`Aov`] |
+//! | `reproject.rs` | `interface_reproject.glsl` | temporal reprojection |
+//!
+//! **Adding a binding** (or a flag, a counter): add a `pub const` to the right file, use the
+//! name in the shader (`layout(set = 0, binding = BINDING_X)`) and in the pass
+//! ([`bindings`] and `DescriptorSet::buffer(BINDING_X, ..)`). A name missing on either side
+//! fails to compile; two names on one number fail [`bindings`]' check. Structs (push constants,
+//! uniforms) are `repr(C)` here and become GLSL structs field by field; `tests/layout.rs` reads
+//! them back on the GPU. Only constants and structs belong in these files: the generator
+//! rejects anything else with the file and line.
+
+pub mod passes;
+pub mod reproject;
+pub mod shared;
+
+pub use passes::*;
+pub use shared::*;
+
+use crate::vk::Binding;
+
+/// A pass's descriptor-set layout from `(binding number, kind)` pairs: entry `n` of the result
+/// is binding `n`; numbers no pair names are [`Binding::Unused`].
+///
+/// # Panics
+/// When two pairs name the same binding: a numbering mistake in the interface, caught the first
+/// time the pass is built (every pass is built by the test suite).
+pub fn bindings(entries: &[(u32, Binding)]) -> Vec<Binding> {
+    let len = entries.iter().map(|e| e.0 as usize + 1).max().unwrap_or(0);
+    let mut out = vec![None; len];
+    for &(number, kind) in entries {
+        let slot = &mut out[number as usize];
+        assert!(
+            slot.is_none(),
+            "binding {number} is declared twice in one pass (see src/interface)"
+        );
+        *slot = Some(kind);
+    }
+    out.into_iter()
+        .map(|b| b.unwrap_or(Binding::Unused))
+        .collect()
+}
+
+/// The scene's set-0 bindings 0-2 (scene, textures, ray backend) and the frame uniform at 3,
+/// which every tracing pass starts with.
+pub fn scene_bindings(texture_capacity: u32, ray_backend: Binding) -> [(u32, Binding); 4] {
+    [
+        (BINDING_SCENE, Binding::UniformBuffer),
+        (BINDING_TEXTURES, Binding::SampledImages(texture_capacity)),
+        (BINDING_RAY_BACKEND, ray_backend),
+        (BINDING_FRAME, Binding::UniformBuffer),
+    ]
+}
+
+/// Push-constant bytes of a `repr(C)` interface struct.
+pub fn push_bytes<T: bytemuck::Pod>(push: &T) -> &[u8] {
+    bytemuck::bytes_of(push)
+}
+
+// Relations between constants the GLSL side relies on.
+const _: () = assert!(reproject::C_SAMPLES == COUNTER_SAMPLES);
+const _: () =
+    assert!(COUNTER_SAMPLES == RAY_REFRACTION + 1 && COUNTER_SLOTS == COUNTER_SAMPLES + 1);
+const _: () = assert!(reproject::HISTOGRAM_BINS == reproject::AGE_LEVELS * reproject::RANK_LEVELS);
+const _: () =
+    assert!(reproject::RP_COUNTER_SLOTS == reproject::C_HISTOGRAM + reproject::HISTOGRAM_BINS);
+const _: () = assert!(reproject::C_TILES_DONE < reproject::C_HISTOGRAM);
+const _: () = assert!(GBUFFER_BARY + 1 == GBUFFER_IMAGES);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bindings_place_entries_at_their_numbers() {
+        let table = bindings(&[
+            (BINDING_RT_COLOR, Binding::StorageBuffer),
+            (BINDING_FRAME, Binding::UniformBuffer),
+        ]);
+        assert_eq!(table.len(), BINDING_RT_COLOR as usize + 1);
+        assert!(matches!(
+            table[BINDING_FRAME as usize],
+            Binding::UniformBuffer
+        ));
+        assert!(matches!(
+            table[BINDING_RT_COLOR as usize],
+            Binding::StorageBuffer
+        ));
+        assert!(matches!(table[0], Binding::Unused));
+    }
+
+    #[test]
+    #[should_panic(expected = "declared twice")]
+    fn bindings_reject_a_number_used_twice() {
+        bindings(&[
+            (BINDING_HYBRID_ACCUM, Binding::StorageBuffer),
+            (BINDING_RT_COLOR, Binding::StorageBuffer),
+        ]);
+    }
+
+    #[test]
+    fn every_interface_file_has_a_generated_header() {
+        let names: Vec<&str> = crate::shaders::INTERFACE_GLSL.iter().map(|h| h.0).collect();
+        assert_eq!(
+            names,
+            [
+                "interface_passes.glsl",
+                "interface_reproject.glsl",
+                "interface_shared.glsl"
+            ]
+        );
+        let shared = crate::shaders::INTERFACE_GLSL[2].1;
+        assert!(shared.contains(&format!("#define BINDING_FRAME {BINDING_FRAME}u")));
+        assert!(shared.contains("struct GpuFrame {"));
+    }
+}

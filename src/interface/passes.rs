@@ -1,0 +1,175 @@
+//! Bindings, flags and push constants of the passes: ray-traced (`raytrace.comp`), hybrid
+//! shading (`hybrid_main.glsl`), G-buffer raster (`gbuffer.*`, `visibility.frag`), compute
+//! raster (`raster.glsl`), tonemap and `rqr bench`'s ray throughput (`interface_passes.glsl`).
+//! Bindings 0-3 are the shared ones of `shared.rs`.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Per-pixel arbitrary output variables of the primary hit (ray-traced and hybrid passes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Aov {
+    /// xyz: geometric world normal of the glTF front face; w: hit distance (0 on a miss).
+    pub normal_depth: [f32; 4],
+    /// xyz: world position; w: instance index (-1 on a miss).
+    pub position_inst: [f32; 4],
+    /// xy: barycentrics; z: primitive index (-1 on a miss); w: samples traced for the pixel.
+    pub bary_prim: [f32; 4],
+}
+
+/// raytrace.comp: linear HDR colour out, `vec4` per pixel.
+pub const BINDING_RT_COLOR: u32 = 4;
+/// raytrace.comp: [`Aov`] per pixel (written under `FLAG_WRITE_AOV`).
+pub const BINDING_RT_AOV: u32 = 5;
+/// raytrace.comp: ray counters (`COUNTER_SLOTS`).
+pub const BINDING_RT_COUNTERS: u32 = 6;
+/// raytrace.comp: adaptive corner samples, (w+1) x (h+1) `vec4`.
+pub const BINDING_RT_CORNERS: u32 = 7;
+
+/// raytrace.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RaytracePush {
+    /// `FLAG_ADAPTIVE_CORNERS` (the corner pass) and `FLAG_WRITE_AOV`.
+    pub flags: u32,
+}
+
+/// Hybrid shading: accumulation (rgb sum, weight sum) per pixel.
+pub const BINDING_HYBRID_ACCUM: u32 = 4;
+/// Hybrid shading: [`Aov`] per pixel.
+pub const BINDING_HYBRID_AOV: u32 = 5;
+/// Hybrid shading: ray counters (`COUNTER_SLOTS`).
+pub const BINDING_HYBRID_COUNTERS: u32 = 6;
+/// Hybrid shading: the raster pass's first image (the visibility image, or the G-buffer's
+/// images in `GBUFFER_*` order at consecutive bindings).
+pub const BINDING_HYBRID_GBUFFER: u32 = 7;
+
+/// G-buffer image: world position, t.
+pub const GBUFFER_POSITION: u32 = 0;
+/// G-buffer image: shading normal, roughness.
+pub const GBUFFER_NORMAL: u32 = 1;
+/// G-buffer image: geometric normal of the glTF front face, metallic.
+pub const GBUFFER_GEOMETRIC: u32 = 2;
+/// G-buffer image: base colour, alpha.
+pub const GBUFFER_BASE: u32 = 3;
+/// G-buffer image: emissive, occlusion.
+pub const GBUFFER_EMISSIVE: u32 = 4;
+/// G-buffer image: instance, primitive, material | front face << 31, transmission bits.
+pub const GBUFFER_IDS: u32 = 5;
+/// G-buffer image: barycentrics, motion.
+pub const GBUFFER_BARY: u32 = 6;
+/// Images of the full G-buffer.
+pub const GBUFFER_IMAGES: u32 = 7;
+
+/// Hybrid push flag: overwrite the accumulation (first sample).
+pub const HYBRID_FIRST_SAMPLE: u32 = 1;
+/// Hybrid push flag: write AOVs.
+pub const HYBRID_WRITE_AOV: u32 = 4;
+
+/// The hybrid shading pass's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct HybridPush {
+    /// `HYBRID_*` flags.
+    pub flags: u32,
+    /// Filter weight of this sample.
+    pub weight: f32,
+}
+
+/// The raster G-buffer and visibility pipelines' push constant (one draw).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct DrawPush {
+    /// Scene instance index.
+    pub instance: u32,
+}
+
+/// Compute raster: depth | triangle id per pixel.
+pub const BINDING_RASTER_DEPTH_IDS: u32 = 4;
+/// Compute raster: the draw table ([`RasterDraw`] per drawn instance).
+pub const BINDING_RASTER_DRAWS: u32 = 5;
+/// Compute raster: the big-triangle queue.
+pub const BINDING_RASTER_BIG: u32 = 6;
+/// Compute raster: the visibility image (resolve only).
+pub const BINDING_RASTER_VISIBILITY: u32 = 7;
+/// Compute raster: the tile bins (per-tile counts, offsets, cursors, then the lists).
+pub const BINDING_RASTER_BINS: u32 = 8;
+/// Compute raster: side of the binned stages' screen tiles, in pixels.
+pub const RASTER_TILE_SIZE: u32 = 16;
+/// `raster_bin.comp` stage (specialization constant 0): count each queued triangle's tiles.
+pub const RASTER_BIN_COUNT: u32 = 0;
+/// `raster_bin.comp` stage: scan the counts into per-tile offsets.
+pub const RASTER_BIN_SCAN: u32 = 1;
+/// `raster_bin.comp` stage: fill the per-tile lists.
+pub const RASTER_BIN_FILL: u32 = 2;
+
+/// [`RasterDraw`] flag: cull back faces.
+pub const DRAW_CULL_BACK: u32 = 1;
+/// [`RasterDraw`] flag: mirrored instance (clockwise front faces).
+pub const DRAW_MIRRORED: u32 = 2;
+/// [`RasterDraw`] flag: alpha-MASK test.
+pub const DRAW_ALPHA_TEST: u32 = 4;
+
+/// The compute rasterizer's draw table entry: one per drawn instance, in instance order.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RasterDraw {
+    /// Global index of the draw's first triangle.
+    pub first_triangle: u32,
+    /// Scene instance index.
+    pub instance: u32,
+    /// `DRAW_*` flags.
+    pub flags: u32,
+}
+
+/// The compute rasterizer's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RasterPush {
+    /// Triangles of all draws.
+    pub triangle_count: u32,
+    /// Entries of the draw table.
+    pub draw_count: u32,
+    /// atomic32 only: 0 = depth pass, 1 = id pass.
+    pub pass_kind: u32,
+}
+
+/// tonemap.comp: linear colour in, `vec4` per pixel.
+pub const BINDING_TONEMAP_IN: u32 = 0;
+/// tonemap.comp: RGBA8 out, one `uint` per pixel.
+pub const BINDING_TONEMAP_OUT: u32 = 1;
+/// Tonemap operator: clamp only.
+pub const TONEMAP_NONE: u32 = 0;
+/// Tonemap operator: ACES filmic (Narkowicz fit).
+pub const TONEMAP_ACES: u32 = 1;
+/// Tonemap operator: Khronos PBR Neutral.
+pub const TONEMAP_KHRONOS_NEUTRAL: u32 = 2;
+
+/// tonemap.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TonemapPush {
+    /// Pixels.
+    pub count: u32,
+    /// `TONEMAP_*` operator.
+    pub op: u32,
+    /// Exposure scale (2^EV).
+    pub scale: f32,
+}
+
+/// raybench.comp: per pixel (hit position, instance bits), (primary direction, primitive bits).
+pub const BINDING_RAYBENCH_HITS: u32 = 4;
+/// raybench.comp: counters (rays traced, rays that hit).
+pub const BINDING_RAYBENCH_COUNTERS: u32 = 5;
+/// raybench.comp mode: one primary ray per pixel centre.
+pub const RAYBENCH_PRIMARY: u32 = 0;
+/// raybench.comp mode: one cosine-weighted bounce ray from every stored primary hit.
+pub const RAYBENCH_BOUNCE: u32 = 1;
+
+/// raybench.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RaybenchPush {
+    /// `RAYBENCH_*` mode.
+    pub mode: u32,
+}

@@ -1,0 +1,216 @@
+//! Temporal reprojection (`render/reproject.rs`, `reproject*.comp`, `common/reproject.glsl`):
+//! bindings, params flags, stages, job lists, pixel states, cache flags and counter slots
+//! (`interface_reproject.glsl`). Bindings 0-3 are the shared ones of `shared.rs`.
+
+use bytemuck::{Pod, Zeroable};
+
+/// The `Params` uniform ([`GpuParams`]).
+pub const BINDING_RP_PARAMS: u32 = 4;
+/// The previous frame's sample cache.
+pub const BINDING_RP_CACHE_PREV: u32 = 5;
+/// The next frame's sample cache.
+pub const BINDING_RP_CACHE_NEXT: u32 = 6;
+/// Scatter winners and depth keys, interleaved per pixel.
+pub const BINDING_RP_KEY_WINNER: u32 = 7;
+/// Pixel states.
+pub const BINDING_RP_STATES: u32 = 9;
+/// Colour per pixel.
+pub const BINDING_RP_COLORS: u32 = 10;
+/// The job list.
+pub const BINDING_RP_JOBS: u32 = 11;
+/// Counters (`C_*` slots).
+pub const BINDING_RP_COUNTERS: u32 = 12;
+/// First G-buffer image; the others follow in `GBUFFER_*` order.
+pub const BINDING_RP_GBUFFER: u32 = 13;
+/// Indirect dispatch arguments of the tracing passes and their job count.
+pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
+/// The sample each pixel shows (without its colour).
+pub const BINDING_RP_SHOWN: u32 = 21;
+
+/// Params flag: reproject the previous frame's cache.
+pub const RP_REUSE: u32 = 1;
+/// Params flag: every pixel's primary hit is in the G-buffer (hybrid path).
+pub const RP_GBUFFER: u32 = 2;
+/// Params flag: rt path, verify every candidate with a primary ray.
+pub const RP_VERIFY_ALL: u32 = 4;
+/// Params flag: frameless refresh of the oldest samples.
+pub const RP_FRAMELESS: u32 = 8;
+/// Params flag: adaptive sub-sampling of the pixels that need new colour.
+pub const RP_ADAPTIVE: u32 = 16;
+
+/// reproject.comp stage: scatter the previous cache.
+pub const STAGE_SCATTER: u32 = 0;
+/// reproject.comp stage: resolve the scatter's winners.
+pub const STAGE_RESOLVE: u32 = 1;
+/// reproject.comp stage: classify pixels.
+pub const STAGE_CLASSIFY: u32 = 2;
+/// reproject.comp stage: frameless threshold.
+pub const STAGE_THRESHOLD: u32 = 3;
+/// reproject.comp stage: frameless selection.
+pub const STAGE_SELECT: u32 = 4;
+/// reproject.comp stage: commit reused samples.
+pub const STAGE_COMMIT: u32 = 6;
+/// reproject.comp stage: adaptive interpolation.
+pub const STAGE_INTERPOLATE: u32 = 7;
+/// reproject.comp stage: statistics.
+pub const STAGE_STATS: u32 = 8;
+/// reproject.comp stage: fill empty pixels from neighbours.
+pub const STAGE_FILL: u32 = 9;
+
+/// Job list a stage appends to: pixels to verify with a primary ray (rt path).
+pub const GATHER_VERIFY: u32 = 0;
+/// The stage appends to no job list.
+pub const GATHER_NONE: u32 = u32::MAX;
+
+/// Pixel state: mask of the kind.
+pub const PX_KIND_MASK: u32 = 15;
+/// Pixel kind: shows a reprojected sample.
+pub const PX_REUSE: u32 = 1;
+/// Pixel kind: needs new rays (or interpolation), not done yet.
+pub const PX_TRACE: u32 = 2;
+/// Pixel kind: has a candidate sample; a primary ray decides (rt path).
+pub const PX_VERIFY: u32 = 3;
+/// Pixel kind: traced this frame.
+pub const PX_TRACED: u32 = 4;
+/// Pixel kind: interpolated this frame (adaptive sub-sampling).
+pub const PX_INTERP: u32 = 5;
+/// Pixel reason: no sample landed here.
+pub const PX_HOLE: u32 = 1 << 4;
+/// Pixel reason: the sample disagrees with this frame's primary visibility.
+pub const PX_REJECTED: u32 = 1 << 5;
+/// Pixel reason: specular/transmissive sample or surface.
+pub const PX_VIEW_DEPENDENT: u32 = 1 << 6;
+/// Pixel reason: older than --max-age.
+pub const PX_EXPIRED: u32 = 1 << 7;
+/// Pixel reason: picked by the frameless refresh.
+pub const PX_FRAMELESS: u32 = 1 << 8;
+/// Pixel reason: G-buffer images hold this pixel's primary hit (rt path).
+pub const PX_VERIFIED: u32 = 1 << 9;
+/// Pixel reason: the sample is a neighbour's, filling an empty pixel.
+pub const PX_FILLED: u32 = 1 << 10;
+
+/// Cache entry flag: valid.
+pub const CACHE_VALID: u32 = 1;
+/// Cache entry flag: a miss (position holds the unit ray direction).
+pub const CACHE_MISS: u32 = 2;
+/// Cache entry flag: specular/transmissive, never reused.
+pub const CACHE_VIEW_DEPENDENT: u32 = 4;
+/// Cache entry flags: bits 8-15 count fills away from where the colour was computed.
+pub const CACHE_HOPS_SHIFT: u32 = 8;
+/// No sample.
+pub const NO_SAMPLE: u32 = 0xFFFF_FFFF;
+/// A depth key with this bit marks an empty pixel filled from a neighbour.
+pub const FILLED_KEY: u32 = 0x8000_0000;
+
+/// Counter slot: samples (after the four ray kinds, as `COUNTER_SAMPLES`).
+pub const C_SAMPLES: u32 = 4;
+/// Counter slot: jobs.
+pub const C_JOBS: u32 = 5;
+/// Counter slot: pixels that reused a sample.
+pub const C_REUSED: u32 = 6;
+/// Counter slot: pixels traced.
+pub const C_TRACED: u32 = 7;
+/// Counter slot: pixels interpolated.
+pub const C_INTERP: u32 = 8;
+/// Counter slot: holes.
+pub const C_HOLES: u32 = 9;
+/// Counter slot: rejected samples.
+pub const C_REJECTED: u32 = 10;
+/// Counter slot: view-dependent pixels.
+pub const C_VIEW_DEPENDENT: u32 = 11;
+/// Counter slot: expired samples.
+pub const C_EXPIRED: u32 = 12;
+/// Counter slot: frameless refreshes.
+pub const C_FRAMELESS: u32 = 13;
+/// Counter slot: verification rays.
+pub const C_VERIFY_RAYS: u32 = 14;
+/// Counter slot: frameless candidates.
+pub const C_CANDIDATES: u32 = 15;
+/// Counter slot: forced refreshes.
+pub const C_FORCED: u32 = 16;
+/// Counter slot: frameless threshold bin.
+pub const C_THRESHOLD_BIN: u32 = 17;
+/// Counter slot: frameless threshold fraction.
+pub const C_THRESHOLD_FRACTION: u32 = 18;
+/// Counter slot: filled pixels.
+pub const C_FILLED: u32 = 19;
+/// Counter slot: workgroups that finished appending to the current job list.
+pub const C_TILES_DONE: u32 = 20;
+/// Counter slot: first of the age x rank histogram.
+pub const C_HISTOGRAM: u32 = 32;
+/// Histogram: age levels.
+pub const AGE_LEVELS: u32 = 64;
+/// Histogram: rank levels.
+pub const RANK_LEVELS: u32 = 64;
+/// Histogram bins (`AGE_LEVELS` x `RANK_LEVELS`).
+pub const HISTOGRAM_BINS: u32 = 4096;
+/// Counter slots in all (`C_HISTOGRAM` + `AGE_LEVELS` x `RANK_LEVELS`).
+pub const RP_COUNTER_SLOTS: u32 = 4128;
+
+/// A cached sample: the colour of one primary hit and where it was.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct CacheEntry {
+    /// rgb: linear radiance; a: 1.
+    pub color: [f32; 4],
+    /// xyz: world position of the primary hit (a miss: unit direction).
+    pub position: [f32; 4],
+    /// xyz: geometric normal of the glTF front face.
+    pub normal: [f32; 4],
+    /// x: `CACHE_*` flags, y: material, z: instance, w: age in frames.
+    pub meta: [u32; 4],
+}
+
+/// The sample a pixel shows after the scatter and the fill: a [`CacheEntry`] without colour.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Shown {
+    /// As [`CacheEntry::position`].
+    pub position: [f32; 4],
+    /// As [`CacheEntry::normal`].
+    pub normal: [f32; 4],
+    /// As [`CacheEntry::meta`]; x = 0 where no sample landed.
+    pub meta: [u32; 4],
+}
+
+/// reproject.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ReprojectPush {
+    /// `STAGE_*`.
+    pub stage: u32,
+    /// The adaptive level it works at (interpolate).
+    pub level: u32,
+    /// The job list it appends to afterwards (`GATHER_*` or a trace level 1, 2, 4).
+    pub gather: u32,
+}
+
+/// The reprojection `Params` uniform (binding [`BINDING_RP_PARAMS`], scalar layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuParams {
+    /// `RP_*` flags.
+    pub flags: u32,
+    /// A sample older than this is re-traced.
+    pub max_age: u32,
+    /// Share of pixels re-traced per frame (0..1).
+    pub frameless_fraction: f32,
+    /// Adaptive sub-sampling: largest channel difference to interpolate.
+    pub subsample_threshold: f32,
+    /// Padding.
+    pub pad0: u32,
+    /// Plane distance / view depth.
+    pub plane_threshold: f32,
+    /// Smallest dot of the two geometric normals.
+    pub normal_threshold: f32,
+    /// rt path: plane distance / view depth between neighbours = an edge.
+    pub edge_threshold: f32,
+    /// Metallic at or above: view-dependent.
+    pub specular_metallic: f32,
+    /// Roughness below: view-dependent (Whitted mirror term).
+    pub specular_roughness: f32,
+    /// An empty pixel takes a neighbour's sample this close (pixels).
+    pub fill_radius: f32,
+    /// Fills copy samples fewer hops than this from their origin.
+    pub max_hops: u32,
+}
