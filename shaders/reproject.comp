@@ -17,25 +17,13 @@
 #extension GL_KHR_shader_subgroup_ballot : require
 
 layout(local_size_x = 8, local_size_y = 8) in;
-// The stage that runs: a specialization constant, so that each stage's pipeline holds its own
-// code only (src/render/reproject.rs builds one pipeline per stage).
+// The stage that runs (STAGE_* of src/interface/reproject.rs): a specialization constant, so
+// that each stage's pipeline holds its own code only (src/render/reproject.rs builds one
+// pipeline per stage).
 layout(constant_id = 0) const uint STAGE = 0u;
-// level: the adaptive level the stage works at (interpolate); gather: the level whose pixels
-// to trace the stage lists (GATHER_NONE: it lists none).
-layout(push_constant) uniform Push { uint level; uint gather; } pc;
-
-#define STAGE_SCATTER 0u
-#define STAGE_RESOLVE 1u
-#define STAGE_CLASSIFY 2u
-#define STAGE_THRESHOLD 3u
-#define STAGE_SELECT 4u
-#define STAGE_INTERPOLATE 7u
-#define STAGE_FILL 9u
-
-// pc.gather of the stages that list jobs: the adaptive level (1, 2, 4) whose pixels to trace
-// they list; GATHER_NONE for the others.
-#define GATHER_NONE 0xFFFFFFFFu
-
+// ReprojectPush: level, the adaptive level the stage works at (interpolate); gather, the level
+// whose pixels to trace the stage lists (GATHER_NONE: it lists none).
+layout(push_constant) uniform Push { ReprojectPush pc; };
 
 vec3 color_at(uint x, uint y) { return color[y * frame.width + x].rgb; }
 

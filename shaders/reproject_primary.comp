@@ -15,8 +15,8 @@
 #include "reproject.glsl"
 
 layout(local_size_x = 64) in;
-// The adaptive level (1, 2, 4) whose pixels to trace this pass lists.
-layout(push_constant) uniform Push { uint level; } pc;
+// VisibilityPush: the adaptive level (1, 2, 4) whose pixels to trace this pass lists.
+layout(push_constant) uniform Push { VisibilityPush pc; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;

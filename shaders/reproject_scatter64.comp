@@ -12,7 +12,7 @@
 #include "frame.glsl"
 #include "reproject.glsl"
 
-layout(set = 0, binding = 7, std430) buffer KeyWinner64 { uint64_t key_winner64[]; };
+layout(set = 0, binding = BINDING_RP_KEY_WINNER, std430) buffer KeyWinner64 { uint64_t key_winner64[]; };
 
 layout(local_size_x = 8, local_size_y = 8) in;
 

@@ -18,9 +18,9 @@
 #include "reproject.glsl"
 
 layout(local_size_x = 64) in;
-// The job list this pass works through (LIST_TRACE first, then LIST_VERIFY for the later
-// adaptive levels).
-layout(push_constant) uniform Push { uint list; } pc;
+// TracePush: the job list this pass works through (LIST_TRACE first, then LIST_VERIFY for the
+// later adaptive levels).
+layout(push_constant) uniform Push { TracePush pc; };
 
 Surface unused_surface;
 

@@ -175,7 +175,9 @@ fn assert_parts(got: &[u32], parts: &[(&str, Vec<u32>)]) {
 
 #[test]
 fn interface_structs_match_generated_glsl_layout() {
-    use rqr::interface::reproject::{CacheEntry, GpuParams, ReprojectPush, Shown};
+    use rqr::interface::reproject::{
+        CacheEntry, GpuParams, ReprojectPush, Shown, TracePush, VisibilityPush,
+    };
     use rqr::interface::*;
     let ctx = common::gpu();
     let frame: GpuFrame = distinct(1);
@@ -187,6 +189,8 @@ fn interface_structs_match_generated_glsl_layout() {
         ("TonemapPush", words(&distinct::<TonemapPush>(6))),
         ("RaybenchPush", words(&distinct::<RaybenchPush>(7))),
         ("ReprojectPush", words(&distinct::<ReprojectPush>(8))),
+        ("VisibilityPush", words(&distinct::<VisibilityPush>(14))),
+        ("TracePush", words(&distinct::<TracePush>(15))),
     ];
     let records = [
         ("Aov", words(&distinct::<Aov>(9))),
@@ -254,7 +258,7 @@ fn reprojection_params_match_reproject_glsl_layout() {
 }
 
 /// Every `#define` in a shader that names an interface constant has the interface's value: a
-/// hand-kept copy (reprojection's, until it includes interface_reproject.glsl) cannot drift.
+/// hand-kept copy cannot drift.
 #[test]
 fn hand_written_shader_constants_agree_with_the_interface() {
     let parse = |text: &str| -> Vec<(String, String)> {

@@ -2,137 +2,66 @@
 // parameters and the tests shared by reproject.comp, reproject_primary.comp and
 // reproject_trace.comp. Include after scene.glsl and frame.glsl.
 //
-// Bindings (one numbering for the pipelines): 4 params, 5 previous cache, 6 next cache,
-// 7 scatter winners and depth keys (8 unused), 9 pixel states, 10 colour, 11 job lists,
-// 12 counters, 13-19 G-buffer images (gbuffer.frag's layout), 20 indirect dispatch arguments,
-// 21 the sample each pixel shows (without its colour).
+// Every binding, flag, stage, counter slot and shared struct (CacheEntry, Shown, GpuParams,
+// the push constants) is declared once, in src/interface/reproject.rs, from which build.rs
+// generates interface_reproject.glsl.
 #ifndef RQR_REPROJECT_GLSL
 #define RQR_REPROJECT_GLSL
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #include "counters.glsl"
+#include "interface_passes.glsl"
+#include "interface_reproject.glsl"
 
-// A cached sample: the colour of one primary hit and where it was.
-#define CACHE_VALID 1u
-#define CACHE_MISS 2u            // position holds the unit ray direction (a point at infinity)
-#define CACHE_VIEW_DEPENDENT 4u  // specular/transmissive: never reused
-// Bits 8-15 of the flags: how many fills away from where it was computed the colour is (an
-// interpolated colour counts as one); a fill copies only samples below params.max_hops.
-#define CACHE_HOPS_SHIFT 8u
-struct CacheEntry {
-    vec4 color;     // rgb: linear radiance; a: 1
-    vec4 position;  // xyz: world position of the primary hit (a miss: unit direction)
-    vec4 normal;    // xyz: geometric normal of the glTF front face
-    uvec4 meta;     // x: CACHE_* flags, y: material, z: instance, w: age in frames
-};
+// CacheEntry: a cached sample, the colour of one primary hit and where it was. meta.x holds
+// CACHE_* flags; bits 8-15 of it count how many fills away from where it was computed the
+// colour is (an interpolated colour counts as one); a fill copies only samples below
+// params.max_hops.
 uint cache_hops(CacheEntry e) { return (e.meta.x >> CACHE_HOPS_SHIFT) & 255u; }
 uint with_hops(uint flags, uint hops) { return (flags & ~(255u << CACHE_HOPS_SHIFT)) | (min(hops, 255u) << CACHE_HOPS_SHIFT); }
 
-// Pixel state: a kind in the low bits plus the reasons that led to it (for statistics).
-#define PX_KIND_MASK 15u
-#define PX_REUSE 1u     // shows a reprojected sample
-#define PX_TRACE 2u     // needs new rays (or interpolation), not done yet
-#define PX_VERIFY 3u    // has a candidate sample; a primary ray decides (rt path)
-#define PX_TRACED 4u    // traced this frame
-#define PX_INTERP 5u    // interpolated this frame (adaptive sub-sampling)
-#define PX_HOLE (1u << 4)            // no sample landed here (disocclusion, screen edge, first frame)
-#define PX_REJECTED (1u << 5)        // the sample disagrees with this frame's primary visibility
-#define PX_VIEW_DEPENDENT (1u << 6)  // specular/transmissive sample or surface
-#define PX_EXPIRED (1u << 7)         // older than --max-age
-#define PX_FRAMELESS (1u << 8)       // picked by the frameless refresh
-#define PX_VERIFIED (1u << 9)        // G-buffer images hold this pixel's primary hit (rt path)
-#define PX_FILLED (1u << 10)         // the sample is a neighbour's, filling an empty pixel
-
-#define NO_SAMPLE 0xFFFFFFFFu
-// A depth key with this bit marks an empty pixel filled from a neighbour (plus the source
+// Pixel state: a PX_* kind in the low bits plus the reasons that led to it (for statistics).
+// A depth key with FILLED_KEY marks an empty pixel filled from a neighbour (plus the source
 // index); real keys are positive float bits.
-#define FILLED_KEY 0x80000000u
 
-// Counter slots (binding 12): rays by kind and samples as in raytrace.comp, then statistics.
-#define C_SAMPLES 4u
-#define C_JOBS 5u  // length of job list 0 while a stage appends to it
-#define C_REUSED 6u
-#define C_TRACED 7u
-#define C_INTERP 8u
-#define C_HOLES 9u
-#define C_REJECTED 10u
-#define C_VIEW_DEPENDENT 11u
-#define C_EXPIRED 12u
-#define C_FRAMELESS 13u
-#define C_VERIFY_RAYS 14u
-#define C_CANDIDATES 15u
-#define C_FORCED 16u
-#define C_THRESHOLD_BIN 17u
-#define C_THRESHOLD_FRACTION 18u
-#define C_FILLED 19u
-#define C_TILES_DONE 20u  // subgroups that finished appending to the current job lists
-#define C_TRACE_JOBS 21u  // length of job list 1 (two passes append to it)
-#define C_HISTOGRAM 32u
-#define AGE_LEVELS 64u
-#define RANK_LEVELS 64u
-#define HISTOGRAM_BINS (AGE_LEVELS * RANK_LEVELS)
+layout(set = 0, binding = BINDING_RP_PARAMS, scalar) uniform Params { GpuParams params; };
 
-// Params flags.
-#define RP_REUSE 1u        // reproject the previous frame's cache
-#define RP_GBUFFER 2u      // every pixel's primary hit is in the G-buffer (hybrid path)
-#define RP_VERIFY_ALL 4u   // rt path: verify every candidate with a primary ray
-#define RP_FRAMELESS 8u    // frameless refresh of the oldest samples
-#define RP_ADAPTIVE 16u    // adaptive sub-sampling of the pixels that need new colour
-
-layout(set = 0, binding = 4, scalar) uniform Params {
-    uint flags;
-    uint max_age;              // a sample older than this is re-traced
-    float frameless_fraction;  // share of pixels re-traced per frame (0..1)
-    float subsample_threshold; // adaptive sub-sampling: largest channel difference to interpolate
-    uint pad0;
-    float plane_threshold;     // plane distance / view depth
-    float normal_threshold;    // smallest dot of the two geometric normals
-    float edge_threshold;      // rt path: plane distance / view depth between neighbours = an edge
-    float specular_metallic;   // metallic at or above: view-dependent
-    float specular_roughness;  // roughness below: view-dependent (Whitted mirror term)
-    float fill_radius;         // an empty pixel takes a neighbour's sample this close (pixels)
-    uint max_hops;             // fills copy samples fewer hops than this from their origin
-} params;
-
-layout(set = 0, binding = 5, scalar) readonly buffer CachePrev { CacheEntry cache_prev[]; };
-layout(set = 0, binding = 6, scalar) buffer CacheNext { CacheEntry cache_next[]; };
+layout(set = 0, binding = BINDING_RP_CACHE_PREV, scalar) readonly buffer CachePrev { CacheEntry cache_prev[]; };
+layout(set = 0, binding = BINDING_RP_CACHE_NEXT, scalar) buffer CacheNext { CacheEntry cache_next[]; };
 // Per pixel, interleaved: word 2q is the index of the sample that won pixel q, word 2q + 1 its
 // depth key. Where the device has 64-bit atomics, one atomicMin of key << 32 | index on the
 // pair (little-endian: index in the low word) picks the nearest sample and breaks depth ties
 // by the lowest index in one pass (reproject_scatter64.comp); otherwise two 32-bit passes do.
 #ifndef RQR_KEY_WINNER_64
-layout(set = 0, binding = 7, std430) buffer KeyWinner { uint key_winner[]; };
+layout(set = 0, binding = BINDING_RP_KEY_WINNER, std430) buffer KeyWinner { uint key_winner[]; };
 #define WINNER(q) key_winner[2u * (q)]
 #define DEPTH_KEY(q) key_winner[2u * (q) + 1u]
 #endif
-layout(set = 0, binding = 9, std430) buffer States { uint state[]; };
-layout(set = 0, binding = 10, scalar) buffer Colors { vec4 color[]; };
+layout(set = 0, binding = BINDING_RP_STATES, std430) buffer States { uint state[]; };
+layout(set = 0, binding = BINDING_RP_COLORS, scalar) buffer Colors { vec4 color[]; };
 // Two job lists share one buffer: list k holds jobs[k n, k n + n), n = pixels.
-layout(set = 0, binding = 11, std430) buffer Jobs { uint jobs[]; };
-layout(set = 0, binding = 12, std430) buffer Counters { uint counters[]; };
-layout(set = 0, binding = 13, rgba32f) uniform image2D g_position;   // world position, t
-layout(set = 0, binding = 14, rgba32f) uniform image2D g_normal;     // shading normal, roughness
-layout(set = 0, binding = 15, rgba32f) uniform image2D g_geometric;  // front-face normal, metallic
-layout(set = 0, binding = 16, rgba16f) uniform image2D g_base;       // base colour, alpha
-layout(set = 0, binding = 17, rgba16f) uniform image2D g_emissive;   // emissive, occlusion
-layout(set = 0, binding = 18, rgba32ui) uniform uimage2D g_ids;      // instance, primitive, material | front << 31, transmission bits
-layout(set = 0, binding = 19, rgba32f) uniform image2D g_bary;       // barycentrics, motion
+layout(set = 0, binding = BINDING_RP_JOBS, std430) buffer Jobs { uint jobs[]; };
+layout(set = 0, binding = BINDING_RP_COUNTERS, std430) buffer Counters { uint counters[]; };
+// The G-buffer images (gbuffer.frag's layout): the raster pass's (hybrid) or the visibility
+// pass's (rt).
+layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_POSITION, rgba32f) uniform image2D g_position;   // world position, t
+layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_NORMAL, rgba32f) uniform image2D g_normal;       // shading normal, roughness
+layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_GEOMETRIC, rgba32f) uniform image2D g_geometric; // front-face normal, metallic
+layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_BASE, rgba16f) uniform image2D g_base;           // base colour, alpha
+layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_EMISSIVE, rgba16f) uniform image2D g_emissive;   // emissive, occlusion
+layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_IDS, rgba32ui) uniform uimage2D g_ids;          // instance, primitive, material | front << 31, transmission bits
+layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_BARY, rgba32f) uniform image2D g_bary;           // barycentrics, motion
 // Per job list k: the indirect dispatch of the pass that works through it (x, y, z
 // workgroups) and its job count, at dispatch_args[4 k, 4 k + 4); written by the last subgroup
 // of the pass that appended to the list (lists_done()).
-layout(set = 0, binding = 20, std430) buffer DispatchArgs { uint dispatch_args[8]; };
+layout(set = 0, binding = BINDING_RP_DISPATCH_ARGS, std430) buffer DispatchArgs { uint dispatch_args[4 * JOB_LISTS]; };
 
-// Per pixel, the cached sample it shows after the scatter and the fill (colour left out):
-// position, normal and meta of CacheEntry; meta.x = 0 where no sample landed. Written in
-// pixel order by the fill stage, so the stages that look at a pixel's neighbours read
-// neighbouring memory instead of gathering whole cache entries from wherever they came from.
-struct Shown {
-    vec4 position;
-    vec4 normal;
-    uvec4 meta;
-};
-layout(set = 0, binding = 21, scalar) buffer ShownSamples { Shown shown[]; };
+// Per pixel, the cached sample it shows after the scatter and the fill (Shown: CacheEntry
+// without its colour; meta.x = 0 where no sample landed). Written in pixel order by the fill
+// stage, so the stages that look at a pixel's neighbours read neighbouring memory instead of
+// gathering whole cache entries from wherever they came from.
+layout(set = 0, binding = BINDING_RP_SHOWN, scalar) buffer ShownSamples { Shown shown[]; };
 
 CacheEntry shown_entry(uint q) {
     Shown s = shown[q];
@@ -146,8 +75,6 @@ uint pixel_count() { return frame.width * frame.height; }
 // it rejects to list 1; each adaptive interpolation lists the next level's pixels in list 0,
 // whose visibility jobs are done by then. Tracing passes run one job per invocation, 64 per
 // workgroup.
-#define LIST_VERIFY 0u
-#define LIST_TRACE 1u
 uint job_count(uint list) { return dispatch_args[4u * list + 3u]; }
 uint job_at(uint list, uint i) { return jobs[list * pixel_count() + i]; }
 

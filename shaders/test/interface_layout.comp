@@ -36,6 +36,8 @@ layout(set = 0, binding = 4, std430) readonly buffer Pushes {
     TonemapPush tonemap;
     RaybenchPush raybench;
     ReprojectPush reproject;
+    VisibilityPush visibility;
+    TracePush trace;
 } pushes;
 
 layout(set = 0, binding = 5, scalar) readonly buffer Records {
@@ -55,6 +57,8 @@ void main() {
     put_TonemapPush(pushes.tonemap);
     put_RaybenchPush(pushes.raybench);
     put_ReprojectPush(pushes.reproject);
+    put_VisibilityPush(pushes.visibility);
+    put_TracePush(pushes.trace);
     put_Aov(records.aov);
     put_RasterDraw(records.raster_draw);
     put_CacheEntry(records.cache_entry);

@@ -16,13 +16,13 @@ pub const BINDING_RP_KEY_WINNER: u32 = 7;
 pub const BINDING_RP_STATES: u32 = 9;
 /// Colour per pixel.
 pub const BINDING_RP_COLORS: u32 = 10;
-/// The job list.
+/// The two job lists (list k at jobs[k n, k n + n), n = pixels).
 pub const BINDING_RP_JOBS: u32 = 11;
 /// Counters (`C_*` slots).
 pub const BINDING_RP_COUNTERS: u32 = 12;
 /// First G-buffer image; the others follow in `GBUFFER_*` order.
 pub const BINDING_RP_GBUFFER: u32 = 13;
-/// Indirect dispatch arguments of the tracing passes and their job count.
+/// Per job list: the indirect dispatch of the pass working through it and its job count.
 pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
 /// The sample each pixel shows (without its colour).
 pub const BINDING_RP_SHOWN: u32 = 21;
@@ -38,29 +38,29 @@ pub const RP_FRAMELESS: u32 = 8;
 /// Params flag: adaptive sub-sampling of the pixels that need new colour.
 pub const RP_ADAPTIVE: u32 = 16;
 
-/// reproject.comp stage: scatter the previous cache.
+/// reproject.comp stage (its specialization constant 0): scatter the previous cache.
 pub const STAGE_SCATTER: u32 = 0;
 /// reproject.comp stage: resolve the scatter's winners.
 pub const STAGE_RESOLVE: u32 = 1;
-/// reproject.comp stage: classify pixels.
+/// reproject.comp stage: classify pixels (and, without frameless, settle and list them).
 pub const STAGE_CLASSIFY: u32 = 2;
 /// reproject.comp stage: frameless threshold.
 pub const STAGE_THRESHOLD: u32 = 3;
-/// reproject.comp stage: frameless selection.
+/// reproject.comp stage: frameless selection (then settle and list the pixels).
 pub const STAGE_SELECT: u32 = 4;
-/// reproject.comp stage: commit reused samples.
-pub const STAGE_COMMIT: u32 = 6;
 /// reproject.comp stage: adaptive interpolation.
 pub const STAGE_INTERPOLATE: u32 = 7;
-/// reproject.comp stage: statistics.
-pub const STAGE_STATS: u32 = 8;
 /// reproject.comp stage: fill empty pixels from neighbours.
 pub const STAGE_FILL: u32 = 9;
 
-/// Job list a stage appends to: pixels to verify with a primary ray (rt path).
-pub const GATHER_VERIFY: u32 = 0;
-/// The stage appends to no job list.
+/// [`ReprojectPush::gather`] of a stage that lists no pixels to trace.
 pub const GATHER_NONE: u32 = u32::MAX;
+/// Job list 0: the visibility pass's jobs (rt path), then each later adaptive level's.
+pub const LIST_VERIFY: u32 = 0;
+/// Job list 1: the first pixels to trace (the settling stage's and the visibility pass's).
+pub const LIST_TRACE: u32 = 1;
+/// Job lists in the jobs buffer (and indirect dispatches in the arguments buffer).
+pub const JOB_LISTS: u32 = 2;
 
 /// Pixel state: mask of the kind.
 pub const PX_KIND_MASK: u32 = 15;
@@ -104,7 +104,7 @@ pub const FILLED_KEY: u32 = 0x8000_0000;
 
 /// Counter slot: samples (after the four ray kinds, as `COUNTER_SAMPLES`).
 pub const C_SAMPLES: u32 = 4;
-/// Counter slot: jobs.
+/// Counter slot: length of job list 0 while a stage appends to it.
 pub const C_JOBS: u32 = 5;
 /// Counter slot: pixels that reused a sample.
 pub const C_REUSED: u32 = 6;
@@ -134,8 +134,10 @@ pub const C_THRESHOLD_BIN: u32 = 17;
 pub const C_THRESHOLD_FRACTION: u32 = 18;
 /// Counter slot: filled pixels.
 pub const C_FILLED: u32 = 19;
-/// Counter slot: workgroups that finished appending to the current job list.
+/// Counter slot: subgroups that finished appending to the current job lists.
 pub const C_TILES_DONE: u32 = 20;
+/// Counter slot: length of job list 1 (two passes append to it).
+pub const C_TRACE_JOBS: u32 = 21;
 /// Counter slot: first of the age x rank histogram.
 pub const C_HISTOGRAM: u32 = 32;
 /// Histogram: age levels.
@@ -173,16 +175,30 @@ pub struct Shown {
     pub meta: [u32; 4],
 }
 
-/// reproject.comp's push constant.
+/// reproject.comp's push constant (the stage is the pipeline's specialization constant).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct ReprojectPush {
-    /// `STAGE_*`.
-    pub stage: u32,
     /// The adaptive level it works at (interpolate).
     pub level: u32,
-    /// The job list it appends to afterwards (`GATHER_*` or a trace level 1, 2, 4).
+    /// The adaptive level (1, 2, 4) whose pixels to trace it lists, or [`GATHER_NONE`].
     pub gather: u32,
+}
+
+/// reproject_primary.comp's (visibility pass) push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct VisibilityPush {
+    /// The adaptive level (1, 2, 4) whose pixels to trace it lists.
+    pub level: u32,
+}
+
+/// reproject_trace.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TracePush {
+    /// The job list it works through ([`LIST_TRACE`] first, then [`LIST_VERIFY`]).
+    pub list: u32,
 }
 
 /// The reprojection `Params` uniform (binding [`BINDING_RP_PARAMS`], scalar layout).

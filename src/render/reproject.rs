@@ -34,7 +34,6 @@
 use std::sync::Arc;
 
 use ash::vk;
-use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
 pub use super::frame::RenderPath;
@@ -44,6 +43,8 @@ use super::targets::{FrameRing, RingContents, RingSources};
 use super::tonemap::TonemapPass;
 use super::{merge_scopes, RayCounts, RenderOutput, Renderer};
 use crate::accel::Backend;
+use crate::interface::reproject::{self as io, *};
+use crate::interface::{bindings, push_bytes, BINDING_FRAME, BINDING_SCENE, BINDING_TEXTURES};
 use crate::scene::Camera;
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, Image,
@@ -216,42 +217,10 @@ pub struct ReprojectedFrame {
     pub stats: ReuseStats,
 }
 
-/// `reproject.glsl`'s `Params` uniform.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct GpuParams {
-    flags: u32,
-    max_age: u32,
-    frameless_fraction: f32,
-    subsample_threshold: f32,
-    pad: u32,
-    plane_threshold: f32,
-    normal_threshold: f32,
-    edge_threshold: f32,
-    specular_metallic: f32,
-    specular_roughness: f32,
-    fill_radius: f32,
-    max_hops: u32,
-}
+/// A cache entry's and a shown sample's size (`src/interface/reproject.rs`).
+const CACHE_ENTRY_BYTES: u64 = std::mem::size_of::<io::CacheEntry>() as u64;
+const SHOWN_BYTES: u64 = std::mem::size_of::<io::Shown>() as u64;
 
-/// `reproject.glsl`'s `CacheEntry`.
-const CACHE_ENTRY_BYTES: u64 = 64;
-/// `reproject.glsl`'s `Shown`: a cache entry without its colour.
-const SHOWN_BYTES: u64 = 48;
-
-const RP_REUSE: u32 = 1;
-const RP_GBUFFER: u32 = 2;
-const RP_VERIFY_ALL: u32 = 4;
-const RP_FRAMELESS: u32 = 8;
-const RP_ADAPTIVE: u32 = 16;
-
-const STAGE_SCATTER: u32 = 0;
-const STAGE_RESOLVE: u32 = 1;
-const STAGE_CLASSIFY: u32 = 2;
-const STAGE_THRESHOLD: u32 = 3;
-const STAGE_SELECT: u32 = 4;
-const STAGE_INTERPOLATE: u32 = 7;
-const STAGE_FILL: u32 = 9;
 /// The stages of `reproject.comp`, each its own pipeline.
 const STAGES: [u32; 7] = [
     STAGE_CLASSIFY,
@@ -262,32 +231,6 @@ const STAGES: [u32; 7] = [
     STAGE_INTERPOLATE,
     STAGE_FILL,
 ];
-/// The stage lists no pixels to trace.
-const GATHER_NONE: u32 = u32::MAX;
-/// Job lists (`reproject.glsl`): list 0 holds the visibility pass's jobs, then each later
-/// adaptive level's; list 1 the first pixels to trace. Each has its indirect dispatch
-/// arguments (x, y, z, job count) at `16 * list` in the arguments buffer.
-const LIST_VERIFY: u32 = 0;
-const LIST_TRACE: u32 = 1;
-const JOB_LISTS: u64 = 2;
-
-const PX_KIND_MASK: u32 = 15;
-const PX_REUSE: u32 = 1;
-const PX_TRACED: u32 = 4;
-const PX_INTERP: u32 = 5;
-
-const C_SAMPLES: usize = 4;
-const C_REUSED: usize = 6;
-const C_TRACED: usize = 7;
-const C_INTERP: usize = 8;
-const C_HOLES: usize = 9;
-const C_REJECTED: usize = 10;
-const C_VIEW_DEPENDENT: usize = 11;
-const C_EXPIRED: usize = 12;
-const C_FRAMELESS: usize = 13;
-const C_VERIFY_RAYS: usize = 14;
-const C_FILLED: usize = 19;
-const COUNTER_SLOTS: u64 = 32 + 64 * 64;
 
 /// Side of the 8x8-pixel workgroups of `reproject.comp`.
 const TILE: u32 = 8;
@@ -413,12 +356,12 @@ impl<'r> Reprojector<'r> {
         let state = storage("reproject states", pixels * 4)?;
         let color = storage("reproject colour", pixels * 16)?;
         let shown = storage("reproject shown samples", pixels * SHOWN_BYTES)?;
-        let jobs = storage("reproject job lists", JOB_LISTS * pixels * 4)?;
-        let counters = storage("reproject counters", COUNTER_SLOTS * 4)?;
+        let jobs = storage("reproject job lists", u64::from(JOB_LISTS) * pixels * 4)?;
+        let counters = storage("reproject counters", u64::from(RP_COUNTER_SLOTS) * 4)?;
         let args = Buffer::new(
             ctx,
             "reproject dispatch",
-            JOB_LISTS * 16,
+            u64::from(JOB_LISTS) * 16,
             vk::BufferUsageFlags::INDIRECT_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
@@ -452,25 +395,33 @@ impl<'r> Reprojector<'r> {
             ),
         };
         let layout = |ray_binding: Binding| {
+            let storage = Binding::StorageBuffer;
             let mut b = vec![
-                Binding::UniformBuffer,
-                Binding::SampledImages(pass.texture_capacity()),
-                ray_binding,
-                Binding::UniformBuffer,
-                Binding::UniformBuffer,
+                (BINDING_SCENE, Binding::UniformBuffer),
+                (
+                    BINDING_TEXTURES,
+                    Binding::SampledImages(pass.texture_capacity()),
+                ),
+                (crate::interface::BINDING_RAY_BACKEND, ray_binding),
+                (BINDING_FRAME, Binding::UniformBuffer),
+                (BINDING_RP_PARAMS, Binding::UniformBuffer),
+                (BINDING_RP_CACHE_PREV, storage),
+                (BINDING_RP_CACHE_NEXT, storage),
+                (BINDING_RP_KEY_WINNER, storage),
+                (BINDING_RP_STATES, storage),
+                (BINDING_RP_COLORS, storage),
+                (BINDING_RP_JOBS, storage),
+                (BINDING_RP_COUNTERS, storage),
+                (BINDING_RP_DISPATCH_ARGS, storage),
+                (BINDING_RP_SHOWN, storage),
             ];
-            // 5..=12 storage buffers; 8 is unused (winners and depth keys share 7).
-            b.extend(std::iter::repeat_n(Binding::StorageBuffer, 3));
-            b.push(Binding::Unused);
-            b.extend(std::iter::repeat_n(Binding::StorageBuffer, 4));
-            b.extend(std::iter::repeat_n(
-                Binding::StorageImage,
-                GBUFFER_FORMATS.len(),
-            ));
-            b.push(Binding::StorageBuffer);
-            b.push(Binding::StorageBuffer);
-            b
+            b.extend(
+                (0..GBUFFER_FORMATS.len() as u32)
+                    .map(|i| (BINDING_RP_GBUFFER + i, Binding::StorageImage)),
+            );
+            bindings(&b)
         };
+        let push_size = |bytes: usize| bytes as u32;
         let backend = pass.backend.kind();
         // One pipeline per stage of reproject.comp (its specialization constant), so each
         // compiles to that stage's code alone.
@@ -482,7 +433,7 @@ impl<'r> Reprojector<'r> {
                     "reproject",
                     crate::shaders::REPROJECT_COMP,
                     &layout(Binding::Unused),
-                    8,
+                    push_size(std::mem::size_of::<ReprojectPush>()),
                     &[stage],
                 )
             })
@@ -492,14 +443,14 @@ impl<'r> Reprojector<'r> {
             "reproject visibility",
             primary_spirv(backend),
             &layout(pass.backend.binding()),
-            4,
+            push_size(std::mem::size_of::<VisibilityPush>()),
         )?;
         let trace = ComputePipeline::cached(
             ctx,
             "reproject trace",
             trace_spirv(backend),
             &layout(pass.backend.binding()),
-            4,
+            push_size(std::mem::size_of::<TracePush>()),
         )?;
         // One pass instead of two for the scatter where the device has 64-bit atomics.
         let scatter64 = if ctx.features().buffer_int64_atomics {
@@ -522,25 +473,23 @@ impl<'r> Reprojector<'r> {
                     pass.bind_scene(&set);
                 } else {
                     pass.scene.bind(&set);
-                    set.sampled_images(1, pass.textures);
+                    set.sampled_images(BINDING_TEXTURES, pass.textures);
                 }
-                set.buffer(3, &frame, Binding::UniformBuffer)
-                    .buffer(4, &params, Binding::UniformBuffer)
-                    .buffer(5, &caches[parity], Binding::StorageBuffer)
-                    .buffer(6, &caches[1 - parity], Binding::StorageBuffer)
-                    .buffer(7, &key_winner, Binding::StorageBuffer)
-                    .buffer(9, &state, Binding::StorageBuffer)
-                    .buffer(10, &color, Binding::StorageBuffer)
-                    .buffer(11, &jobs, Binding::StorageBuffer)
-                    .buffer(12, &counters, Binding::StorageBuffer);
+                let storage = Binding::StorageBuffer;
+                set.buffer(BINDING_FRAME, &frame, Binding::UniformBuffer)
+                    .buffer(BINDING_RP_PARAMS, &params, Binding::UniformBuffer)
+                    .buffer(BINDING_RP_CACHE_PREV, &caches[parity], storage)
+                    .buffer(BINDING_RP_CACHE_NEXT, &caches[1 - parity], storage)
+                    .buffer(BINDING_RP_KEY_WINNER, &key_winner, storage)
+                    .buffer(BINDING_RP_STATES, &state, storage)
+                    .buffer(BINDING_RP_COLORS, &color, storage)
+                    .buffer(BINDING_RP_JOBS, &jobs, storage)
+                    .buffer(BINDING_RP_COUNTERS, &counters, storage)
+                    .buffer(BINDING_RP_DISPATCH_ARGS, &args, storage)
+                    .buffer(BINDING_RP_SHOWN, &shown, storage);
                 for (i, image) in visibility.images().iter().enumerate() {
-                    set.storage_image(13 + i as u32, image.view());
+                    set.storage_image(BINDING_RP_GBUFFER + i as u32, image.view());
                 }
-                set.buffer(20, &args, Binding::StorageBuffer).buffer(
-                    21,
-                    &shown,
-                    Binding::StorageBuffer,
-                );
                 Ok(set)
             };
             sets.push([
@@ -726,7 +675,7 @@ impl<'r> Reprojector<'r> {
             max_age: o.max_age.unwrap_or(u32::MAX),
             frameless_fraction: o.frameless_percent.unwrap_or(0.0) / 100.0,
             subsample_threshold: o.subsample_threshold,
-            pad: 0,
+            pad0: 0,
             plane_threshold: PLANE_DISTANCE_THRESHOLD,
             normal_threshold: NORMAL_DOT_THRESHOLD,
             edge_threshold: EDGE_PLANE_THRESHOLD,
@@ -740,9 +689,7 @@ impl<'r> Reprojector<'r> {
         let device = ctx.device();
         // One pass of reproject.comp; `gather` names the level whose pixels to trace it lists.
         let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, gather: u32| {
-            let mut push = [0u8; 8];
-            push[..4].copy_from_slice(&level.to_le_bytes());
-            push[4..].copy_from_slice(&gather.to_le_bytes());
+            let push = ReprojectPush { level, gather };
             let groups = if stage == STAGE_THRESHOLD {
                 [1, 1, 1]
             } else {
@@ -752,7 +699,7 @@ impl<'r> Reprojector<'r> {
                 .iter()
                 .position(|&s| s == stage)
                 .expect("a stage of STAGES");
-            self.stages[index].dispatch(cmd, Some(stages_set), &push, groups);
+            self.stages[index].dispatch(cmd, Some(stages_set), push_bytes(&push), groups);
             memory_barrier(device, cmd);
         };
         // A tracing pass over job list `list`, sized by the list's length (written by the last
@@ -761,20 +708,14 @@ impl<'r> Reprojector<'r> {
                       pipeline: &ComputePipeline,
                       set: &DescriptorSet,
                       name: &str,
-                      push: u32,
+                      push: &[u8],
                       list: u32,
                       profiler: Option<&mut GpuProfiler>| {
             let mut profiler = profiler;
             if let Some(p) = profiler.as_deref_mut() {
                 p.begin(cmd, name);
             }
-            pipeline.dispatch_indirect_at(
-                cmd,
-                Some(set),
-                &push.to_le_bytes(),
-                &self.args,
-                16 * u64::from(list),
-            );
+            pipeline.dispatch_indirect_at(cmd, Some(set), push, &self.args, 16 * u64::from(list));
             memory_barrier(device, cmd);
             if let Some(p) = profiler {
                 p.end(cmd);
@@ -849,7 +790,7 @@ impl<'r> Reprojector<'r> {
                 &self.primary,
                 primary_set,
                 "visibility",
-                levels[0],
+                push_bytes(&VisibilityPush { level: levels[0] }),
                 LIST_VERIFY,
                 profiler.as_deref_mut(),
             );
@@ -862,7 +803,7 @@ impl<'r> Reprojector<'r> {
                 &self.trace,
                 trace_set,
                 "trace",
-                list,
+                push_bytes(&TracePush { list }),
                 list,
                 profiler.as_deref_mut(),
             );
@@ -974,7 +915,7 @@ impl<'r> Reprojector<'r> {
 
 /// Rays, samples and pixel statistics from a reprojected frame's counters.
 fn counts(c: &[u32], pixels: u64) -> (RayCounts, u64, ReuseStats) {
-    let count = |i: usize| u64::from(c.get(i).copied().unwrap_or(0));
+    let count = |i: u32| u64::from(c.get(i as usize).copied().unwrap_or(0));
     (
         RayCounts {
             primary: count(0),
