@@ -153,8 +153,10 @@ impl BvhBuild {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhBuildChoice {
-    /// The GPU build on discrete and integrated GPUs, the host build elsewhere (CPU devices
-    /// such as lavapipe, where the GPU build measured slower: see BENCHMARKS.md).
+    /// Decided by measurement where the CLI resolves it ([`crate::autotune`]: the faster of
+    /// both builds on a fixed mesh, ties to the host). Without a measurement
+    /// ([`BvhBuildChoice::resolve`], `RQR_NO_AUTOTUNE=1`): the GPU build on discrete and
+    /// integrated GPUs, the host build elsewhere (CPU devices such as lavapipe).
     #[default]
     Auto,
     /// Host build (`obvhs`).
@@ -202,7 +204,8 @@ pub struct BvhStats {
     pub bytes: u64,
     /// Nodes of both levels.
     pub node_count: usize,
-    /// Nodes of the top level.
+    /// Nodes of the top level (with the GPU build: the slots reserved for it, room for a
+    /// top level over every instance; unused ones are never linked).
     pub tlas_nodes: usize,
     /// Number of bottom levels (unique geometries with triangles in use).
     pub blas_count: usize,
@@ -218,6 +221,8 @@ pub struct BvhStats {
     pub max_depth: u32,
     /// Most traversal stack entries a ray can need (checked against `BVH_STACK_SIZE`).
     pub max_stack: u32,
+    /// Of which the top level's.
+    pub tlas_stack: u32,
     /// Leaf size limit used.
     pub max_leaf_size: u32,
     /// Triangles left out (non-finite or repeated vertices: no ray can hit them).

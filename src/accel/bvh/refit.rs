@@ -127,6 +127,24 @@ fn refit_error(what: String) -> BvhError {
     BvhError::Refit(what)
 }
 
+/// Refuses `scene` unless its geometries have the vertex and index counts `bvh` was built with.
+pub(super) fn check_scene_shape(bvh: &GpuBvh, scene: &Scene) -> Result<(), BvhError> {
+    let shape = bvh.built_shape.as_ref().ok_or_else(|| {
+        refit_error("the BVH was uploaded from host data without its scene".into())
+    })?;
+    if shape.len() != scene.geometries.len() {
+        return Err(refit_error(format!(
+            "the BVH was built for {} geometries, the scene has {}",
+            shape.len(),
+            scene.geometries.len()
+        )));
+    }
+    for (g, (geom, &(vertices, indices))) in scene.geometries.iter().zip(shape).enumerate() {
+        check_shape(g, geom, vertices, indices)?;
+    }
+    Ok(())
+}
+
 /// Refuses geometry `g` when its vertex or index count differs from the built one.
 fn check_shape(
     g: usize,
@@ -159,19 +177,7 @@ fn costs(nodes: &[BvhNode], instances: &[BvhInstance], tlas_nodes: usize) -> (f6
 
 impl RefitPlan {
     fn new(ctx: &Context, bvh: &GpuBvh, scene: &Scene) -> Result<Self, BvhError> {
-        let shape = bvh.built_shape.as_ref().ok_or_else(|| {
-            refit_error("the BVH was uploaded from host data without its scene".into())
-        })?;
-        if shape.len() != scene.geometries.len() {
-            return Err(refit_error(format!(
-                "the BVH was built for {} geometries, the scene has {}",
-                shape.len(),
-                scene.geometries.len()
-            )));
-        }
-        for (g, (geom, &(vertices, indices))) in scene.geometries.iter().zip(shape).enumerate() {
-            check_shape(g, geom, vertices, indices)?;
-        }
+        check_scene_shape(bvh, scene)?;
         let data = bvh.read_back(ctx)?;
         let nodes = &data.nodes;
         let tlas_nodes = data.stats.tlas_nodes;
@@ -271,8 +277,12 @@ impl RefitPlan {
                 }
             }
         }
-        for (i, node) in nodes[..tlas_nodes].iter().enumerate() {
-            used[i] = node.links[0] != LINK_EMPTY;
+        // Top-level nodes reachable from the root (a GPU-built top level leaves unused slots).
+        let mut stack = vec![TLAS_ROOT];
+        while let Some(n) = stack.pop() {
+            let node = &nodes[n as usize];
+            used[n as usize] = node.links[0] != LINK_EMPTY;
+            stack.extend(node.children().filter_map(|c| decode_link(c.link).ok()));
         }
         // Order: bottom levels by height, then the top level by height.
         let key = |i: usize| {
