@@ -107,6 +107,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             // SAH cost of the bottom levels as built (read back: not part of the build time).
             let data = bvh.read_back(&ctx)?;
             build["sah_cost"] = json!(sah::blas_cost(&data));
+            build["tlas_sah_cost"] = json!(sah::subtree_cost(&data.nodes, 0));
         }
         let setup = CameraSetup::new(&camera, args.width, args.height, renderer.scene_scale());
         let frame = GpuFrame::new(&settings, &setup, renderer.scene_scale());
