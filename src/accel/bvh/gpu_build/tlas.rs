@@ -163,7 +163,7 @@ impl GpuBvh {
         stats.skipped_instances = input.skipped_instances;
         let (boxes, ids, world) = builder::instance_boxes(scene, &input, &blas_bounds, &mut stats);
         let built = build_tlas_gpu(ctx, &self.nodes, tlas_nodes, &boxes, &ids, world, opts)?;
-        let blas_stack = self.stats.max_stack - self.stats.tlas_stack;
+        let blas_stack = self.stats.max_stack.saturating_sub(self.stats.tlas_stack);
         if built.stack + blas_stack > BVH_STACK_SIZE {
             return Err(BvhError::TooDeep {
                 entries: built.stack + blas_stack,
