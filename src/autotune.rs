@@ -3,8 +3,10 @@
 //! [`MEASURE_SIZE`]², the default recursion depth, as `render` and `compare` run it): the
 //! ray-traced frame on `hw` and on `bvh`, frames of the two alternating so that a device whose
 //! speed drifts (a CPU device on a shared machine, a GPU changing clocks) slows both alike, and
-//! the hybrid path's visibility pass on the graphics pipeline and on the compute rasterizer.
-//! Each configuration keeps the median of its timed frames. The numbers
+//! the hybrid path's visibility pass on the graphics pipeline and on the compute rasterizer
+//! (each configuration keeps the median of its timed frames); and the compute BVH's build on
+//! the host and on the GPU over a fixed procedural mesh ([`BUILD_MESH_STACKS`]² sphere, wall
+//! time of each whole build). The numbers
 //! are cached as JSON in the user's cache directory (`$XDG_CACHE_HOME/rqr/autotune.json`),
 //! keyed by device UUID and driver version, and every later run decides from them.
 //!
@@ -18,14 +20,19 @@ use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
 
+use crate::accel::bvh::{BvhBuild, BvhBuildChoice};
 use crate::accel::Backend;
 use crate::render::raster_compute::RasterMode;
 use crate::vk::{Context, DeviceInfo};
 
 /// Format of the cache file; a file of another format is ignored and rewritten. Format 2: the
-/// frames are measured at the default depth (format 1 measured depth 1, where `hw` and `bvh`
-/// are close on lavapipe and a noisy minimum picked the slower one for `compare`).
+/// frames are measured at the default depth, alternating, median (format 1 measured depth 1,
+/// where `hw` and `bvh` are close on lavapipe and a noisy minimum picked the slower one for
+/// `compare`), and the BVH build times are added.
 pub const CACHE_FORMAT: u32 = 2;
+/// Stacks (and slices) of the sphere whose BVH builds are timed (2 · 128 · 127 = 32 512
+/// triangles).
+pub const BUILD_MESH_STACKS: u32 = 128;
 /// Image side of the measured frames.
 pub const MEASURE_SIZE: u32 = 256;
 /// Timed frames per measured configuration (after one untimed warm-up frame); the median is kept.
@@ -48,6 +55,10 @@ pub struct Decision {
     pub raster: RasterMode,
     /// Why.
     pub raster_reason: String,
+    /// Where the compute BVH is built.
+    pub bvh_build: BvhBuild,
+    /// Why.
+    pub bvh_build_reason: String,
     /// The numbers behind the decision (`None`: the feature rule decided).
     pub measured: Option<Measurement>,
 }
@@ -74,17 +85,20 @@ pub fn rule(device: &DeviceInfo, why: &str) -> Decision {
             ),
         )
     };
+    let (bvh_build, build_reason) = BvhBuildChoice::Auto.resolve(device);
     Decision {
         backend,
         backend_reason: format!("auto (feature rule, {why}): {features}"),
         raster: RasterMode::Graphics,
         raster_reason: format!("auto (feature rule, {why}): graphics pipeline"),
+        bvh_build,
+        bvh_build_reason: format!("{build_reason} (device-type rule, {why})"),
         measured: None,
     }
 }
 
-/// Decides from measured numbers: the faster ray backend (ties to `hw`) and the faster
-/// visibility pass (ties to graphics).
+/// Decides from measured numbers: the faster ray backend (ties to `hw`), the faster
+/// visibility pass (ties to graphics) and the faster BVH build (ties to the host build).
 pub fn decide(m: &Measurement, device: &DeviceInfo) -> Decision {
     let hw_ok = device.ray_query && device.acceleration_structure;
     let size = format!(
@@ -119,9 +133,20 @@ pub fn decide(m: &Measurement, device: &DeviceInfo) -> Decision {
     } else {
         RasterMode::Graphics
     };
+    let bvh_build = if m.bvh_gpu_build_ms < m.bvh_host_build_ms {
+        BvhBuild::Gpu
+    } else {
+        BvhBuild::Host
+    };
+    let triangles = 2 * BUILD_MESH_STACKS * (BUILD_MESH_STACKS - 1);
     Decision {
         backend,
         backend_reason,
+        bvh_build,
+        bvh_build_reason: format!(
+            "auto (measured): BVH build {:.1} ms on the host vs {:.1} ms on the GPU ({triangles}-triangle sphere)",
+            m.bvh_host_build_ms, m.bvh_gpu_build_ms
+        ),
         raster,
         raster_reason: format!(
             "auto (measured): visibility pass {:.3} ms graphics vs {:.3} ms compute ({size})",
@@ -377,12 +402,36 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
     };
     let (graphics, compute) = (hybrid(RasterMode::Graphics), hybrid(RasterMode::Compute));
     let visibility = alternate(&[&graphics, &compute], &|n| n == "gbuffer")?;
+    let (bvh_host_build_ms, bvh_gpu_build_ms) = measure_builds(ctx)?;
     let m = Measurement {
         rt_hw_ms,
         rt_bvh_ms,
         visibility_graphics_ms: visibility[0],
         visibility_compute_ms: visibility[1],
+        bvh_host_build_ms,
+        bvh_gpu_build_ms,
     };
     log::info!("autotune measured {m:?}");
     Ok(m)
+}
+
+/// Wall milliseconds of the whole host and GPU builds of the fixed sphere's BVH (minimum of
+/// [`MEASURE_FRAMES`] builds each, after one warm-up build that also compiles the pipelines).
+fn measure_builds(ctx: &Context) -> crate::Result<(f64, f64)> {
+    use crate::accel::bvh::{testing, BvhBuildOptions, GpuBvh};
+    let sphere = testing::uv_sphere(BUILD_MESH_STACKS, BUILD_MESH_STACKS, 1.0);
+    let scene = testing::scene_of(vec![sphere], Vec::new());
+    let opts = BvhBuildOptions::default();
+    let mut best = [f64::INFINITY; 2];
+    for (slot, build) in [BvhBuild::Host, BvhBuild::Gpu].into_iter().enumerate() {
+        for i in 0..=MEASURE_FRAMES {
+            let start = std::time::Instant::now();
+            let bvh = GpuBvh::build_with(ctx, &scene, &opts, build)?;
+            drop(bvh);
+            if i > 0 {
+                best[slot] = best[slot].min(start.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+    }
+    Ok((best[0], best[1]))
 }

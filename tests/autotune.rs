@@ -5,6 +5,7 @@ mod common;
 use std::path::PathBuf;
 use std::time::Duration;
 
+use rqr::accel::bvh::BvhBuild;
 use rqr::accel::{Backend, BackendChoice};
 use rqr::autotune::{self, CacheError, Measurement};
 use rqr::render::raster_compute::RasterMode;
@@ -31,6 +32,8 @@ fn bvh_and_compute_win() -> Measurement {
         rt_bvh_ms: 10.0,
         visibility_graphics_ms: 4.0,
         visibility_compute_ms: 3.0,
+        bvh_host_build_ms: 40.0,
+        bvh_gpu_build_ms: 120.0,
     }
 }
 
@@ -52,18 +55,33 @@ fn decisions_follow_the_measured_numbers() {
         rt_bvh_ms: 10.0,
         visibility_graphics_ms: 1.0,
         visibility_compute_ms: 3.0,
+        bvh_host_build_ms: 40.0,
+        bvh_gpu_build_ms: 2.0,
     };
     let d = autotune::decide(&m, &device);
     assert_eq!((d.backend, d.raster), (Backend::Hw, RasterMode::Graphics));
-    // Ties go to hw and graphics (today's choices).
+    // The BVH build: the GPU only where it measured faster.
+    assert_eq!(d.bvh_build, BvhBuild::Gpu, "{}", d.bvh_build_reason);
+    assert!(
+        d.bvh_build_reason
+            .contains("40.0 ms on the host vs 2.0 ms on the GPU"),
+        "{}",
+        d.bvh_build_reason
+    );
+    let slow_gpu = autotune::decide(&bvh_and_compute_win(), &device);
+    assert_eq!(slow_gpu.bvh_build, BvhBuild::Host);
+    // Ties go to hw, graphics and the host build (today's choices).
     let tie = Measurement {
         rt_hw_ms: Some(1.0),
         rt_bvh_ms: 1.0,
         visibility_graphics_ms: 2.0,
         visibility_compute_ms: 2.0,
+        bvh_host_build_ms: 7.0,
+        bvh_gpu_build_ms: 7.0,
     };
     let d = autotune::decide(&tie, &device);
     assert_eq!((d.backend, d.raster), (Backend::Hw, RasterMode::Graphics));
+    assert_eq!(d.bvh_build, BvhBuild::Host);
     // A device without ray queries never gets hw, whatever a cache says.
     let mut no_rq = device.clone();
     no_rq.ray_query = false;
@@ -72,6 +90,8 @@ fn decisions_follow_the_measured_numbers() {
     let r = autotune::rule(&device, "test");
     assert_eq!((r.backend, r.raster), (Backend::Hw, RasterMode::Graphics));
     assert!(r.measured.is_none());
+    // Without a measurement lavapipe (a CPU device) keeps the host build.
+    assert_eq!(r.bvh_build, BvhBuild::Host, "{}", r.bvh_build_reason);
 }
 
 #[test]

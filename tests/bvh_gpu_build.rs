@@ -59,23 +59,17 @@ fn check_structure(name: &str, ctx: &Context, scene: &Scene, bvh: &GpuBvh) {
     assert_eq!(data.triangles.len(), usable, "{name}: triangle count");
 }
 
-/// Traces `rays` through the host-built and the GPU-built BVH and requires the same closest
-/// hit: same instance and primitive (or, at a shared edge, another triangle at the same t),
-/// t within 1e-5 relative, the same trace_any answer. Ties (another triangle at the same t,
-/// at a shared edge) must stay rare. Returns (hits, GPU SAH / host SAH).
-fn compare_builds(ctx: &Context, name: &str, scene: &Scene, rays: &[Ray]) -> (usize, f64) {
-    let host = build(ctx, scene, BvhBuild::Host);
-    let gpu = build(ctx, scene, BvhBuild::Gpu);
-    check_structure(name, ctx, scene, &gpu);
-    let want = trace(ctx, scene, &host, rays);
-    let got = trace(ctx, scene, &gpu, rays);
+/// Requires the same closest hit for every ray: both hit or both miss, t within 1e-5
+/// relative, the same trace_any answer, the same instance and primitive except for rare ties
+/// (another triangle at the same t, at a shared edge). Returns (hits, ties).
+fn assert_same_hits(name: &str, rays: &[Ray], want: &[TestHit], got: &[TestHit]) -> (usize, usize) {
     let mut hits = 0;
     let mut ties = 0;
-    for (k, (w, g)) in want.iter().zip(&got).enumerate() {
+    for (k, (w, g)) in want.iter().zip(got).enumerate() {
         assert_eq!(
             w.instance >= 0,
             g.instance >= 0,
-            "{name}: ray {k} {:?}: host {w:?}, gpu {g:?}",
+            "{name}: ray {k} {:?}: want {w:?}, got {g:?}",
             rays[k]
         );
         assert_eq!(w.any_hit, g.any_hit, "{name}: ray {k}: trace_any differs");
@@ -85,7 +79,7 @@ fn compare_builds(ctx: &Context, name: &str, scene: &Scene, rays: &[Ray]) -> (us
         hits += 1;
         assert!(
             (w.t - g.t).abs() <= 1e-5 * w.t.abs().max(1e-6),
-            "{name}: ray {k}: t {} (host) vs {} (gpu)",
+            "{name}: ray {k}: t {} (want) vs {} (got)",
             w.t,
             g.t
         );
@@ -98,6 +92,20 @@ fn compare_builds(ctx: &Context, name: &str, scene: &Scene, rays: &[Ray]) -> (us
         ties <= rays.len() / 1000 + 2,
         "{name}: {ties} of {hits} hits on another triangle at the same t"
     );
+    (hits, ties)
+}
+
+/// Traces `rays` through the host-built and the GPU-built BVH and requires the same closest
+/// hit: same instance and primitive (or, at a shared edge, another triangle at the same t),
+/// t within 1e-5 relative, the same trace_any answer. Ties (another triangle at the same t,
+/// at a shared edge) must stay rare. Returns (hits, GPU SAH / host SAH).
+fn compare_builds(ctx: &Context, name: &str, scene: &Scene, rays: &[Ray]) -> (usize, f64) {
+    let host = build(ctx, scene, BvhBuild::Host);
+    let gpu = build(ctx, scene, BvhBuild::Gpu);
+    check_structure(name, ctx, scene, &gpu);
+    let want = trace(ctx, scene, &host, rays);
+    let got = trace(ctx, scene, &gpu, rays);
+    let (hits, ties) = assert_same_hits(name, rays, &want, &got);
     let host_sah = sah::blas_cost(&host.read_back(ctx).unwrap());
     let gpu_sah = sah::blas_cost(&gpu.read_back(ctx).unwrap());
     eprintln!(
@@ -412,5 +420,163 @@ fn renderer_with_gpu_built_bvh_matches_host_built() {
         "{ties} pixels hit another triangle"
     );
     assert_eq!(a.rays.shadow, b.rays.shadow, "shadow rays");
+    common::assert_validation_clean(&ctx);
+}
+
+/// `scene` animated to `time`: every vertex moved along a smooth field (coincident vertices
+/// stay coincident, so the usable triangles stay the same) and every instance moved, turned
+/// and scaled.
+fn animate(scene: &Scene, time: f32) -> Scene {
+    let mut geometries = scene.geometries.clone();
+    for g in &mut geometries {
+        for p in &mut g.positions {
+            *p += 0.15
+                * Vec3::new(
+                    (3.0 * p.y + time).sin(),
+                    (2.0 * p.z + 2.0 * time).sin(),
+                    (4.0 * p.x - time).cos(),
+                );
+        }
+    }
+    let mut instances = scene.instances.clone();
+    for (i, inst) in instances.iter_mut().enumerate() {
+        let turn = Mat4::from_rotation_y(0.25 * time + 0.1 * i as f32);
+        let shift = Mat4::from_translation(Vec3::new(0.3, -0.2, 0.1 * i as f32) * time);
+        inst.transform =
+            shift * inst.transform * turn * Mat4::from_scale(Vec3::splat(1.0 + 0.2 * time));
+    }
+    finish_scene(geometries, instances, scene.materials.clone())
+}
+
+/// Refit after moving vertices and instances returns the same closest hits as a fresh build
+/// of the moved scene, for host- and GPU-built trees, over two successive frames; the report
+/// chains its SAH costs from frame to frame.
+#[test]
+fn refit_after_moving_vertices_matches_a_fresh_build() {
+    let ctx = common::gpu();
+    let mut rng = Rng::new(21);
+    for (name, scene) in [
+        ("instanced grid", instanced_grid(&mut rng, 4, 3)),
+        ("bumpy sphere", bumpy_sphere(48, 48)),
+    ] {
+        for how in [BvhBuild::Host, BvhBuild::Gpu] {
+            let mut bvh = build(&ctx, &scene, how);
+            let mut last_after = None;
+            for frame in 1..=2u64 {
+                let moved = animate(&scene, 0.5 * frame as f32);
+                let report = bvh
+                    .refit(&ctx, &moved)
+                    .unwrap_or_else(|e| panic!("{name} ({how:?}), frame {frame}: {e}"));
+                let label = format!("{name} ({how:?} build, refit frame {frame})");
+                check_structure(&label, &ctx, &moved, &bvh);
+                let fresh = build(&ctx, &moved, BvhBuild::Host);
+                let rays = scene_rays(&moved, frame, 48, 4000);
+                let want = trace(&ctx, &moved, &fresh, &rays);
+                let got = trace(&ctx, &moved, &bvh, &rays);
+                let (hits, ties) = assert_same_hits(&label, &rays, &want, &got);
+                assert!(hits > rays.len() / 10, "{label}: only {hits} hits");
+                let fresh_sah = sah::blas_cost(&fresh.read_back(&ctx).unwrap());
+                eprintln!(
+                    "{label}: {hits} hits, {ties} ties; {report:?}; fresh host build BLAS SAH {fresh_sah:.3}"
+                );
+                for cost in [report.blas_sah_after, report.tlas_sah_after] {
+                    assert!(cost.is_finite() && cost >= 1.0, "{label}: {report:?}");
+                }
+                assert_ne!(report.blas_sah_after, report.blas_sah_before, "{label}");
+                if let Some((blas, tlas)) = last_after {
+                    assert_eq!(
+                        (report.blas_sah_before, report.tlas_sah_before),
+                        (blas, tlas)
+                    );
+                }
+                last_after = Some((report.blas_sah_after, report.tlas_sah_after));
+            }
+        }
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+/// A refit of a scene whose topology changed, or whose new vertices or transforms cannot be
+/// bounded, is refused with an error naming the geometry, vertex or instance.
+#[test]
+fn refit_refuses_changed_topology_and_bad_values() {
+    let ctx = common::gpu();
+    let scene = bumpy_sphere(8, 8);
+    let mut bvh = build(&ctx, &scene, BvhBuild::Gpu);
+    let refit_error = |bvh: &mut GpuBvh, scene: &Scene| match bvh.refit(&ctx, scene) {
+        Err(e @ BvhError::Refit(_)) => e.to_string(),
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("refit accepted a bad scene"),
+    };
+    let mut more = scene.clone();
+    more.geometries[0].positions.push(Vec3::ZERO);
+    let msg = refit_error(&mut bvh, &more);
+    assert!(
+        msg.contains("geometry 0") && msg.contains("rebuild"),
+        "{msg}"
+    );
+    let mut nan = scene.clone();
+    nan.geometries[0].positions[5].y = f32::NAN;
+    let msg = refit_error(&mut bvh, &nan);
+    assert!(msg.contains("geometry 0, vertex 5"), "{msg}");
+    let mut flat = scene.clone();
+    flat.instances[0].transform = Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0));
+    let msg = refit_error(&mut bvh, &flat);
+    assert!(msg.contains("instance 0"), "{msg}");
+    // The refused refits left the tree usable: refitting the unchanged scene still hits.
+    bvh.refit(&ctx, &scene).unwrap();
+    let rays = scene_rays(&scene, 9, 16, 200);
+    let want = trace(&ctx, &scene, &build(&ctx, &scene, BvhBuild::Host), &rays);
+    let got = trace(&ctx, &scene, &bvh, &rays);
+    assert_same_hits("refit after refusals", &rays, &want, &got);
+    common::assert_validation_clean(&ctx);
+}
+
+/// The top level rebuilt on the GPU after the instances moved returns the same closest hits
+/// as a fresh host build of the moved scene; a refit after the rebuild (which plans again)
+/// still matches.
+#[test]
+fn gpu_tlas_rebuild_after_moving_instances_matches_host_build() {
+    let ctx = common::gpu();
+    let mut rng = Rng::new(31);
+    for (name, scene) in [
+        (
+            "SimpleInstancing",
+            asset("SimpleInstancing/SimpleInstancing.glb"),
+        ),
+        ("instanced grid", instanced_grid(&mut rng, 5, 4)),
+        ("built-in", rqr::scene::load_default().unwrap()),
+    ] {
+        let mut bvh = build(&ctx, &scene, BvhBuild::Gpu);
+        // Move, turn and scale every instance far from where the tree was built, and shuffle
+        // their places so that a refit alone would suit the new layout badly.
+        let mut moved = scene.clone();
+        let count = moved.instances.len();
+        for (i, inst) in moved.instances.iter_mut().enumerate() {
+            let other = scene.instances[(i * 7 + 3) % count].transform;
+            let (_, _, place) = other.to_scale_rotation_translation();
+            inst.transform = Mat4::from_translation(place * 1.5 + Vec3::Y)
+                * Mat4::from_rotation_x(0.4 + i as f32)
+                * inst.transform;
+        }
+        let moved = finish_scene(moved.geometries, moved.instances, moved.materials);
+        bvh.rebuild_tlas(&ctx, &moved, &BvhBuildOptions::default())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let fresh = build(&ctx, &moved, BvhBuild::Host);
+        let rays = scene_rays(&moved, 5, 48, 4000);
+        let want = trace(&ctx, &moved, &fresh, &rays);
+        let got = trace(&ctx, &moved, &bvh, &rays);
+        let (hits, _) =
+            assert_same_hits(&format!("{name} (rebuilt top level)"), &rays, &want, &got);
+        // The shuffled instances leave much of the old camera's view empty.
+        assert!(hits > 200, "{name}: only {hits} hits");
+        eprintln!("{name}: top level rebuilt, {:?}", bvh.stats());
+        let again = animate(&moved, 0.5);
+        let report = bvh.refit(&ctx, &again).unwrap();
+        let want = trace(&ctx, &again, &build(&ctx, &again, BvhBuild::Host), &rays);
+        let got = trace(&ctx, &again, &bvh, &rays);
+        assert_same_hits(&format!("{name} (refit after rebuild)"), &rays, &want, &got);
+        eprintln!("{name}: refit after rebuild {report:?}");
+    }
     common::assert_validation_clean(&ctx);
 }

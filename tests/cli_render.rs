@@ -235,6 +235,7 @@ fn bench_reports_build_and_ray_throughput_per_backend() {
         "bench",
         "--all-backends",
         "--all-bvh-builds",
+        "--refit",
         "--width",
         "32",
         "--height",
@@ -268,5 +269,12 @@ fn bench_reports_build_and_ray_throughput_per_backend() {
     }
     let gpu = &bvh[1]["build"];
     assert!(gpu["gpu_phases"]["sort_ms"].as_f64().unwrap() > 0.0);
+    // --refit: refit timings for both builders, top-level rebuilds for the GPU build.
+    for b in &bvh {
+        let refit = &b["build"]["refit"];
+        assert!(refit["refit_gpu_ms"].as_f64().unwrap() > 0.0, "{refit}");
+        assert!(refit["levels"].as_u64().unwrap() >= 2, "{refit}");
+    }
+    assert!(gpu["refit"]["tlas_rebuild_gpu_ms"].as_f64().unwrap() > 0.0);
     assert!(gpu["peak_scratch_bytes"].as_u64().unwrap() > 0);
 }

@@ -10,6 +10,8 @@
 //!
 //! With `--bvh-build gpu` the bottom levels are built in compute shaders instead
 //! ([`gpu_build`]: Morton codes, radix sort, PLOC, collapse into the same node layout).
+//! [`GpuBvh::refit`] recomputes the boxes of both levels on the GPU after vertices or instance
+//! transforms moved ([`refit`]).
 //!
 //! [`BvhData`] is the host form (with a CPU mirror of the traversal in [`cpu`]); [`GpuBvh`]
 //! uploads it and owns the `BvhRefs` uniform bound at set 0, binding 2.
@@ -18,6 +20,7 @@ mod builder;
 pub mod cpu;
 pub mod gpu_build;
 pub mod layout;
+pub mod refit;
 pub mod sah;
 pub mod testing;
 #[cfg(test)]
@@ -69,6 +72,10 @@ pub enum BvhError {
         /// [`gpu_build::GPU_BUILD_MAX_TRIANGLES`].
         limit: usize,
     },
+    /// A refit was asked for a scene whose topology differs from the built one, or whose new
+    /// positions or transforms cannot be bounded.
+    #[error("cannot refit the BVH: {0}; rebuild it instead")]
+    Refit(String),
     /// A Vulkan failure while uploading.
     #[error(transparent)]
     Vk(#[from] VkError),
@@ -146,8 +153,10 @@ impl BvhBuild {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhBuildChoice {
-    /// The GPU build on discrete and integrated GPUs, the host build elsewhere (CPU devices
-    /// such as lavapipe, where the GPU build measured slower: see BENCHMARKS.md).
+    /// Decided by measurement where the CLI resolves it ([`crate::autotune`]: the faster of
+    /// both builds on a fixed mesh, ties to the host). Without a measurement
+    /// ([`BvhBuildChoice::resolve`], `RQR_NO_AUTOTUNE=1`): the GPU build on discrete and
+    /// integrated GPUs, the host build elsewhere (CPU devices such as lavapipe).
     #[default]
     Auto,
     /// Host build (`obvhs`).
@@ -195,7 +204,8 @@ pub struct BvhStats {
     pub bytes: u64,
     /// Nodes of both levels.
     pub node_count: usize,
-    /// Nodes of the top level.
+    /// Nodes of the top level (with the GPU build: the slots reserved for it, room for a
+    /// top level over every instance; unused ones are never linked).
     pub tlas_nodes: usize,
     /// Number of bottom levels (unique geometries with triangles in use).
     pub blas_count: usize,
@@ -211,6 +221,8 @@ pub struct BvhStats {
     pub max_depth: u32,
     /// Most traversal stack entries a ray can need (checked against `BVH_STACK_SIZE`).
     pub max_stack: u32,
+    /// Of which the top level's.
+    pub tlas_stack: u32,
     /// Leaf size limit used.
     pub max_leaf_size: u32,
     /// Triangles left out (non-finite or repeated vertices: no ray can hit them).
@@ -281,6 +293,10 @@ pub struct GpuBvh {
     refs: Buffer,
     refs_data: GpuBvhRefs,
     stats: BvhStats,
+    /// Made by the first [`Self::refit`].
+    refit_plan: Option<Box<refit::RefitPlan>>,
+    /// Per geometry of the scene built from: (positions, indices), which a refit must keep.
+    built_shape: Option<Vec<(usize, usize)>>,
 }
 
 impl GpuBvh {
@@ -293,8 +309,20 @@ impl GpuBvh {
     ) -> Result<Self, BvhError> {
         match build {
             BvhBuild::Host => Self::build(ctx, scene, opts),
-            BvhBuild::Gpu => gpu_build::build(ctx, scene, opts),
+            BvhBuild::Gpu => Ok(gpu_build::build(ctx, scene, opts)?.with_shape_of(scene)),
         }
+    }
+
+    /// Records the shape of the scene built from, which [`Self::refit`] checks.
+    fn with_shape_of(mut self, scene: &Scene) -> Self {
+        self.built_shape = Some(
+            scene
+                .geometries
+                .iter()
+                .map(|g| (g.positions.len(), g.indices.len()))
+                .collect(),
+        );
+        self
     }
 
     /// Builds the BVH of `scene` on the host and uploads it. Checks an upper-bound size
@@ -306,7 +334,7 @@ impl GpuBvh {
             "estimate",
         )?;
         let data = BvhData::build(scene, opts)?;
-        Self::upload(ctx, &data)
+        Ok(Self::upload(ctx, &data)?.with_shape_of(scene))
     }
 
     /// Uploads a host-built BVH.
@@ -372,6 +400,8 @@ impl GpuBvh {
             refs,
             refs_data,
             stats,
+            refit_plan: None,
+            built_shape: None,
         })
     }
 

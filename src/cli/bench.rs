@@ -39,9 +39,70 @@ pub struct BenchArgs {
     /// compare build time, SAH cost and trace speed.
     #[arg(long)]
     all_bvh_builds: bool,
+    /// Also time `GpuBvh::refit` of the compute BVH (after tracing; the unchanged scene, so
+    /// the whole refit runs) and, for the GPU build, `GpuBvh::rebuild_tlas`: `--repeat` times
+    /// each after one untimed call, medians.
+    #[arg(long)]
+    refit: bool,
     /// Print the results as JSON.
     #[arg(long)]
     json: bool,
+}
+
+fn median_ms(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Times `repeat` refits (GPU and wall ms, the wall time including the SAH read-back) and,
+/// for a GPU-built BVH, `repeat` top-level rebuilds, each after one untimed call.
+fn time_refit(
+    ctx: &rqr::vk::Context,
+    scene: &rqr::scene::Scene,
+    bvh: &mut GpuBvh,
+    repeat: u32,
+) -> Result<serde_json::Value> {
+    let mut gpu = Vec::new();
+    let mut wall = Vec::new();
+    let mut last = None;
+    for i in 0..=repeat {
+        let start = Instant::now();
+        let report = bvh.refit(ctx, scene)?;
+        if i > 0 {
+            wall.push(start.elapsed().as_secs_f64() * 1e3);
+            gpu.push(report.gpu_ms.unwrap_or(f64::NAN));
+        }
+        last = Some(report);
+    }
+    let report = last.context("no refit")?;
+    let mut out = json!({
+        "refit_gpu_ms": median_ms(gpu),
+        "refit_wall_ms": median_ms(wall),
+        "levels": report.levels,
+        "blas_sah_after": report.blas_sah_after,
+        "tlas_sah_after": report.tlas_sah_after,
+    });
+    if bvh.stats().builder == "gpu" {
+        let opts = BvhBuildOptions::default();
+        let mut gpu = Vec::new();
+        let mut wall = Vec::new();
+        for i in 0..=repeat {
+            let start = Instant::now();
+            bvh.rebuild_tlas(ctx, scene, &opts)?;
+            if i > 0 {
+                wall.push(start.elapsed().as_secs_f64() * 1e3);
+                gpu.push(
+                    bvh.stats()
+                        .gpu_phases
+                        .as_ref()
+                        .map_or(f64::NAN, |p| p.tlas_ms),
+                );
+            }
+        }
+        out["tlas_rebuild_gpu_ms"] = json!(median_ms(gpu));
+        out["tlas_rebuild_wall_ms"] = json!(median_ms(wall));
+    }
+    Ok(out)
 }
 
 fn median(mut batches: Vec<RayBatch>) -> RayBatch {
@@ -100,13 +161,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     for (backend, bvh_build) in &runs {
         bar.set_message(format!("{} backend", backend.as_str()));
         let start = Instant::now();
-        let renderer = Renderer::with_bvh_build(&ctx, &scene, *backend, *bvh_build)?;
+        let mut renderer = Renderer::with_bvh_build(&ctx, &scene, *backend, *bvh_build)?;
         let setup_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut build = renderer.backend.stats_json();
         if let RayBackend::Bvh(bvh) = &renderer.backend {
             // SAH cost of the bottom levels as built (read back: not part of the build time).
             let data = bvh.read_back(&ctx)?;
             build["sah_cost"] = json!(sah::blas_cost(&data));
+            build["tlas_sah_cost"] = json!(sah::subtree_cost(&data.nodes, 0));
         }
         let setup = CameraSetup::new(&camera, args.width, args.height, renderer.scene_scale());
         let frame = GpuFrame::new(&settings, &setup, renderer.scene_scale());
@@ -125,6 +187,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             }
         }
         let (p, s) = (median(primary), median(incoherent));
+        if args.refit {
+            if let RayBackend::Bvh(bvh) = &mut renderer.backend {
+                build["refit"] = time_refit(&ctx, &scene, bvh, args.repeat)?;
+            }
+        }
         results.push(json!({
             "backend": backend.as_str(),
             "build": build,

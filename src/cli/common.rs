@@ -90,9 +90,14 @@ impl DeviceArgs {
         })?)
     }
 
-    /// Resolves `--bvh-build` on the opened device.
+    /// Resolves `--bvh-build` on the opened device: `auto` by measurement.
     pub fn bvh_build(&self, ctx: &Context) -> BvhBuild {
-        let (build, reason) = self.bvh_build.resolve(ctx.info());
+        let (build, reason) = if self.bvh_build == BvhBuildChoice::Auto {
+            let d = rqr::autotune::decision(ctx);
+            (d.bvh_build, d.bvh_build_reason)
+        } else {
+            self.bvh_build.resolve(ctx.info())
+        };
         log::info!("BVH build: {} ({reason})", build.as_str());
         build
     }

@@ -31,6 +31,10 @@ pub struct AutotuneMeasurement {
     pub visibility_graphics_ms: f64,
     /// Hybrid visibility pass on the compute rasterizer.
     pub visibility_compute_ms: f64,
+    /// Whole host build of the fixed mesh's BVH (wall milliseconds, upload included).
+    pub bvh_host_build_ms: f64,
+    /// Whole GPU build of the same BVH (wall milliseconds).
+    pub bvh_gpu_build_ms: f64,
 }
 
 /// Acceleration-structure limits (present when the extension is supported).

@@ -285,17 +285,16 @@ pub(super) fn scene_input(scene: &Scene) -> Result<SceneInput, BvhError> {
     Ok(input)
 }
 
-/// Builds and flattens the top level over the instances whose geometry has a bottom level
-/// (`blas_bounds[g]`: object bounds of geometry `g`'s bottom level). Returns the nodes (root
-/// first) and the most stack entries a traversal of it can hold; fills the top-level stats.
-pub(super) fn build_tlas(
+/// World boxes of the instances whose geometry has a bottom level (`blas_bounds[g]`: object
+/// bounds of geometry `g`): each the box of the transformed corners of its object box. Returns
+/// the boxes, their instance indices and their union; counts instances whose box is not finite
+/// in `stats.skipped_instances`.
+pub(super) fn instance_boxes(
     scene: &Scene,
     input: &SceneInput,
     blas_bounds: &[Option<ObAabb>],
-    opts: &BvhBuildOptions,
     stats: &mut BvhStats,
-) -> Result<(Vec<BvhNode>, u32), BvhError> {
-    let t_tlas = Instant::now();
+) -> (Vec<ObAabb>, Vec<u32>, ObAabb) {
     let mut inst_aabbs = Vec::new();
     let mut inst_ids = Vec::new();
     let mut world = ObAabb::empty();
@@ -320,6 +319,21 @@ pub(super) fn build_tlas(
         inst_aabbs.push(wb);
         inst_ids.push(i as u32);
     }
+    (inst_aabbs, inst_ids, world)
+}
+
+/// Builds and flattens the top level over the instances whose geometry has a bottom level
+/// (`blas_bounds[g]`: object bounds of geometry `g`'s bottom level). Returns the nodes (root
+/// first) and the most stack entries a traversal of it can hold; fills the top-level stats.
+pub(super) fn build_tlas(
+    scene: &Scene,
+    input: &SceneInput,
+    blas_bounds: &[Option<ObAabb>],
+    opts: &BvhBuildOptions,
+    stats: &mut BvhStats,
+) -> Result<(Vec<BvhNode>, u32), BvhError> {
+    let t_tlas = Instant::now();
+    let (inst_aabbs, inst_ids, world) = instance_boxes(scene, input, blas_bounds, stats);
     let mut nodes: Vec<BvhNode> = Vec::new();
     let mut tlas_stack = 0;
     if inst_aabbs.is_empty() {
@@ -381,6 +395,7 @@ pub(super) fn finish_stats(
     max_blas_stack: u32,
 ) -> Result<(), BvhError> {
     stats.max_depth = stats.tlas_depth + stats.max_blas_depth;
+    stats.tlas_stack = tlas_stack;
     stats.max_stack = tlas_stack + max_blas_stack;
     if stats.max_stack > BVH_STACK_SIZE {
         return Err(BvhError::TooDeep {

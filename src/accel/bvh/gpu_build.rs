@@ -15,21 +15,26 @@
 //!    opens its largest-area inner children until it has four (as `builder::flatten` does),
 //!    copies leaf triangles into place and quantizes the child boxes like `BvhNode::new`.
 //!
-//! The top level is small (one leaf per instance) and stays on the host; the nodes of every
-//! bottom level are finally copied behind it with their links shifted (`relocate`).
+//! The nodes of every bottom level are copied behind room reserved for the top level with
+//! their links shifted (`relocate`); the top level is then built by the same passes over the
+//! instances' world boxes ([`tlas`]), and rebuilt in place by [`GpuBvh::rebuild_tlas`].
 
-use std::sync::Arc;
 use std::time::Instant;
 
-use bytemuck::{Pod, Zeroable};
 use obvhs::aabb::Aabb as ObAabb;
+
+mod passes;
+pub mod tlas;
+
+pub use passes::scratch_bytes;
+use passes::{sort_blocks, GpuBuildRefs, Pipelines, Push, RelocatePush, ScanPush, Scratch};
 
 use super::builder::{self, gather_geometry, max_abs, GeometryTris};
 use super::layout::{BvhNode, BvhTriangle, LINK_FIRST_MASK, MAX_LEAF_PRIMITIVES};
 use super::{BvhBuildOptions, BvhData, BvhError, BvhStats, GpuBvh, PlocSearch};
 use crate::scene::Scene;
 use crate::vk::{
-    memory_barrier, vk, Buffer, ComputePipeline, Context, GpuProfiler, MemoryLocation, VkError,
+    memory_barrier, vk, Buffer, ComputePipeline, Context, GpuProfiler, MemoryLocation,
 };
 
 /// Most triangles of one geometry the GPU build takes: its scans cover 1024 × 16384 elements.
@@ -58,219 +63,6 @@ const STATE_ARGS_BLOCKS: u64 = 20;
 const STATE_ARGS_SINGLE: u64 = 24;
 const STATE_ARGS_COLLAPSE: u64 = 28;
 
-/// `BuildRefs` of build_common.glsl (scalar layout).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct GpuBuildRefs {
-    tris_in: u64,
-    tris_out: u64,
-    boxes: u64,
-    children: u64,
-    info: u64,
-    cost: u64,
-    keys0: u64,
-    keys1: u64,
-    vals0: u64,
-    vals1: u64,
-    flags: u64,
-    sums: u64,
-    state: u64,
-    nodes: u64,
-    queue0: u64,
-    queue1: u64,
-    n: u32,
-    tri_base: u32,
-    max_leaf: u32,
-    traversal_cost: f32,
-    centroid_min: [f32; 3],
-    pad_scale: f32,
-    centroid_inv_extent: [f32; 3],
-    radius: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Push {
-    refs: u64,
-    a: u32,
-    b: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct ScanPush {
-    data: u64,
-    sums: u64,
-    count: u64,
-    total: u64,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct RelocatePush {
-    src: u64,
-    dst: u64,
-    count: u32,
-    offset: u32,
-}
-
-struct Pipelines {
-    morton: Arc<ComputePipeline>,
-    hist: Arc<ComputePipeline>,
-    scatter: Arc<ComputePipeline>,
-    scan_reduce: Arc<ComputePipeline>,
-    scan_top: Arc<ComputePipeline>,
-    scan_down: Arc<ComputePipeline>,
-    nn: Arc<ComputePipeline>,
-    merge: Arc<ComputePipeline>,
-    compact: Arc<ComputePipeline>,
-    ploc_prepare: Arc<ComputePipeline>,
-    collapse_init: Arc<ComputePipeline>,
-    collapse: Arc<ComputePipeline>,
-    collapse_prepare: Arc<ComputePipeline>,
-    relocate: Arc<ComputePipeline>,
-}
-
-impl Pipelines {
-    fn new(ctx: &Context) -> Result<Self, VkError> {
-        use crate::shaders as s;
-        let p = |name: &str, spirv: &[u8], push: usize| {
-            ComputePipeline::cached(ctx, name, spirv, &[], push as u32)
-        };
-        let push = std::mem::size_of::<Push>();
-        let scan = std::mem::size_of::<ScanPush>();
-        Ok(Self {
-            morton: p("bvh build morton", s::BVH_BUILD_MORTON_COMP, push)?,
-            hist: p("bvh build radix hist", s::BVH_BUILD_RADIX_HIST_COMP, push)?,
-            scatter: p(
-                "bvh build radix scatter",
-                s::BVH_BUILD_RADIX_SCATTER_COMP,
-                push,
-            )?,
-            scan_reduce: p("bvh build scan reduce", s::BVH_BUILD_SCAN_REDUCE_COMP, scan)?,
-            scan_top: p("bvh build scan top", s::BVH_BUILD_SCAN_TOP_COMP, scan)?,
-            scan_down: p("bvh build scan down", s::BVH_BUILD_SCAN_DOWN_COMP, scan)?,
-            nn: p("bvh build ploc nn", s::BVH_BUILD_PLOC_NN_COMP, push)?,
-            merge: p("bvh build ploc merge", s::BVH_BUILD_PLOC_MERGE_COMP, push)?,
-            compact: p(
-                "bvh build ploc compact",
-                s::BVH_BUILD_PLOC_COMPACT_COMP,
-                push,
-            )?,
-            ploc_prepare: p(
-                "bvh build ploc prepare",
-                s::BVH_BUILD_PLOC_PREPARE_COMP,
-                push,
-            )?,
-            collapse_init: p(
-                "bvh build collapse init",
-                s::BVH_BUILD_COLLAPSE_INIT_COMP,
-                push,
-            )?,
-            collapse: p("bvh build collapse", s::BVH_BUILD_COLLAPSE_COMP, push)?,
-            collapse_prepare: p(
-                "bvh build collapse prepare",
-                s::BVH_BUILD_COLLAPSE_PREPARE_COMP,
-                push,
-            )?,
-            relocate: p(
-                "bvh build relocate",
-                s::BVH_BUILD_RELOCATE_COMP,
-                std::mem::size_of::<RelocatePush>(),
-            )?,
-        })
-    }
-}
-
-/// Radix-sort blocks (256 keys) of `n` keys.
-fn sort_blocks(n: u64) -> u64 {
-    n.div_ceil(256).max(1)
-}
-
-/// Words of the flags array: PLOC keep flags (n) or radix histograms (16 per block).
-fn flag_words(n: u64) -> u64 {
-    n.max(16 * sort_blocks(n))
-}
-
-/// Byte sizes of the scratch arrays for geometries of up to `n` triangles, in the order of
-/// [`Scratch::new`].
-fn scratch_sizes(n: u64) -> [(&'static str, u64); 14] {
-    let n = n.max(1);
-    let binary = 2 * n - 1;
-    [
-        ("input triangles", 40 * n),
-        ("boxes", 24 * binary),
-        ("children", 8 * n),
-        ("info", 4 * binary),
-        ("cost", 4 * binary),
-        ("keys0", 4 * n),
-        ("keys1", 4 * n),
-        ("vals0", 4 * n),
-        ("vals1", 4 * n),
-        ("flags", 4 * flag_words(n)),
-        ("sums", 4 * (flag_words(n).div_ceil(1024) + 1)),
-        // A 4-wide tree has at most one node per binary inner node (n - 1), or one in all.
-        ("wide nodes", std::mem::size_of::<BvhNode>() as u64 * n),
-        // Items of one level are disjoint subtrees of at least two triangles each.
-        ("queue0", 16 * (n / 2 + 1)),
-        ("queue1", 16 * (n / 2 + 1)),
-    ]
-}
-
-/// Peak scratch bytes of a GPU build whose largest geometry has `n` triangles (plus the
-/// state and refs records).
-pub fn scratch_bytes(n: usize) -> u64 {
-    scratch_sizes(n as u64).iter().map(|s| s.1).sum::<u64>()
-        + (STATE_WORDS * 4 + std::mem::size_of::<GpuBuildRefs>()) as u64
-}
-
-/// The scratch arrays, sized for the largest geometry and reused for every one.
-struct Scratch {
-    arrays: Vec<Buffer>,
-    state: Buffer,
-    refs: Buffer,
-}
-
-impl Scratch {
-    fn new(ctx: &Context, n: usize) -> Result<Self, VkError> {
-        let arrays = scratch_sizes(n as u64)
-            .iter()
-            .map(|(name, bytes)| {
-                Buffer::new(
-                    ctx,
-                    &format!("bvh build {name}"),
-                    *bytes,
-                    vk::BufferUsageFlags::empty(),
-                    MemoryLocation::GpuOnly,
-                )
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let state = Buffer::new(
-            ctx,
-            "bvh build state",
-            (STATE_WORDS * 4) as u64,
-            vk::BufferUsageFlags::INDIRECT_BUFFER,
-            MemoryLocation::CpuToGpu,
-        )?;
-        let refs = Buffer::new(
-            ctx,
-            "bvh build refs",
-            std::mem::size_of::<GpuBuildRefs>() as u64,
-            vk::BufferUsageFlags::empty(),
-            MemoryLocation::CpuToGpu,
-        )?;
-        Ok(Self {
-            arrays,
-            state,
-            refs,
-        })
-    }
-
-    fn read_state(&self, ctx: &Context) -> Result<Vec<u32>, VkError> {
-        self.state.read(ctx)
-    }
-}
-
 /// GPU milliseconds per build phase, summed over every bottom level.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct GpuBuildPhases {
@@ -284,6 +76,8 @@ pub struct GpuBuildPhases {
     pub collapse_ms: f64,
     /// Copy of every bottom level behind the top level.
     pub relocate_ms: f64,
+    /// Top level (all its passes).
+    pub tlas_ms: f64,
     /// PLOC iterations of the largest geometry.
     pub ploc_iterations: u32,
 }
@@ -304,7 +98,12 @@ impl GpuBuildPhases {
 
     /// Sum of the phases.
     pub fn total_ms(&self) -> f64 {
-        self.morton_ms + self.sort_ms + self.clustering_ms + self.collapse_ms + self.relocate_ms
+        self.morton_ms
+            + self.sort_ms
+            + self.clustering_ms
+            + self.collapse_ms
+            + self.relocate_ms
+            + self.tlas_ms
     }
 }
 
@@ -336,6 +135,53 @@ fn radius(search: PlocSearch) -> u32 {
 }
 
 impl<'a> Builder<'a> {
+    /// Pipelines and scratch arrays for geometries of up to `max_n` triangles whose leaves go
+    /// to the triangle array at `tris_out`.
+    fn new(
+        ctx: &'a Context,
+        max_n: usize,
+        tris_out: u64,
+        opts: &BvhBuildOptions,
+        max_leaf: u32,
+    ) -> Result<Self, BvhError> {
+        let scratch = Scratch::new(ctx, max_n)?;
+        let addr = |i: usize| scratch.arrays[i].address();
+        let refs = GpuBuildRefs {
+            tris_in: addr(0),
+            tris_out,
+            boxes: addr(1),
+            children: addr(2),
+            info: addr(3),
+            cost: addr(4),
+            keys0: addr(5),
+            keys1: addr(6),
+            vals0: addr(7),
+            vals1: addr(8),
+            flags: addr(9),
+            sums: addr(10),
+            state: scratch.state.address(),
+            nodes: addr(11),
+            queue0: addr(12),
+            queue1: addr(13),
+            max_leaf,
+            traversal_cost: opts.collapse_traversal_cost,
+            radius: radius(opts.search),
+            ..Default::default()
+        };
+        Ok(Self {
+            ctx,
+            p: Pipelines::new(ctx)?,
+            scratch,
+            refs,
+            profiler: if ctx.features().timestamps {
+                Some(GpuProfiler::new(ctx, 8)?)
+            } else {
+                None
+            },
+            phases: GpuBuildPhases::default(),
+        })
+    }
+
     fn push(&self, a: u32, b: u32) -> Push {
         Push {
             refs: self.scratch.refs.address(),
@@ -404,37 +250,18 @@ impl<'a> Builder<'a> {
         };
         let bytes = bytemuck::bytes_of(&push);
         let state = &self.scratch.state;
-        match blocks {
-            Some(b) => self.p.scan_reduce.dispatch(cmd, None, bytes, [b, 1, 1]),
-            None => self.p.scan_reduce.dispatch_indirect_at(
-                cmd,
-                None,
-                bytes,
-                state,
-                STATE_ARGS_BLOCKS * 4,
-            ),
-        }
-        self.barrier(cmd);
-        match blocks {
-            Some(_) => self.p.scan_top.dispatch(cmd, None, bytes, [1, 1, 1]),
-            None => {
-                self.p
-                    .scan_top
-                    .dispatch_indirect_at(cmd, None, bytes, state, STATE_ARGS_SINGLE * 4)
+        // Direct with `blocks` workgroups (one for the top step), or indirect from the state.
+        let dispatch = |pipeline: &ComputePipeline, direct: u32, indirect_word: u64| {
+            match blocks {
+                Some(_) => pipeline.dispatch(cmd, None, bytes, [direct, 1, 1]),
+                None => pipeline.dispatch_indirect_at(cmd, None, bytes, state, indirect_word * 4),
             }
-        }
-        self.barrier(cmd);
-        match blocks {
-            Some(b) => self.p.scan_down.dispatch(cmd, None, bytes, [b, 1, 1]),
-            None => self.p.scan_down.dispatch_indirect_at(
-                cmd,
-                None,
-                bytes,
-                state,
-                STATE_ARGS_BLOCKS * 4,
-            ),
-        }
-        self.barrier(cmd);
+            self.barrier(cmd);
+        };
+        let b = blocks.unwrap_or(0);
+        dispatch(&self.p.scan_reduce, b, STATE_ARGS_BLOCKS);
+        dispatch(&self.p.scan_top, 1, STATE_ARGS_SINGLE);
+        dispatch(&self.p.scan_down, b, STATE_ARGS_BLOCKS);
     }
 
     fn record_ploc_iterations(&self, cmd: vk::CommandBuffer, first: u32, count: u32) {
@@ -681,42 +508,7 @@ pub(super) fn build(
         vk::BufferUsageFlags::empty(),
         MemoryLocation::GpuOnly,
     )?;
-    let mut builder = Builder {
-        ctx,
-        p: Pipelines::new(ctx)?,
-        scratch: Scratch::new(ctx, max_n)?,
-        refs: GpuBuildRefs::default(),
-        profiler: if ctx.features().timestamps {
-            Some(GpuProfiler::new(ctx, 8)?)
-        } else {
-            None
-        },
-        phases: GpuBuildPhases::default(),
-    };
-    let addr = |i: usize| builder.scratch.arrays[i].address();
-    builder.refs = GpuBuildRefs {
-        tris_in: addr(0),
-        tris_out: triangles.address(),
-        boxes: addr(1),
-        children: addr(2),
-        info: addr(3),
-        cost: addr(4),
-        keys0: addr(5),
-        keys1: addr(6),
-        vals0: addr(7),
-        vals1: addr(8),
-        flags: addr(9),
-        sums: addr(10),
-        state: builder.scratch.state.address(),
-        nodes: addr(11),
-        queue0: addr(12),
-        queue1: addr(13),
-        max_leaf,
-        traversal_cost: opts.collapse_traversal_cost,
-        radius: radius(opts.search),
-        ..Default::default()
-    };
-
+    let mut builder = Builder::new(ctx, max_n, triangles.address(), opts, max_leaf)?;
     let mut blas: Vec<Option<BuiltBlas>> = Vec::with_capacity(scene.geometries.len());
     let mut blas_bounds: Vec<Option<ObAabb>> = vec![None; scene.geometries.len()];
     let mut tri_base = 0u32;
@@ -738,9 +530,10 @@ pub(super) fn build(
     drop(gathered);
     stats.blas_ms = t_blas.elapsed().as_secs_f64() * 1e3;
 
-    let (tlas_nodes, tlas_stack) =
-        builder::build_tlas(scene, &input, &blas_bounds, opts, &mut stats)?;
-    let mut offset = tlas_nodes.len() as u64;
+    // The top level goes to the front, into room for a top level over every instance, so
+    // that `GpuBvh::rebuild_tlas` can rebuild it in place.
+    let region = tlas::tlas_region(scene.instances.len());
+    let mut offset = region as u64;
     let mut roots = vec![None; scene.geometries.len()];
     for (g, b) in blas.iter().enumerate() {
         if let Some(b) = b {
@@ -759,7 +552,7 @@ pub(super) fn build(
         vk::BufferUsageFlags::empty(),
         MemoryLocation::GpuOnly,
     )?;
-    nodes.upload(ctx, bytemuck::cast_slice(&tlas_nodes))?;
+    nodes.upload(ctx, bytemuck::cast_slice(&vec![BvhNode::EMPTY; region]))?;
     builder.run("bvh build: relocate", |b, cmd| {
         b.begin(cmd, "relocate");
         for (g, built) in blas.iter().enumerate() {
@@ -780,13 +573,22 @@ pub(super) fn build(
             );
         }
     })?;
+    let mut phases = builder.phases.clone();
+    drop(builder);
+    let t_tlas = Instant::now();
+    let (boxes, ids, world) = builder::instance_boxes(scene, &input, &blas_bounds, &mut stats);
+    let tlas = tlas::build_tlas_gpu(ctx, &nodes, region, &boxes, &ids, world, opts)?;
+    phases.tlas_ms = tlas.phases.total_ms();
+    stats.tlas_nodes = region;
+    stats.tlas_depth = tlas.depth;
+    stats.tlas_ms = t_tlas.elapsed().as_secs_f64() * 1e3;
     let instances = builder::instance_records(scene, &input, &roots);
-    builder::finish_stats(&mut stats, tlas_stack, max_blas_stack)?;
+    builder::finish_stats(&mut stats, tlas.stack, max_blas_stack)?;
     stats.node_count = node_count;
     stats.triangle_count = tri_count;
     stats.instance_count = scene.instances.len();
     stats.max_leaf_size = max_leaf;
-    stats.gpu_phases = Some(builder.phases.clone());
+    stats.gpu_phases = Some(phases);
     stats.bytes = nodes.size() + triangles.size() + (instances.len() * 64) as u64;
     stats.build_ms = t_start.elapsed().as_secs_f64() * 1e3;
     GpuBvh::from_buffers(
