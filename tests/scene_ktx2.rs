@@ -363,3 +363,47 @@ fn write_fuzz_seeds() {
         std::fs::write(dir.join(name), glb).unwrap();
     }
 }
+
+#[test]
+fn mutated_ktx2_files_fail_cleanly() {
+    // Byte flips and cuts of both real files (ETC1S codebooks and Huffman tables, UASTC with
+    // Zstandard frames): each either loads or fails naming the file and image, and never
+    // reaches the loader's panic guard around the decoder threads.
+    let mut rng = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng
+    };
+    let (mut loaded, mut failed) = (0, 0);
+    for name in [
+        "StainedGlassLamp_hardware_basecolor.ktx2",
+        "StainedGlassLamp_bulbs_occlusion-rough-metal.ktx2",
+    ] {
+        let original = std::fs::read(asset(&format!("StainedGlassLamp_KTX/{name}"))).unwrap();
+        for i in 0..150 {
+            let mut ktx = original.clone();
+            if i % 10 == 9 {
+                ktx.truncate(next() as usize % ktx.len());
+            } else {
+                for _ in 0..1 + next() % 4 {
+                    let at = next() as usize % ktx.len();
+                    ktx[at] ^= 1 << (next() % 8);
+                }
+            }
+            match load(&ktx2_quad(&ktx)) {
+                Ok(_) => loaded += 1,
+                Err(e) => {
+                    assert!(
+                        e.starts_with("ktx.gltf: image 0"),
+                        "{name} mutation {i}: {e}"
+                    );
+                    assert!(!e.contains("panicked"), "{name} mutation {i}: {e}");
+                    failed += 1;
+                }
+            }
+        }
+    }
+    eprintln!("mutated KTX2 files: {loaded} loaded, {failed} refused");
+}
