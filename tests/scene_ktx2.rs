@@ -230,6 +230,10 @@ fn broken_ktx2_files_name_the_file_and_image() {
             "outside rqr's 1..=16384 pixel limit",
         ),
         (broken_uastc(|k| put32(k, 40, 40)), "40 mip levels"),
+        (
+            broken_uastc(|k| put32(k, 40, 6)),
+            "KTX2 header: 6 mip levels for 16x16 (a full chain has 5)",
+        ),
         (broken_uastc(|k| put32(k, 32, 6)), "only 2D textures"),
     ];
     for (ktx, want) in cases {

@@ -87,10 +87,11 @@ pub(crate) fn decode(
 ) -> Result<Decoded, String> {
     let (width, height) = dimensions(bytes)?;
     let stored_levels = u32_at(bytes, 40).max(1);
-    // Bounded by the header: a 2D image has at most 32 levels.
-    if stored_levels > 32 {
+    // At most a full chain (so at most 32 levels): bounds the level index read below.
+    let full_chain = 32 - width.max(height).max(1).leading_zeros();
+    if stored_levels > full_chain {
         return Err(format!(
-            "KTX2 header: {stored_levels} mip levels (at most 32)"
+            "KTX2 header: {stored_levels} mip levels for {width}x{height} (a full chain has {full_chain})"
         ));
     }
     let ranges = level_ranges(bytes, stored_levels as usize)?;
