@@ -62,6 +62,9 @@ fn main() -> anyhow::Result<()> {
                 scene.extensions_unsupported.join(", ")
             }
         );
+        if !scene.variants.is_empty() {
+            status.push_str(&format!(", variants: {}", scene.variants.join(", ")));
+        }
         if let Some(ctx) = &ctx {
             let camera = scene
                 .cameras

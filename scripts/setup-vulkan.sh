@@ -28,7 +28,9 @@ fi
 SUDO=""
 if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
 
-PKGS=(vulkan-tools vulkan-validationlayers libvulkan-dev libvulkan1 glslc spirv-tools)
+# g++: the C++ the cc crate builds (meshoptimizer for EXT_meshopt_compression; the Basis
+# Universal encoder the KHR_texture_basisu tests encode with).
+PKGS=(vulkan-tools vulkan-validationlayers libvulkan-dev libvulkan1 glslc spirv-tools g++)
 # One dpkg-query for every package: "name installed-status version" per line.
 installed() {
   dpkg-query -W -f='${Package} ${db:Status-Status} ${Version}\n' "${PKGS[@]}" mesa-vulkan-drivers 2>/dev/null || true

@@ -118,6 +118,7 @@ fn memory_checks_refuse_work_before_allocating() {
         width: 2048,
         height: 2048,
         rgba8: vec![255; 2048 * 2048 * 4],
+        mips: Vec::new(),
         srgb: true,
     });
     let err = GpuTextures::upload(&ctx, &textured)

@@ -283,7 +283,8 @@ fn missing_or_undecodable_images() {
     let mut b = Builder::default();
     let view = b.view(b"no mime type either");
     let doc = textured(&mut b, json!({"bufferView": view}));
-    assert!(err(&b.document(doc)).contains("image 0: not a PNG or JPEG image (mimeType absent)"));
+    assert!(err(&b.document(doc))
+        .contains("image 0: not a PNG, JPEG, WebP or KTX2 image (mimeType absent)"));
     // An external file referenced from bytes with no base directory.
     let mut b = Builder::default();
     let doc = textured(&mut b, json!({"uri": "tex.png"}));

@@ -94,6 +94,7 @@ fn two_texel_scene() -> Scene {
             width: 2,
             height: 1,
             rgba8: black_white.clone(),
+            mips: Vec::new(),
             srgb,
         });
     }
@@ -187,6 +188,7 @@ fn images_beyond_the_device_limit_fail_clearly() {
         width: limit + 1,
         height: 1,
         rgba8: Vec::new(),
+        mips: Vec::new(),
         srgb: false,
     });
     let err = GpuTextures::upload(&ctx, &s).err().expect("must fail");
@@ -201,6 +203,7 @@ fn images_beyond_the_device_limit_fail_clearly() {
         width: 4,
         height: 4,
         rgba8: vec![0; 12],
+        mips: Vec::new(),
         srgb: false,
     };
     let msg = GpuTextures::upload(&ctx, &s)

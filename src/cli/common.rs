@@ -26,6 +26,10 @@ pub struct SceneArgs {
     /// Scene index inside the file (default: the file's default scene, else 0).
     #[arg(long = "scene")]
     pub scene_index: Option<usize>,
+    /// KHR_materials_variants variant to render (`rqr info` lists them); default: the
+    /// file's default materials.
+    #[arg(long, value_name = "NAME")]
+    pub variant: Option<String>,
 }
 
 impl SceneArgs {
@@ -36,12 +40,16 @@ impl SceneArgs {
                 if self.scene_index.is_some_and(|i| i > 0) {
                     bail!("the built-in scene has only scene 0");
                 }
+                if let Some(v) = &self.variant {
+                    bail!("--variant {v}: the built-in scene has no material variants");
+                }
                 Ok(rqr::scene::load_default()?)
             }
             Some(path) => Ok(rqr::scene::load(
                 path,
                 &LoadOptions {
                     scene: self.scene_index,
+                    variant: self.variant.clone(),
                     ..Default::default()
                 },
             )?),

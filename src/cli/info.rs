@@ -15,21 +15,32 @@ pub struct InfoArgs {
     /// Scene index within the file (default: the file's default scene, else 0).
     #[arg(long = "scene", value_name = "N")]
     scene_index: Option<usize>,
+    /// KHR_materials_variants variant whose materials to load (the list is printed either way).
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
 }
 
 /// Loads the scene a command names: a file, or the built-in scene when `path` is `None`.
-pub(crate) fn load_scene(path: Option<&PathBuf>, scene_index: Option<usize>) -> Result<Scene> {
+pub(crate) fn load_scene(
+    path: Option<&PathBuf>,
+    scene_index: Option<usize>,
+    variant: Option<&str>,
+) -> Result<Scene> {
     Ok(match path {
         Some(p) => scene::load(
             p,
             &LoadOptions {
                 scene: scene_index,
+                variant: variant.map(str::to_string),
                 ..Default::default()
             },
         )?,
+        None if variant.is_some() => {
+            anyhow::bail!("--variant: the built-in scene has no material variants")
+        }
         None if scene_index.unwrap_or(0) == 0 => scene::load_default()?,
         None => anyhow::bail!("the built-in scene has only scene 0"),
     })
@@ -63,6 +74,10 @@ struct InfoJson<'a> {
     /// Every extension the file names: `{"name", "status"}` with status `supported`,
     /// `ignored` or `unsupported-required`.
     extensions: &'a [ExtensionStatus],
+    /// KHR_materials_variants names, in the file's order.
+    variants: &'a [String],
+    /// The variant the materials come from (`--variant`); `null`: the defaults.
+    variant: Option<&'a str>,
     /// `null` for a scene without geometry.
     bounds: Option<BoundsJson>,
 }
@@ -85,6 +100,8 @@ fn to_json(s: &Scene) -> InfoJson<'_> {
         extensions_used: &s.extensions_used,
         extensions_unsupported: &s.extensions_unsupported,
         extensions: &s.extensions,
+        variants: &s.variants,
+        variant: s.variant.map(|v| s.variants[v].as_str()),
         bounds: (!s.bounds.is_empty()).then(|| BoundsJson {
             min: s.bounds.min.to_array(),
             max: s.bounds.max.to_array(),
@@ -94,7 +111,11 @@ fn to_json(s: &Scene) -> InfoJson<'_> {
 
 /// Runs `rqr info`.
 pub fn run(args: &InfoArgs) -> Result<()> {
-    let s = match load_scene(args.scene.as_ref(), args.scene_index) {
+    let s = match load_scene(
+        args.scene.as_ref(),
+        args.scene_index,
+        args.variant.as_deref(),
+    ) {
         Ok(s) => s,
         Err(e) => {
             // A file refused for a required extension still gets its extension list in
@@ -150,6 +171,13 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         ("cameras", s.cameras.len().to_string()),
         ("extensions used", list(&s.extensions_used)),
         ("unsupported", list(&s.extensions_unsupported)),
+        (
+            "variants",
+            match s.variant {
+                Some(v) => format!("{} (rendering {})", list(&s.variants), s.variants[v]),
+                None => list(&s.variants),
+            },
+        ),
         (
             "bounds",
             if s.bounds.is_empty() {

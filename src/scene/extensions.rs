@@ -18,7 +18,34 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "KHR_texture_basisu",
+    "EXT_texture_webp",
+    "KHR_materials_variants",
 ];
+
+/// Texture extensions that name an alternative image (`{"source": i}`), in preference order.
+const IMAGE_SOURCE_EXTENSIONS: &[&str] = &["KHR_texture_basisu", "EXT_texture_webp"];
+
+/// The image a texture samples: the `source` of KHR_texture_basisu or EXT_texture_webp when
+/// present (both are implemented, so they win over the fallback), else the core `source`.
+pub(crate) fn texture_source(tex: &::gltf::json::Texture) -> Result<usize, String> {
+    let others = tex.extensions.as_ref().map(|e| &e.others);
+    for name in IMAGE_SOURCE_EXTENSIONS {
+        let Some(ext) = others.and_then(|o| o.get(*name)) else {
+            continue;
+        };
+        return ext
+            .get("source")
+            .and_then(|s| s.as_u64())
+            .filter(|&s| s < u64::from(u32::MAX))
+            .map(|s| s as usize)
+            .ok_or_else(|| format!("{name}: `source` is missing or not an image index"));
+    }
+    match tex.source.value() {
+        s if s == u32::MAX as usize => Err("has no source image".into()),
+        s => Ok(s),
+    }
+}
 
 /// How rqr treats one extension a file names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

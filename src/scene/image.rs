@@ -7,8 +7,16 @@ use image::{ImageFormat, ImageReader, Limits};
 /// Largest image side rqr accepts (before any device limit applies).
 pub const MAX_IMAGE_SIZE: u32 = 16384;
 
-/// A decoded image: width, height, RGBA8 texels with row 0 at the top.
-pub(crate) type Decoded = (u32, u32, Vec<u8>);
+/// A decoded image: RGBA8 texels with row 0 at the top.
+#[derive(Clone, Debug)]
+pub(crate) struct Decoded {
+    pub width: u32,
+    pub height: u32,
+    /// Level 0.
+    pub rgba8: Vec<u8>,
+    /// Levels 1.. as the file stores them (KTX2); empty: rqr generates the chain.
+    pub mips: Vec<Vec<u8>>,
+}
 
 /// Splits a `data:` URI into its media type and decoded payload. `None`: not a data URI.
 pub(crate) fn parse_data_uri(uri: &str) -> Option<Result<(String, Vec<u8>), String>> {
@@ -77,19 +85,19 @@ pub(crate) fn percent_decode(s: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// PNG or JPEG, from the magic bytes, else from `mime`.
+/// PNG, JPEG or WebP (EXT_texture_webp), from the magic bytes, else from `mime`.
 fn format_of(bytes: &[u8], mime: Option<&str>) -> Result<ImageFormat, String> {
     let guessed = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot read: {e}"))?
         .format();
     match guessed.or_else(|| mime.and_then(ImageFormat::from_mime_type)) {
-        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => Ok(f),
+        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::WebP)) => Ok(f),
         Some(f) => Err(format!(
-            "{f:?} images are not supported (glTF core allows PNG and JPEG)"
+            "{f:?} images are not supported (rqr reads PNG, JPEG, WebP and KTX2)"
         )),
         None => Err(format!(
-            "not a PNG or JPEG image (mimeType {})",
+            "not a PNG, JPEG, WebP or KTX2 image (mimeType {})",
             mime.unwrap_or("absent")
         )),
     }
@@ -97,14 +105,26 @@ fn format_of(bytes: &[u8], mime: Option<&str>) -> Result<ImageFormat, String> {
 
 /// Width and height from the image header, without decoding the pixels.
 pub(crate) fn dimensions(bytes: &[u8], mime: Option<&str>) -> Result<(u32, u32), String> {
+    if super::ktx2::is_ktx2(bytes) {
+        return super::ktx2::dimensions(bytes);
+    }
     ImageReader::with_format(Cursor::new(bytes), format_of(bytes, mime)?)
         .into_dimensions()
         .map_err(|e| format!("cannot decode: {e}"))
 }
 
-/// Decodes a PNG or JPEG (format from the magic bytes, else from `mime`) to RGBA8, refusing
-/// images wider or taller than `max_size` before decoding them.
+/// Decodes a PNG, JPEG, WebP (format from the magic bytes, else from `mime`) or KTX2 /
+/// Basis Universal image to RGBA8, refusing images wider or taller than `max_size` before
+/// decoding them.
 pub(crate) fn decode(bytes: &[u8], mime: Option<&str>, max_size: u32) -> Result<Decoded, String> {
+    if super::ktx2::is_ktx2(bytes) {
+        // A full chain of the largest image, the same bound as 8-bit RGBA below.
+        let budget = u64::from(max_size) * u64::from(max_size) * 8;
+        return super::ktx2::decode(bytes, max_size, budget);
+    }
+    if mime == Some("image/ktx2") {
+        return Err("KTX2 header: not a KTX2 file (wrong identifier)".into());
+    }
     let format = format_of(bytes, mime)?;
     let (w, h) = ImageReader::with_format(Cursor::new(bytes), format)
         .into_dimensions()
@@ -122,7 +142,12 @@ pub(crate) fn decode(bytes: &[u8], mime: Option<&str>, max_size: u32) -> Result<
     limits.max_alloc = Some(u64::from(max_size) * u64::from(max_size) * 8 + (64 << 20));
     reader.limits(limits);
     let img = reader.decode().map_err(|e| format!("cannot decode: {e}"))?;
-    Ok((w, h, img.to_rgba8().into_raw()))
+    Ok(Decoded {
+        width: w,
+        height: h,
+        rgba8: img.to_rgba8().into_raw(),
+        mips: Vec::new(),
+    })
 }
 
 #[cfg(test)]

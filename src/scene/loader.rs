@@ -19,6 +19,7 @@ use super::extensions::{self, ExtensionSupport};
 use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topology};
 use super::image::{self as img, MAX_IMAGE_SIZE};
 use super::types::*;
+use super::variants;
 
 /// Most instances a scene may expand to (node hierarchy × EXT_mesh_gpu_instancing); guards
 /// against files whose node graph shares subtrees exponentially.
@@ -51,6 +52,9 @@ pub struct LoadOptions {
     pub scene: Option<usize>,
     /// Largest accepted image width or height, in pixels.
     pub max_image_size: u32,
+    /// KHR_materials_variants variant to render (`--variant NAME`); `None`: the default
+    /// materials. A name the file does not define fails the load.
+    pub variant: Option<String>,
 }
 
 impl Default for LoadOptions {
@@ -58,6 +62,7 @@ impl Default for LoadOptions {
         Self {
             scene: None,
             max_image_size: MAX_IMAGE_SIZE,
+            variant: None,
         }
     }
 }
@@ -242,6 +247,12 @@ impl Loader<'_> {
             .map(|e| e.name.clone())
             .collect();
         self.scene.extensions = all;
+        self.scene.variants = variants::names(&self.root).map_err(|e| self.err("root", e))?;
+        if let Some(wanted) = &self.opts.variant {
+            let v =
+                variants::find(&self.scene.variants, wanted).map_err(|e| self.err("root", e))?;
+            self.scene.variant = Some(v);
+        }
         Ok(())
     }
 
@@ -856,18 +867,20 @@ impl Loader<'_> {
         let tangents = self.attribute(&element, &prim, Semantic::Tangents, &[4], vc)?;
         let colors = self.attribute(&element, &prim, Semantic::Colors(0), &[3, 4], vc)?;
 
-        let material = match prim.material {
-            Some(m) if m.value() >= self.root.materials.len() => {
+        let chosen =
+            variants::primitive_material(&prim, self.scene.variant, self.scene.variants.len())
+                .map_err(|e| self.err(&element, e))?;
+        let material = match chosen {
+            Some(m) if m >= self.root.materials.len() => {
                 return Err(self.err(
                     &element,
                     format!(
-                        "material {} does not exist ({} materials)",
-                        m.value(),
+                        "material {m} does not exist ({} materials)",
                         self.root.materials.len()
                     ),
                 ))
             }
-            m => self.material(m.map(|m| m.value()))?,
+            m => self.material(m)?,
         };
         let mat = &self.scene.materials[material as usize];
         let normal_map_uv = mat.normal_texture.map(|t| mat.stored_uv_set(t.tex_coord));
@@ -1175,7 +1188,7 @@ impl Loader<'_> {
         }
         let tex = &self.root.textures[t];
         let el = format!("texture {t}");
-        let source = tex.source.value();
+        let source = super::extensions::texture_source(tex).map_err(|e| self.err(&el, e))?;
         if source >= self.root.images.len() {
             return Err(self.err(
                 &el,
@@ -1196,6 +1209,7 @@ impl Loader<'_> {
                     width: 0,
                     height: 0,
                     rgba8: Vec::new(),
+                    mips: Vec::new(),
                     srgb,
                 });
                 self.image_sources.push(source);
@@ -1400,15 +1414,16 @@ impl Loader<'_> {
         // Each image's pixels move into its first scene image; an image used both as colour
         // and as data gets a copy (they upload to different formats).
         for (k, &src) in self.image_sources.iter().enumerate() {
-            let (w, h, pixels) = match self.image_sources[k + 1..].contains(&src) {
+            let d = match self.image_sources[k + 1..].contains(&src) {
                 true => decoded.get(&src).cloned(),
                 false => decoded.remove(&src),
             }
             .ok_or_else(|| self.err(self.image_element(src), "was not decoded"))?;
             let data = &mut self.scene.images[k];
-            data.width = w;
-            data.height = h;
-            data.rgba8 = pixels;
+            data.width = d.width;
+            data.height = d.height;
+            data.rgba8 = d.rgba8;
+            data.mips = d.mips;
         }
         Ok(())
     }

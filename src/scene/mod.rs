@@ -13,12 +13,14 @@ pub mod extensions;
 pub mod geometry;
 pub mod gpu;
 mod image;
+mod ktx2;
 pub mod layout;
 mod loader;
 mod material_ext;
 pub mod procedural;
 pub mod textures;
 pub mod types;
+mod variants;
 
 pub use camera::{auto_camera, default_lights, look_at_camera};
 pub use default_scene::{load_default, DEFAULT_SCENE_GLB};

@@ -97,8 +97,9 @@ fn pipeline_barrier(
 
 impl GpuTextures {
     /// Uploads every image of `scene` once (R8G8B8A8_SRGB or _UNORM per
-    /// [`ImageData::srgb`](super::ImageData::srgb)), generates the full mip chain with linear
-    /// blits (which filter sRGB images in linear space), leaves each image in
+    /// [`ImageData::srgb`](super::ImageData::srgb)), uploads the mip levels an image stores
+    /// ([`ImageData::mips`](super::ImageData::mips), from KTX2 files) or else generates the
+    /// full chain with linear blits (which filter sRGB images in linear space), leaves each in
     /// `SHADER_READ_ONLY_OPTIMAL`, and creates one sampler per distinct sampler state.
     /// Fails with [`VkError::Limit`] for an image larger than the device's
     /// `maxImageDimension2D` or whose pixel data does not match its size.
@@ -122,6 +123,19 @@ impl GpuTextures {
                     img.width,
                     img.height
                 )));
+            }
+            for (l, mip) in img.mips.iter().enumerate() {
+                let level = l as u32 + 1;
+                let (w, h) = ((img.width >> level).max(1), (img.height >> level).max(1));
+                if level >= mip_levels(img.width, img.height)
+                    || mip.len() as u64 != u64::from(w) * u64::from(h) * 4
+                {
+                    return Err(VkError::Limit(format!(
+                        "{}: image {i} mip level {level} has {} bytes of RGBA8 data for {w}x{h}",
+                        scene.source,
+                        mip.len()
+                    )));
+                }
             }
         }
         // A full mip chain adds a third to the largest level.
@@ -170,7 +184,12 @@ impl GpuTextures {
         } else {
             vk::Format::R8G8B8A8_UNORM
         };
-        let levels = mip_levels(img.width, img.height);
+        // The file's own levels when it stores them (KTX2), else a full generated chain.
+        let levels = if img.mips.is_empty() {
+            mip_levels(img.width, img.height)
+        } else {
+            1 + img.mips.len() as u32
+        };
         let extent = vk::Extent2D {
             width: img.width,
             height: img.height,
@@ -185,14 +204,17 @@ impl GpuTextures {
                 | vk::ImageUsageFlags::TRANSFER_DST,
             levels,
         )?;
+        let stored: Vec<&[u8]> = std::iter::once(img.rgba8.as_slice())
+            .chain(img.mips.iter().map(Vec::as_slice))
+            .collect();
         let mut staging = Buffer::new(
             ctx,
             "texture staging",
-            img.rgba8.len() as u64,
+            stored.iter().map(|l| l.len() as u64).sum(),
             vk::BufferUsageFlags::empty(),
             MemoryLocation::CpuToGpu,
         )?;
-        staging.write(&img.rgba8)?;
+        staging.write(&stored.concat())?;
         let device = ctx.device();
         let raw = image.raw();
         let none = (
@@ -217,28 +239,47 @@ impl GpuTextures {
         );
         ctx.run(&format!("upload texture {index}"), |cmd| {
             pipeline_barrier(device, cmd, &[barrier(raw, 0..levels, none, transfer_dst)]);
-            let copy = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
+            let mut offset = 0u64;
+            let copies: Vec<vk::BufferImageCopy> = stored
+                .iter()
+                .enumerate()
+                .map(|(level, data)| {
+                    let copy = vk::BufferImageCopy::default()
+                        .buffer_offset(offset)
+                        .image_subresource(vk::ImageSubresourceLayers {
+                            aspect_mask: vk::ImageAspectFlags::COLOR,
+                            mip_level: level as u32,
+                            base_array_layer: 0,
+                            layer_count: 1,
+                        })
+                        .image_extent(vk::Extent3D {
+                            width: (img.width >> level).max(1),
+                            height: (img.height >> level).max(1),
+                            depth: 1,
+                        });
+                    offset += data.len() as u64;
+                    copy
                 })
-                .image_extent(vk::Extent3D {
-                    width: img.width,
-                    height: img.height,
-                    depth: 1,
-                });
-            // SAFETY: the staging buffer holds width*height*4 bytes; mip 0 is TRANSFER_DST.
+                .collect();
+            // SAFETY: the staging buffer holds every stored level back to back, each
+            // width*height*4 bytes (checked in `upload`); all levels are TRANSFER_DST.
             unsafe {
                 device.cmd_copy_buffer_to_image(
                     cmd,
                     staging.raw(),
                     raw,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[copy],
+                    &copies,
                 )
             };
+            if stored.len() > 1 {
+                pipeline_barrier(
+                    device,
+                    cmd,
+                    &[barrier(raw, 0..levels, transfer_dst, shader_read)],
+                );
+                return Ok(());
+            }
             let size = |l: u32| vk::Offset3D {
                 x: (img.width >> l).max(1) as i32,
                 y: (img.height >> l).max(1) as i32,

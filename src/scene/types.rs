@@ -380,6 +380,9 @@ pub struct ImageData {
     pub height: u32,
     /// RGBA8 texels, row 0 = top.
     pub rgba8: Vec<u8>,
+    /// Mip levels 1.. as the file stores them (KTX2), each RGBA8 at `max(1, size >> level)`;
+    /// empty: the upload generates the full chain.
+    pub mips: Vec<Vec<u8>>,
     /// Sampled as sRGB (base colour / emissive) rather than linear data.
     pub srgb: bool,
 }
@@ -487,6 +490,10 @@ pub struct Scene {
     pub extensions_unsupported: Vec<String>,
     /// Every extension the file names (used or required), with how rqr treats it.
     pub extensions: Vec<super::extensions::ExtensionStatus>,
+    /// KHR_materials_variants names, in the file's order.
+    pub variants: Vec<String>,
+    /// Index into `variants` of the variant the materials come from; `None`: the defaults.
+    pub variant: Option<usize>,
     /// World-space bounds of every instance.
     pub bounds: Aabb,
     /// World transform of every glTF node reached from the chosen scene (indexed by node;

@@ -636,13 +636,13 @@ fn image_cases(out: &mut Vec<Case>) {
         "image_zero_bytes",
         json!({"uri": "empty.png"}),
         vec![("empty.png".into(), Vec::new())],
-        fails(&["image 0 (empty.png): not a PNG or JPEG image"]),
+        fails(&["image 0 (empty.png): not a PNG, JPEG, WebP or KTX2 image"]),
     ));
     out.push(with_image(
         "image_garbage",
         json!({"uri": "garbage.png"}),
         vec![("garbage.png".into(), b"definitely not an image".to_vec())],
-        fails(&["image 0 (garbage.png): not a PNG or JPEG image"]),
+        fails(&["image 0 (garbage.png): not a PNG, JPEG, WebP or KTX2 image"]),
     ));
     let good = png(4, 4, &[200; 64]);
     out.push(embedded(

@@ -42,9 +42,72 @@ fn meshopt_case(
     }
 }
 
+/// A quad whose base colour is `tex.ktx2` (KHR_texture_basisu, required): StainedGlassLamp's
+/// ETC1S hardware texture with `edit` applied.
+fn ktx2_case(name: &str, edit: impl Fn(&mut Vec<u8>), expect: Expect) -> Case {
+    let mut ktx = std::fs::read(asset(
+        "StainedGlassLamp_KTX/StainedGlassLamp_hardware_basecolor.ktx2",
+    ))
+    .unwrap();
+    edit(&mut ktx);
+    let mut b = Builder::default();
+    let mut doc = quad_doc(&mut b, json!({"material": 0}));
+    let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
+    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
+    doc["images"] = json!([{"uri": "tex.ktx2", "mimeType": "image/ktx2"}]);
+    doc["textures"] = json!([{"extensions": {"KHR_texture_basisu": {"source": 0}}}]);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    doc["extensionsUsed"] = json!(["KHR_texture_basisu"]);
+    doc["extensionsRequired"] = json!(["KHR_texture_basisu"]);
+    Case {
+        name: name.to_string(),
+        files: vec![
+            ("scene.gltf".into(), bytes(&b.document(doc))),
+            ("tex.ktx2".into(), ktx),
+        ],
+        expect,
+    }
+}
+
 /// Out-of-range factors, wrong JSON types and dangling textures in extensions; broken
-/// EXT_meshopt_compression views.
+/// EXT_meshopt_compression views; broken KTX2 files.
 pub fn cases(out: &mut Vec<Case>) {
+    let put32 =
+        |k: &mut Vec<u8>, at: usize, v: u32| k[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    out.push(ktx2_case(
+        "ktx2_etc1s",
+        |_| {},
+        Expect::Loads {
+            warning: None,
+            render: true,
+        },
+    ));
+    out.push(ktx2_case(
+        "ktx2_wrong_identifier",
+        |k| k[5] = b'1',
+        Expect::Fails(vec!["image 0 (tex.ktx2): KTX2 header: not a KTX2 file"]),
+    ));
+    out.push(ktx2_case(
+        "ktx2_level_beyond_file",
+        // Level 3's byte length (level index entry 3: bytes 80 + 3*24 + 8..).
+        |k| k[160..168].copy_from_slice(&(1u64 << 33).to_le_bytes()),
+        Expect::Fails(vec![
+            "image 0 (tex.ktx2): KTX2 level 3: bytes",
+            "beyond the end of the file",
+        ]),
+    ));
+    out.push(ktx2_case(
+        "ktx2_zlib_supercompression",
+        |k| put32(k, 44, 3),
+        Expect::Fails(vec![
+            "image 0 (tex.ktx2): KTX2 supercompression scheme 3 is not supported for ETC1S",
+        ]),
+    ));
+    out.push(ktx2_case(
+        "ktx2_cut_in_codebooks",
+        |k| k.truncate(400),
+        Expect::Fails(vec!["image 0 (tex.ktx2): KTX2"]),
+    ));
     out.push(meshopt_case(
         "meshopt_bad_filter",
         1,
