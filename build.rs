@@ -37,6 +37,9 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// Folder of the generated interface headers, relative to OUT_DIR.
+const GENERATED_INCLUDE_DIR: &str = "glsl";
+
 /// One compilation: a shader file, optionally with a ray backend variant.
 struct Job {
     rel: String,
@@ -54,7 +57,7 @@ fn main() {
     println!("cargo:rerun-if-env-changed=GLSLC");
     println!("cargo:rerun-if-changed=build/interface.rs");
     let glslc = std::env::var_os("GLSLC").unwrap_or_else(|| "glslc".into());
-    let generated_dir = out_dir.join("glsl");
+    let generated_dir = out_dir.join(GENERATED_INCLUDE_DIR);
     let interface_headers = interface::generate(&root, &generated_dir);
 
     let mut files = Vec::new();
@@ -104,19 +107,22 @@ fn main() {
     }
 
     let spawn = |job: &Job| -> Child {
+        // Run in OUT_DIR and name the generated headers' folder relatively: `-g` records every
+        // include's path in the SPIR-V, and `glsl/…` is the same for every OUT_DIR (the SPIR-V
+        // does not depend on where the build puts it; tests/build_script.rs compares).
         let mut cmd = Command::new(&glslc);
-        cmd.current_dir(&root)
+        cmd.current_dir(&out_dir)
             .args(["--target-env=vulkan1.2", "--target-spv=spv1.4", "-g", "-O"])
             .arg("-I")
             .arg(shader_dir.join("common"))
             .arg("-I")
             .arg(&shader_dir)
             .arg("-I")
-            .arg(&generated_dir);
+            .arg(GENERATED_INCLUDE_DIR);
         if let Some(v) = &job.variant {
             cmd.arg(format!("-DRAY_BACKEND_{}=1", v.to_uppercase()));
         }
-        cmd.arg(&job.rel)
+        cmd.arg(root.join(&job.rel))
             .arg("-o")
             .arg(&job.spv)
             .stdout(Stdio::piped())
@@ -179,16 +185,19 @@ fn main() {
             failures.join("\n")
         );
     }
-    generated.push_str(
+    // The headers' text goes into a file of its own: shaders.rs holds exactly one constant per
+    // compiled SPIR-V.
+    let mut headers = String::from(
         "/// The generated interface headers (`$OUT_DIR/glsl`): file name and GLSL text.\npub const INTERFACE_GLSL: &[(&str, &str)] = &[\n",
     );
     for name in &interface_headers {
         writeln!(
-            generated,
+            headers,
             "    (\"{name}\", include_str!(concat!(env!(\"OUT_DIR\"), \"/glsl/{name}\"))),"
         )
         .unwrap();
     }
-    generated.push_str("];\n");
+    headers.push_str("];\n");
+    std::fs::write(out_dir.join("interface_glsl.rs"), headers).unwrap();
     std::fs::write(out_dir.join("shaders.rs"), generated).unwrap();
 }

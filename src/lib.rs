@@ -18,6 +18,7 @@ pub mod vk;
 /// SPIR-V compiled by `build.rs`, one constant per shader (and per ray backend variant).
 pub mod shaders {
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+    include!(concat!(env!("OUT_DIR"), "/interface_glsl.rs"));
 }
 
 /// Library-level error.

@@ -88,6 +88,26 @@ fn probe_json_has_schema_and_honours_backend_bvh() {
     assert!(String::from_utf8_lossy(&human.stdout).contains("ray backend"));
 }
 
+/// The probe and `Context::new` read one requirements table (`vk::requirements`): the device
+/// the probe selects and approves opens, reporting the same (empty) missing list. The refusal
+/// side is tested with injected feature sets in `vk::requirements`' unit tests.
+#[test]
+fn the_device_the_probe_approves_opens() {
+    let report =
+        vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(common::INSTALL_HINT);
+    let probed = &report.devices[report.selected.expect("a selected device")];
+    assert!(
+        probed.missing_features.is_empty(),
+        "{:?}",
+        probed.missing_features
+    );
+    assert!(vk::requirements::check(&probed.name, &probed.missing_features).is_ok());
+    let ctx = gpu();
+    assert_eq!(ctx.info().name, probed.name);
+    assert_eq!(ctx.info().missing_features, probed.missing_features);
+    assert_validation_clean(&ctx);
+}
+
 #[test]
 fn backend_choice_resolves_per_device() {
     let ctx = gpu();
