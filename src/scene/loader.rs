@@ -12,12 +12,15 @@ use gj::validation::Checked;
 use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 
 use super::accessor::{self, Buffers, Elements};
+use super::animation;
 use super::camera::{camera_pose, default_lights};
 use super::compression;
 use super::error::SceneError;
 use super::extensions::{self, ExtensionSupport};
 use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topology};
 use super::image::{self as img, MAX_IMAGE_SIZE};
+use super::pose::{self, Rig};
+use super::skin;
 use super::types::*;
 
 /// Most instances a scene may expand to (node hierarchy × EXT_mesh_gpu_instancing); guards
@@ -120,6 +123,7 @@ pub fn load_slice(
     loader.check_extensions()?;
     loader.load_buffers(bin)?;
     loader.check_node_graph()?;
+    loader.load_rig()?;
     loader.load_scene()?;
     loader.decode_images()?;
     loader.finish()
@@ -390,6 +394,20 @@ impl Loader<'_> {
         Ok(())
     }
 
+    /// Skins, animations and the rest node hierarchy (parents are filled by
+    /// [`Loader::load_scene`]).
+    fn load_rig(&mut self) -> Result<(), SceneError> {
+        let (file, root, buffers) = (&self.file, &self.root, &self.buffers);
+        skin::check_morph_counts(file, root)?;
+        self.scene.rig = Rig {
+            nodes: pose::rest_nodes(root),
+            skins: skin::parse_skins(file, root, buffers)?,
+            animations: animation::parse(file, root, buffers)?,
+            ..Default::default()
+        };
+        Ok(())
+    }
+
     fn node_local(&self, n: usize) -> Result<Mat4, SceneError> {
         let node = &self.root.nodes[n];
         let m = if let Some(m) = node.matrix {
@@ -471,9 +489,9 @@ impl Loader<'_> {
         let mut cameras: Vec<(usize, Camera)> = Vec::new();
         let mut lights: Vec<(usize, Light)> = Vec::new();
         let mut visits = 0usize;
-        let mut stack: Vec<(usize, Mat4)> =
-            roots.iter().rev().map(|&r| (r, Mat4::IDENTITY)).collect();
-        while let Some((n, parent)) = stack.pop() {
+        let mut stack: Vec<(usize, Mat4, Option<usize>)> =
+            roots.iter().rev().map(|&r| (r, Mat4::IDENTITY, None)).collect();
+        while let Some((n, parent, parent_node)) = stack.pop() {
             visits += 1;
             if visits > MAX_INSTANCES {
                 return Err(self.err(
@@ -488,6 +506,8 @@ impl Loader<'_> {
             let slot = &mut self.scene.node_world[n];
             if slot.is_none() {
                 *slot = Some(world);
+                self.scene.rig.order.push(n);
+                self.scene.rig.nodes[n].parent = parent_node;
             }
             let node = &self.root.nodes[n];
             if let Some(mesh) = node.mesh {
@@ -505,11 +525,13 @@ impl Loader<'_> {
                 lights.push((n, self.light(n, l.light.value(), world)?));
             }
             for c in self.root.nodes[n].children.iter().flatten().rev() {
-                stack.push((c.value(), world));
+                stack.push((c.value(), world, Some(n)));
             }
         }
         cameras.sort_by_key(|(n, _)| *n);
         lights.sort_by_key(|(n, _)| *n);
+        self.scene.rig.camera_nodes = cameras.iter().map(|(n, _)| *n).collect();
+        self.scene.rig.light_nodes = lights.iter().map(|(n, _)| *n).collect();
         self.scene.cameras = cameras.into_iter().map(|(_, c)| c).collect();
         self.scene.lights = lights.into_iter().map(|(_, l)| l).collect();
         if self.scene.lights.is_empty() {
@@ -612,6 +634,17 @@ impl Loader<'_> {
             let Some(g) = self.geometry(mesh, p)? else {
                 continue;
             };
+            if let Some(s) = self.root.nodes[n].skin.map(|s| s.value()) {
+                let geometry = &self.scene.geometries[g as usize];
+                skin::check_joint_range(
+                    &self.file,
+                    &format!("node {n} (skin {s}) mesh {mesh} primitive {p}"),
+                    &geometry.joints,
+                    &geometry.weights,
+                    s,
+                    &self.scene.rig.skins[s],
+                )?;
+            }
             if self.scene.instances.len() + locals.len() > MAX_INSTANCES {
                 return Err(self.err(
                     format!("node {n}"),
@@ -624,6 +657,7 @@ impl Loader<'_> {
                     transform: world * *local,
                     node: n,
                 });
+                self.scene.rig.instance_local.push(*local);
             }
         }
         Ok(())
@@ -959,6 +993,14 @@ impl Loader<'_> {
                 self.file
             );
         }
+        if let Some((joints, weights)) =
+            skin::read_vertex_skin(&self.file, &self.root, &self.buffers, &element, &prim, vertex_count)?
+        {
+            g.joints = joints;
+            g.weights = weights;
+        }
+        g.morph_targets =
+            skin::read_morph_targets(&self.file, &self.root, &self.buffers, &element, &prim, vertex_count)?;
         if g.normals.is_empty() {
             compute_flat_normals(&mut g);
         }
