@@ -1,10 +1,12 @@
-//! Animation playback on the CPU: interpolation against hand-computed values
-//! (InterpolationTest), and skinning / morphing of the Khronos samples against a reference
-//! written here from the glTF spec's formulas (independent of `scene::pose::deform`).
+//! Animation playback: interpolation against hand-computed values (InterpolationTest), and
+//! skinning / morphing of the Khronos samples, on the CPU (`Scene::posed`) and on the GPU
+//! (`render::skinning`), against a reference written here from the glTF spec's formulas.
 
+mod common;
 mod scene_util;
 
 use glam::{Mat4, Quat, Vec3};
+use rqr::render::skinning::SkinningPass;
 use rqr::scene::{self, AnimationSelection, LoadOptions, Scene};
 use scene_util::asset;
 
@@ -216,4 +218,63 @@ fn skinned_normals_follow_a_rotated_joint() {
         agree * 10 >= total * 9,
         "{agree} of {total} triangles have normals on their face's side"
     );
+}
+
+#[test]
+fn gpu_skinning_matches_the_reference() {
+    let ctx = common::gpu();
+    for rel in DEFORMED_SAMPLES {
+        let s = load(rel);
+        let all = s.select_animations(&AnimationSelection::All).unwrap();
+        let duration = s.animation_duration(&all);
+        let scale = s.bounds.diagonal();
+        let mut checked = 0usize;
+        for k in 0..s.instances.len() {
+            let inst = &s.instances[k];
+            let g = &s.geometries[inst.geometry as usize];
+            if !g.is_deformable() {
+                continue;
+            }
+            let skin = s.rig.nodes[inst.node].skin.filter(|_| !g.joints.is_empty());
+            let joint_count = skin.map_or(0, |si| s.rig.skins[si].joints.len());
+            let mut pass = SkinningPass::new(&ctx, g, joint_count).unwrap();
+            for f in [0.0, 0.35, 0.8] {
+                let time = f * duration;
+                let pose = s.rig.pose(&all, time);
+                let (joints, weights) = s.instance_deformation(k, &pose);
+                pass.update(joints.as_deref(), weights).unwrap();
+                ctx.run("skin test", |cmd| {
+                    pass.record(cmd, None);
+                    Ok(())
+                })
+                .unwrap();
+                let gpu = pass.read(&ctx).unwrap();
+                // Skinned vertices come out in world space; morphed ones in object space.
+                let to_world = match skin {
+                    Some(_) => Mat4::IDENTITY,
+                    None => pose.world[inst.node] * s.rig.instance_local[k],
+                };
+                let want = reference_positions(&s, k, time);
+                for (v, (p, w)) in gpu.positions.iter().zip(&want).enumerate() {
+                    let got = to_world.transform_point3(*p);
+                    assert!(
+                        (got - *w).length() <= 1e-5 * scale,
+                        "{rel} t={time} instance {k} vertex {v}: GPU {got} vs reference {w}"
+                    );
+                }
+                // Normals and tangents against the CPU deformation.
+                let cpu = rqr::scene::pose::deform(g, joints.as_deref(), weights);
+                for (v, (a, b)) in gpu.normals.iter().zip(&cpu.normals).enumerate() {
+                    assert!(a.abs_diff_eq(*b, 1e-4), "{rel} normal {v}: {a} vs {b}");
+                }
+                assert_eq!(gpu.tangents.len(), cpu.tangents.len(), "{rel}");
+                for (v, (a, b)) in gpu.tangents.iter().zip(&cpu.tangents).enumerate() {
+                    assert!(a.abs_diff_eq(*b, 1e-4), "{rel} tangent {v}: {a} vs {b}");
+                }
+                checked += want.len();
+            }
+        }
+        assert!(checked > 0, "{rel}: no deformed instance checked");
+    }
+    common::assert_validation_clean(&ctx);
 }

@@ -14,6 +14,7 @@ pub mod raytraced;
 pub mod reproject;
 pub mod sampling;
 pub mod sequence;
+pub mod skinning;
 pub mod targets;
 pub mod tonemap;
 
