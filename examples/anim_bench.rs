@@ -23,7 +23,9 @@ fn stats(v: &mut [f64]) -> (f64, f64, f64) {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let path = args.get(1).ok_or("usage: anim_bench SCENE [FRAMES] [hw|bvh]")?;
+    let path = args
+        .get(1)
+        .ok_or("usage: anim_bench SCENE [FRAMES] [hw|bvh]")?;
     let frames: u32 = args.get(2).map_or(Ok(60), |f| f.parse())?;
     let backend = match args.get(3).map(String::as_str) {
         Some("bvh") => Backend::Bvh,

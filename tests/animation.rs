@@ -39,10 +39,16 @@ fn interpolation_test_matches_hand_computed_values() {
     let tol = 1e-5;
 
     // STEP scale (node 0): keys 1, 0.5, 1, ...: the previous key holds until the next.
-    assert!(close(root_trs(&s, 0, 0.0).2.x, 1.0, tol), "before the first key");
+    assert!(
+        close(root_trs(&s, 0, 0.0).2.x, 1.0, tol),
+        "before the first key"
+    );
     assert!(close(root_trs(&s, 0, 0.6).2.x, 0.5, tol));
     assert!(close(root_trs(&s, 0, 0.874).2.x, 0.5, tol));
-    assert!(close(root_trs(&s, 0, 0.875).2.x, 1.0, tol), "a key's own time");
+    assert!(
+        close(root_trs(&s, 0, 0.875).2.x, 1.0, tol),
+        "a key's own time"
+    );
     // LINEAR scale (node 3): halfway between 1 and 0.5.
     assert!(close(root_trs(&s, 3, 0.5 * (k0 + k1)).2.y, 0.75, tol));
     // CUBICSPLINE scale (node 4), zero tangents, u = 1/4: h00 = 0.84375, h01 = 0.15625.
@@ -56,11 +62,17 @@ fn interpolation_test_matches_hand_computed_values() {
     // STEP rotation (node 5) between keys 1 and 2: key 1, -45° about z.
     let r = root_trs(&s, 5, 0.6).1;
     let want = Quat::from_rotation_z(-std::f32::consts::FRAC_PI_4);
-    assert!(r.abs_diff_eq(want, 1e-5) || r.abs_diff_eq(-want, 1e-5), "{r}");
+    assert!(
+        r.abs_diff_eq(want, 1e-5) || r.abs_diff_eq(-want, 1e-5),
+        "{r}"
+    );
     // LINEAR rotation (node 7) halfway between 0° and -45°: slerp gives -22.5°.
     let r = root_trs(&s, 7, 0.5 * 0.416_666_66).1;
     let want = Quat::from_rotation_z(-std::f32::consts::FRAC_PI_8);
-    assert!(r.abs_diff_eq(want, 1e-5) || r.abs_diff_eq(-want, 1e-5), "{r} vs {want}");
+    assert!(
+        r.abs_diff_eq(want, 1e-5) || r.abs_diff_eq(-want, 1e-5),
+        "{r} vs {want}"
+    );
     // CUBICSPLINE rotation (node 6), u = 1/2 of keys 0 (identity, out-tangent identity) and
     // 1 (value -45°, in-tangent (0, 0, -0.04789090, 0.99885267)); then normalized.
     let dt = 0.416_666_66_f32;
@@ -71,7 +83,10 @@ fn interpolation_test_matches_hand_computed_values() {
     let in1 = glam::Vec4::new(0.0, 0.0, -0.047_890_9, 0.998_852_67);
     let q = (0.5 * v0 + 0.125 * dt * out0 + 0.5 * v1 - 0.125 * dt * in1).normalize();
     let r = glam::Vec4::from(root_trs(&s, 6, 0.5 * dt).1);
-    assert!(r.abs_diff_eq(q, 1e-5) || r.abs_diff_eq(-q, 1e-5), "{r} vs {q}");
+    assert!(
+        r.abs_diff_eq(q, 1e-5) || r.abs_diff_eq(-q, 1e-5),
+        "{r} vs {q}"
+    );
 
     // STEP translation (node 8): y 6.665, 10, 6, ...
     assert!(close(root_trs(&s, 8, 0.6).0.y, 10.0, tol));
@@ -99,7 +114,10 @@ fn animation_selection_errors_name_the_file() {
         .select_animations(&AnimationSelection::Index(9))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("InterpolationTest.glb") && e.contains("animation 9"), "{e}");
+    assert!(
+        e.contains("InterpolationTest.glb") && e.contains("animation 9"),
+        "{e}"
+    );
     let e = s
         .select_animations(&AnimationSelection::Name("Walk".into()))
         .unwrap_err()
@@ -188,7 +206,10 @@ fn posed_scene_matches_the_skinning_and_morphing_reference() {
                 }
             }
         }
-        assert!(moved > 1e-3, "{rel}: the animation moves vertices ({moved})");
+        assert!(
+            moved > 1e-3,
+            "{rel}: the animation moves vertices ({moved})"
+        );
     }
 }
 
@@ -322,7 +343,10 @@ fn cli_renders_animated_frames_on_both_backends() {
         a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count()
     };
     let (hw, bvh) = (&frames[0], &frames[1]);
-    assert!(differ(&hw.0, &hw.1) > 20, "frame 1 shows the animation moved on");
+    assert!(
+        differ(&hw.0, &hw.1) > 20,
+        "frame 1 shows the animation moved on"
+    );
     for (a, b) in [(&hw.0, &bvh.0), (&hw.1, &bvh.1)] {
         let d = rqr::render::compare::compare(48, 48, a.as_raw(), b.as_raw());
         assert!(d.flip_mean < 0.01, "hw vs bvh frame: FLIP {}", d.flip_mean);

@@ -55,8 +55,7 @@ impl SceneArgs {
             }
         }
         let scene = self.load_file()?;
-        let animations =
-            scene.select_animations(&self.animation.clone().unwrap_or_default())?;
+        let animations = scene.select_animations(&self.animation.clone().unwrap_or_default())?;
         Ok((scene, animations))
     }
 

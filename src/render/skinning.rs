@@ -10,8 +10,8 @@ use glam::{Mat4, Vec3, Vec4};
 use crate::scene::pose::Deformed;
 use crate::scene::Geometry;
 use crate::vk::{
-    Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, MemoryLocation,
-    VkError, VkResult,
+    Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, MemoryLocation, VkError,
+    VkResult,
 };
 
 const FLAG_SKINNED: u32 = 1;
@@ -82,7 +82,10 @@ impl SkinningPass {
         let targets = g.morph_targets.len();
         let mut deltas = vec![Vec3::ZERO; 3 * targets * n];
         for (k, t) in g.morph_targets.iter().enumerate() {
-            for (a, attr) in [&t.positions, &t.normals, &t.tangents].into_iter().enumerate() {
+            for (a, attr) in [&t.positions, &t.normals, &t.tangents]
+                .into_iter()
+                .enumerate()
+            {
                 let start = (a * targets + k) * n;
                 if attr.len() == n {
                     deltas[start..start + n].copy_from_slice(attr);
@@ -96,17 +99,28 @@ impl SkinningPass {
             upload(
                 ctx,
                 "skin rest tangents",
-                &g.tangents.iter().flat_map(|t| t.to_array()).collect::<Vec<f32>>(),
+                &g.tangents
+                    .iter()
+                    .flat_map(|t| t.to_array())
+                    .collect::<Vec<f32>>(),
             )?,
             upload(
                 ctx,
                 "skin joints",
-                &if skinned { g.joints.concat() } else { Vec::new() },
+                &if skinned {
+                    g.joints.concat()
+                } else {
+                    Vec::new()
+                },
             )?,
             upload(
                 ctx,
                 "skin weights",
-                &if skinned { g.weights.concat() } else { Vec::new() },
+                &if skinned {
+                    g.weights.concat()
+                } else {
+                    Vec::new()
+                },
             )?,
             upload(ctx, "morph deltas", &flat(&deltas))?,
         ];
@@ -158,12 +172,12 @@ impl SkinningPass {
     pub fn update(&mut self, joints: Option<&[Mat4]>, weights: &[f32]) -> VkResult<()> {
         if let Some(j) = joints.filter(|_| self.joint_count > 0) {
             let n = j.len().min(self.joint_count as usize);
-            self.joint_matrices
-                .write(bytemuck::cast_slice(&j[..n]))?;
+            self.joint_matrices.write(bytemuck::cast_slice(&j[..n]))?;
         }
         let k = weights.len().min(self.targets as usize);
         if k > 0 {
-            self.morph_weights.write(bytemuck::cast_slice(&weights[..k]))?;
+            self.morph_weights
+                .write(bytemuck::cast_slice(&weights[..k]))?;
         }
         Ok(())
     }

@@ -5,8 +5,8 @@
 //! channel 3`).
 
 use ::gltf::json as gj;
-use glam::{Quat, Vec4};
 use gj::validation::Checked;
+use glam::{Quat, Vec4};
 
 use super::accessor::{self, Buffers};
 use super::error::SceneError;
@@ -280,7 +280,9 @@ fn parse_one(
                 if targets == 0 {
                     return Err(err(
                         el,
-                        format!("animates the weights of node {node}, whose mesh has no morph targets"),
+                        format!(
+                            "animates the weights of node {node}, whose mesh has no morph targets"
+                        ),
                     ));
                 }
                 targets
@@ -412,7 +414,12 @@ fn parse_one(
 mod tests {
     use super::*;
 
-    fn sampler(interpolation: Interpolation, input: &[f32], output: &[f32], width: usize) -> Sampler {
+    fn sampler(
+        interpolation: Interpolation,
+        input: &[f32],
+        output: &[f32],
+        width: usize,
+    ) -> Sampler {
         Sampler {
             input: input.to_vec(),
             output: output.to_vec(),
@@ -425,7 +432,14 @@ mod tests {
     fn linear_step_and_clamping() {
         let s = sampler(Interpolation::Linear, &[1.0, 3.0], &[0.0, 10.0], 1);
         let mut v = [0.0];
-        for (t, want) in [(0.0, 0.0), (1.0, 0.0), (2.0, 5.0), (2.5, 7.5), (3.0, 10.0), (9.0, 10.0)] {
+        for (t, want) in [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (2.0, 5.0),
+            (2.5, 7.5),
+            (3.0, 10.0),
+            (9.0, 10.0),
+        ] {
             s.sample(t, false, &mut v);
             assert_eq!(v[0], want, "linear at {t}");
         }

@@ -332,8 +332,11 @@ impl Loader<'_> {
         let mut cameras: Vec<(usize, Camera)> = Vec::new();
         let mut lights: Vec<(usize, Light)> = Vec::new();
         let mut visits = 0usize;
-        let mut stack: Vec<(usize, Mat4, Option<usize>)> =
-            roots.iter().rev().map(|&r| (r, Mat4::IDENTITY, None)).collect();
+        let mut stack: Vec<(usize, Mat4, Option<usize>)> = roots
+            .iter()
+            .rev()
+            .map(|&r| (r, Mat4::IDENTITY, None))
+            .collect();
         while let Some((n, parent, parent_node)) = stack.pop() {
             visits += 1;
             if visits > MAX_INSTANCES {
@@ -668,14 +671,25 @@ impl Loader<'_> {
                 self.file
             );
         }
-        if let Some((joints, weights)) =
-            skin::read_vertex_skin(&self.file, &self.root, &self.buffers, &element, &prim, vertex_count)?
-        {
+        if let Some((joints, weights)) = skin::read_vertex_skin(
+            &self.file,
+            &self.root,
+            &self.buffers,
+            &element,
+            &prim,
+            vertex_count,
+        )? {
             g.joints = joints;
             g.weights = weights;
         }
-        g.morph_targets =
-            skin::read_morph_targets(&self.file, &self.root, &self.buffers, &element, &prim, vertex_count)?;
+        g.morph_targets = skin::read_morph_targets(
+            &self.file,
+            &self.root,
+            &self.buffers,
+            &element,
+            &prim,
+            vertex_count,
+        )?;
         if g.normals.is_empty() {
             compute_flat_normals(&mut g);
         }
@@ -852,5 +866,4 @@ mod tests {
             assert!(got.abs_diff_eq(want, 1e-6), "{uv} -> {got}, want {want}");
         }
     }
-
 }

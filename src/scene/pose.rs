@@ -252,7 +252,10 @@ fn blend(mats: &[Mat4], joints: &[u32; 8], weights: &[f32; 8]) -> Mat4 {
 
 impl Scene {
     /// Indices of the animations `selection` plays, or an error naming the file.
-    pub fn select_animations(&self, selection: &AnimationSelection) -> Result<Vec<usize>, SceneError> {
+    pub fn select_animations(
+        &self,
+        selection: &AnimationSelection,
+    ) -> Result<Vec<usize>, SceneError> {
         selection.resolve(&self.source, &self.rig.animations)
     }
 
@@ -269,9 +272,10 @@ impl Scene {
     pub fn is_animated(&self) -> bool {
         self.rig.is_animated()
             || (!self.rig.instance_local.is_empty()
-                && self.instances.iter().any(|i| {
-                    self.geometries[i.geometry as usize].is_deformable()
-                }))
+                && self
+                    .instances
+                    .iter()
+                    .any(|i| self.geometries[i.geometry as usize].is_deformable()))
     }
 
     /// Skinning matrices and morph weights of instance `k` at `pose`: `(joints, weights)`;

@@ -86,7 +86,11 @@ pub(super) fn parse_skins(
                         joints.len()
                     )));
                 }
-                let mats: Vec<Mat4> = e.values.chunks_exact(16).map(Mat4::from_cols_slice).collect();
+                let mats: Vec<Mat4> = e
+                    .values
+                    .chunks_exact(16)
+                    .map(Mat4::from_cols_slice)
+                    .collect();
                 if let Some(j) = mats.iter().position(|m| !m.is_finite()) {
                     return Err(err(format!("inverse bind matrix {j} is not finite")));
                 }
@@ -204,9 +208,7 @@ pub(super) fn check_joint_range(
                 return Err(SceneError::element(
                     file,
                     element,
-                    format!(
-                        "vertex {v} uses joint {j}, but skin {skin_index} has {count} joints"
-                    ),
+                    format!("vertex {v} uses joint {j}, but skin {skin_index} has {count} joints"),
                 ));
             }
         }
@@ -238,27 +240,32 @@ pub(super) fn read_morph_targets(
     }
     let mut out = Vec::with_capacity(targets.len());
     for (t, target) in targets.iter().enumerate() {
-        let read = |name: &str, index: Option<gj::Index<gj::Accessor>>| -> Result<Vec<Vec3>, SceneError> {
-            let Some(index) = index else {
-                return Ok(Vec::new());
+        let read =
+            |name: &str, index: Option<gj::Index<gj::Accessor>>| -> Result<Vec<Vec3>, SceneError> {
+                let Some(index) = index else {
+                    return Ok(Vec::new());
+                };
+                let index = index.value();
+                let err = |m: String| {
+                    SceneError::element(
+                        file,
+                        format!("{element} target {t}"),
+                        format!("{name} accessor {index}: {m}"),
+                    )
+                };
+                let e = accessor::read_f32(root, buffers, index).map_err(err)?;
+                if e.comps != 3 || e.count() != vertices {
+                    return Err(err(format!(
+                        "has {} elements of {} components; expected {vertices} VEC3",
+                        e.count(),
+                        e.comps
+                    )));
+                }
+                if let Some(k) = e.values.iter().position(|v| !v.is_finite()) {
+                    return Err(err(format!("value {k} is not finite")));
+                }
+                Ok(e.values.chunks_exact(3).map(Vec3::from_slice).collect())
             };
-            let index = index.value();
-            let err = |m: String| {
-                SceneError::element(file, format!("{element} target {t}"), format!("{name} accessor {index}: {m}"))
-            };
-            let e = accessor::read_f32(root, buffers, index).map_err(err)?;
-            if e.comps != 3 || e.count() != vertices {
-                return Err(err(format!(
-                    "has {} elements of {} components; expected {vertices} VEC3",
-                    e.count(),
-                    e.comps
-                )));
-            }
-            if let Some(k) = e.values.iter().position(|v| !v.is_finite()) {
-                return Err(err(format!("value {k} is not finite")));
-            }
-            Ok(e.values.chunks_exact(3).map(Vec3::from_slice).collect())
-        };
         out.push(MorphTarget {
             positions: read("POSITION", target.positions)?,
             normals: read("NORMAL", target.normals)?,
@@ -318,7 +325,11 @@ pub(super) fn check_morph_counts(file: &str, root: &gj::Root) -> Result<(), Scen
                 return Err(SceneError::element(
                     file,
                     format!("node {n}"),
-                    format!("skin {} does not exist ({} skins)", s.value(), root.skins.len()),
+                    format!(
+                        "skin {} does not exist ({} skins)",
+                        s.value(),
+                        root.skins.len()
+                    ),
                 ));
             }
         }

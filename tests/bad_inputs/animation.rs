@@ -39,7 +39,8 @@ fn skinned(s: Skinned) -> (Builder, Value) {
     let mut b = Builder::default();
     let mut doc = quad_doc(&mut b, json!({}));
     let joints = b.view(&[s.joint, 0, 0, 0].repeat(4));
-    let joints = b.accessor(json!({"bufferView": joints, "componentType": 5121, "count": 4, "type": "VEC4"}));
+    let joints = b
+        .accessor(json!({"bufferView": joints, "componentType": 5121, "count": 4, "type": "VEC4"}));
     let weights = b.floats(&[s.weight, 0.0, 0.0, 0.0].repeat(4), "VEC4");
     let identity: Vec<f32> = glam::Mat4::IDENTITY.to_cols_array().to_vec();
     let ibm_bytes: Vec<u8> = identity
@@ -48,7 +49,9 @@ fn skinned(s: Skinned) -> (Builder, Value) {
         .flat_map(|f| f.to_le_bytes())
         .collect();
     let ibm = b.view(&ibm_bytes);
-    let ibm = b.accessor(json!({"bufferView": ibm, "componentType": 5126, "count": s.matrices, "type": "MAT4"}));
+    let ibm = b.accessor(
+        json!({"bufferView": ibm, "componentType": 5126, "count": s.matrices, "type": "MAT4"}),
+    );
     let times = b.floats(&s.times, "SCALAR");
     let values: Vec<f32> = (0..s.values * 3).map(|i| i as f32 * 0.01).collect();
     let values = b.floats(&values, "VEC3");
@@ -131,7 +134,10 @@ pub fn cases(out: &mut Vec<Case>) {
     ));
     out.push(skinned_case(
         "skin_weights_not_normalized",
-        Skinned { weight: 0.5, ..GOOD },
+        Skinned {
+            weight: 0.5,
+            ..GOOD
+        },
         Expect::Loads {
             warning: Some("do not sum to 1; normalized"),
             render: false,
@@ -139,7 +145,10 @@ pub fn cases(out: &mut Vec<Case>) {
     ));
     out.push(skinned_case(
         "skin_inverse_bind_count",
-        Skinned { matrices: 2, ..GOOD },
+        Skinned {
+            matrices: 2,
+            ..GOOD
+        },
         Expect::Fails(vec!["skin 0", "2 matrices for 1 joints"]),
     ));
     out.push(skinned_case(
@@ -157,13 +166,22 @@ pub fn cases(out: &mut Vec<Case>) {
     ));
     out.push(skinned_case(
         "anim_cubic_tangents",
-        Skinned { cubic: true, ..GOOD },
-        Expect::Fails(vec!["animation 0 sampler 0", "CUBICSPLINE needs 3 elements"]),
+        Skinned {
+            cubic: true,
+            ..GOOD
+        },
+        Expect::Fails(vec![
+            "animation 0 sampler 0",
+            "CUBICSPLINE needs 3 elements",
+        ]),
     ));
     out.push(case(
         "morph_target_count_differs",
         morphed(2),
-        Expect::Fails(vec!["mesh 0 primitive 1", "2 morph targets but primitive 0 has 1"]),
+        Expect::Fails(vec![
+            "mesh 0 primitive 1",
+            "2 morph targets but primitive 0 has 1",
+        ]),
     ));
     out.push(edited(
         "anim_missing_node",

@@ -93,7 +93,10 @@ impl Loader<'_> {
         })
     }
 
-    pub(super) fn image_bytes(&self, i: usize) -> Result<(ImageBytes<'_>, Option<String>), SceneError> {
+    pub(super) fn image_bytes(
+        &self,
+        i: usize,
+    ) -> Result<(ImageBytes<'_>, Option<String>), SceneError> {
         let j = &self.root.images[i];
         let el = self.image_element(i);
         let mime = j.mime_type.as_ref().map(|m| m.0.clone());

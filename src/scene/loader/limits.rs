@@ -74,7 +74,11 @@ impl Loader<'_> {
 
     /// Fails when the scene's unique geometry, plus `more` vertices about to be read, exceeds
     /// [`MAX_SCENE_VERTICES`] or [`MAX_SCENE_TRIANGLES`].
-    pub(super) fn check_geometry_budget(&self, element: &str, more: usize) -> Result<(), SceneError> {
+    pub(super) fn check_geometry_budget(
+        &self,
+        element: &str,
+        more: usize,
+    ) -> Result<(), SceneError> {
         let vertices = self.vertices.saturating_add(more);
         if vertices > MAX_SCENE_VERTICES {
             return Err(self.err(
