@@ -163,7 +163,7 @@ impl SkinningPass {
             count: n as u32,
             targets: targets as u32,
             joint_count: if skinned { joint_count as u32 } else { 0 },
-            flags: u32::from(skinned) * FLAG_SKINNED | u32::from(has_tangents) * FLAG_TANGENTS,
+            flags: (u32::from(skinned) * FLAG_SKINNED) | (u32::from(has_tangents) * FLAG_TANGENTS),
         })
     }
 

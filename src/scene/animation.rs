@@ -465,7 +465,8 @@ mod tests {
         let mut v = [0.0];
         s.sample(1.0, false, &mut v);
         // u = 0.5: h00 = 0.5, h10 = 0.125, h01 = 0.5, h11 = -0.125; dt = 2.
-        let want = 0.5 * 0.0 + 0.125 * 2.0 * 1.0 + 0.5 * 1.0 - 0.125 * 2.0 * -1.0;
+        let (v0, out0, v1, in1, dt) = (0.0, 1.0, 1.0, -1.0, 2.0);
+        let want = 0.5 * v0 + 0.125 * dt * out0 + 0.5 * v1 - 0.125 * dt * in1;
         assert!((v[0] - want).abs() < 1e-6, "{} vs {want}", v[0]);
     }
 
