@@ -448,8 +448,12 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
                 true => base,
                 false => args.camera.resolve(&posed, aspect)?,
             };
-            let renderer =
-                Renderer::with_bvh_build(&ctx, &posed, backend, args.device.bvh_build(&ctx))?;
+            let renderer = rqr::render::animated::frame_renderer(
+                &ctx,
+                &posed,
+                backend,
+                args.device.bvh_build(&ctx),
+            )?;
             let mut frame_sequence = Sequence::new(
                 &ctx,
                 &renderer,

@@ -1,5 +1,6 @@
 //! Render passes (one module each) and the [`Renderer`] that runs them on an uploaded scene.
 
+pub mod animated;
 pub mod burst;
 pub mod compare;
 pub mod frame;
