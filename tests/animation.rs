@@ -369,3 +369,40 @@ fn cli_renders_animated_frames_on_both_backends() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("animated scenes"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn only_geometry_motion_counts_as_moving() {
+    let s = load("BoxAnimated/BoxAnimated.glb");
+    let all = s.select_animations(&AnimationSelection::All).unwrap();
+    assert!(s.animation_moves_geometry(&all));
+    assert!(!s.animation_moves_geometry(&[]));
+    let s = load("InterpolationTest/InterpolationTest.glb");
+    let step_scale = s
+        .select_animations(&AnimationSelection::Name("Step Scale".into()))
+        .unwrap();
+    assert!(s.animation_moves_geometry(&step_scale));
+
+    // A quad and an animated camera: only the camera moves.
+    let mut b = scene_util::Builder::default();
+    let mut doc = scene_util::quad_doc(&mut b, serde_json::json!({}));
+    let times = b.floats(&[0.0, 1.0], "SCALAR");
+    let moves = b.floats(&[0.0, 0.0, 3.0, 1.0, 0.0, 3.0], "VEC3");
+    doc["scenes"] = serde_json::json!([{"nodes": [0, 1]}]);
+    doc["nodes"] = serde_json::json!([{"mesh": 0}, {"camera": 0, "translation": [0, 0, 3]}]);
+    doc["cameras"] =
+        serde_json::json!([{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]);
+    doc["animations"] = serde_json::json!([{
+        "samplers": [{"input": times, "output": moves}],
+        "channels": [{"sampler": 0, "target": {"node": 1, "path": "translation"}}],
+    }]);
+    let bytes = scene_util::bytes(&b.document(doc));
+    let s = scene::load_slice(&bytes, None, "camera.gltf", &LoadOptions::default()).unwrap();
+    let all = s.select_animations(&AnimationSelection::All).unwrap();
+    assert!(!s.animation_moves_geometry(&all));
+    let posed = s.posed(&all, 0.5);
+    let eye = posed.cameras[0].camera_to_world.w_axis.truncate();
+    assert!(
+        eye.abs_diff_eq(Vec3::new(0.5, 0.0, 3.0), 1e-5),
+        "animated camera at {eye}"
+    );
+}

@@ -340,9 +340,9 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     check_output_file(&frame_path(&args.output, range.start))?;
     let (rest, animations) = args.scene.load_rest()?;
     // A skinned or morphed scene is posed even without animation (the bind pose is not the
-    // rest pose); it changes between frames only when an animation plays.
+    // rest pose); it changes between frames only when an animation moves more than cameras.
     let deformable = rest.is_animated();
-    let animated = deformable && !animations.is_empty();
+    let animated = deformable && rest.animation_moves_geometry(&animations);
     if animated {
         check_animated_sequence(args, &reuse)?;
     }

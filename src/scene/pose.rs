@@ -278,6 +278,43 @@ impl Scene {
                     .any(|i| self.geometries[i.geometry as usize].is_deformable()))
     }
 
+    /// Whether animations `animations` move anything but cameras: an instance's node or an
+    /// ancestor, a joint of a skinned instance (or its ancestors), a light, or morph weights.
+    /// Sequences whose animation moves only the camera keep reusing samples between frames.
+    pub fn animation_moves_geometry(&self, animations: &[usize]) -> bool {
+        let nodes = &self.rig.nodes;
+        let mut animated = vec![false; nodes.len()];
+        for &a in animations {
+            for ch in &self.rig.animations[a].channels {
+                if ch.property == Property::Weights {
+                    return true;
+                }
+                animated[ch.node] = true;
+            }
+        }
+        // Parents were checked acyclic by the loader; the step bound is only a safeguard.
+        let moved = |mut n: usize| {
+            for _ in 0..=nodes.len() {
+                if animated[n] {
+                    return true;
+                }
+                match nodes[n].parent {
+                    Some(p) => n = p,
+                    None => return false,
+                }
+            }
+            false
+        };
+        let instance_moves = self.instances.iter().any(|inst| {
+            let joints_move = nodes[inst.node]
+                .skin
+                .is_some_and(|s| self.rig.skins[s].joints.iter().any(|&j| moved(j)));
+            moved(inst.node) || joints_move
+        });
+        let light_moves = !self.default_lights && self.rig.light_nodes.iter().any(|&n| moved(n));
+        instance_moves || light_moves
+    }
+
     /// Skinning matrices and morph weights of instance `k` at `pose`: `(joints, weights)`;
     /// joints is `None` when the instance is not skinned.
     pub fn instance_deformation<'p>(
