@@ -406,3 +406,34 @@ fn only_geometry_motion_counts_as_moving() {
         "animated camera at {eye}"
     );
 }
+
+#[test]
+fn info_lists_animations_skins_and_morphs() {
+    let (o, _) = common::run_rqr(
+        &[
+            "info",
+            "--json",
+            asset("CesiumMan/CesiumMan.glb").to_str().unwrap(),
+        ],
+        &[],
+        std::time::Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["skins"], 1);
+    assert_eq!(v["animations"].as_array().unwrap().len(), 1);
+    assert!(v["animations"][0]["duration"].as_f64().unwrap() > 1.0);
+    let (o, _) = common::run_rqr(
+        &[
+            "info",
+            "--json",
+            asset("MorphStressTest/MorphStressTest.glb")
+                .to_str()
+                .unwrap(),
+        ],
+        &[],
+        std::time::Duration::from_secs(120),
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["morphed_geometries"].as_u64().unwrap() >= 1, "{v}");
+}
