@@ -343,3 +343,14 @@ fn hybrid_matches_ray_traced_with_alpha_mask_and_blend() {
         128,
     );
 }
+
+/// Hybrid ≡ ray-traced on an animated frame (CesiumMan skinned mid-stride).
+#[test]
+fn hybrid_matches_ray_traced_on_an_animated_frame() {
+    let rest = asset("CesiumMan/CesiumMan.glb");
+    let all = rest
+        .select_animations(&rqr::scene::AnimationSelection::All)
+        .unwrap();
+    let posed = rest.posed(&all, 0.7);
+    assert_hybrid_matches_rt("CesiumMan t=0.7", &posed, 96);
+}

@@ -43,6 +43,9 @@ fn info_json_has_every_field() {
         "extensions_used",
         "extensions_unsupported",
         "bounds",
+        "animations",
+        "skins",
+        "morphed_geometries",
     ] {
         assert!(v.get(key).is_some(), "missing {key} in {v}");
     }

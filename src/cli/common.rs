@@ -12,7 +12,7 @@ use rqr::accel::{Backend, BackendChoice};
 use rqr::render::gbuffer::GbufferLayout;
 use rqr::render::raster_compute::{RasterChoice, RasterMode};
 use rqr::render::{FilterKind, RenderSettings, SamplerKind, Tonemap};
-use rqr::scene::{Camera, LoadOptions, Scene};
+use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene};
 use rqr::vk::{Context, ContextOptions, DeviceSelector};
 
 /// Largest image side accepted before a device is opened (the device limit is checked after).
@@ -30,11 +30,40 @@ pub struct SceneArgs {
     /// file's default materials.
     #[arg(long, value_name = "NAME")]
     pub variant: Option<String>,
+    /// Animation to play: index, name, `all` (every animation at once) or `none` (rest
+    /// pose); default: the file's first animation.
+    #[arg(long, value_name = "N|NAME|all|none")]
+    pub animation: Option<AnimationSelection>,
+    /// Pose animated scenes at T seconds (default 0; sequences sample frame k at k/--fps).
+    #[arg(long, value_name = "T")]
+    pub time: Option<f32>,
 }
 
 impl SceneArgs {
-    /// Loads the scene.
+    /// Loads the scene, posed at `--time` (default 0) of the chosen animations when it is
+    /// animated, skinned or morphed.
     pub fn load(&self) -> Result<Scene> {
+        let (scene, animations) = self.load_rest()?;
+        if !scene.is_animated() {
+            return Ok(scene);
+        }
+        Ok(scene.posed(&animations, self.time.unwrap_or(0.0)))
+    }
+
+    /// Loads the scene in its rest pose, with the indices of the animations `--animation`
+    /// selects (see [`Scene::posed`]).
+    pub fn load_rest(&self) -> Result<(Scene, Vec<usize>)> {
+        if let Some(t) = self.time {
+            if !t.is_finite() {
+                bail!("--time {t} must be a finite number of seconds");
+            }
+        }
+        let scene = self.load_file()?;
+        let animations = scene.select_animations(&self.animation.clone().unwrap_or_default())?;
+        Ok((scene, animations))
+    }
+
+    fn load_file(&self) -> Result<Scene> {
         match &self.scene {
             None => {
                 if self.scene_index.is_some_and(|i| i > 0) {

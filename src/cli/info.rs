@@ -80,6 +80,19 @@ struct InfoJson<'a> {
     variant: Option<&'a str>,
     /// `null` for a scene without geometry.
     bounds: Option<BoundsJson>,
+    /// Animations: name (may be empty), length in seconds, channel count.
+    animations: Vec<AnimationJson<'a>>,
+    /// Skins of the file.
+    skins: usize,
+    /// Geometries with morph targets.
+    morphed_geometries: usize,
+}
+
+#[derive(Serialize)]
+struct AnimationJson<'a> {
+    name: &'a str,
+    duration: f32,
+    channels: usize,
 }
 
 fn to_json(s: &Scene) -> InfoJson<'_> {
@@ -106,6 +119,22 @@ fn to_json(s: &Scene) -> InfoJson<'_> {
             min: s.bounds.min.to_array(),
             max: s.bounds.max.to_array(),
         }),
+        animations: s
+            .rig
+            .animations
+            .iter()
+            .map(|a| AnimationJson {
+                name: &a.name,
+                duration: a.duration(),
+                channels: a.channels.len(),
+            })
+            .collect(),
+        skins: s.rig.skins.len(),
+        morphed_geometries: s
+            .geometries
+            .iter()
+            .filter(|g| !g.morph_targets.is_empty())
+            .count(),
     }
 }
 
@@ -169,6 +198,31 @@ pub fn run(args: &InfoArgs) -> Result<()> {
             },
         ),
         ("cameras", s.cameras.len().to_string()),
+        (
+            "animations",
+            if s.rig.animations.is_empty() {
+                "-".into()
+            } else {
+                s.rig
+                    .animations
+                    .iter()
+                    .enumerate()
+                    .map(|(i, a)| format!("{i} '{}' {:.2} s", a.name, a.duration()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            },
+        ),
+        (
+            "skins, morphs",
+            format!(
+                "{} skins, {} geometries with morph targets",
+                s.rig.skins.len(),
+                s.geometries
+                    .iter()
+                    .filter(|g| !g.morph_targets.is_empty())
+                    .count()
+            ),
+        ),
         ("extensions used", list(&s.extensions_used)),
         ("unsupported", list(&s.extensions_unsupported)),
         (

@@ -325,7 +325,20 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         }
     }
     check_output_file(&frame_path(&args.output, range.start))?;
-    let scene = args.scene.load()?;
+    let (rest, animations) = args.scene.load_rest()?;
+    // A skinned or morphed scene is posed even without animation (the bind pose is not the
+    // rest pose); it changes between frames only when an animation moves more than cameras.
+    let deformable = rest.is_animated();
+    let animated = deformable && rest.animation_moves_geometry(&animations);
+    if animated {
+        check_animated_sequence(args, &reuse)?;
+    }
+    // Frame k of an animated scene shows it at k / --fps seconds.
+    let pose_at = |k: u32| match deformable {
+        true => rest.posed(&animations, k as f32 / seq.fps),
+        false => rest.clone(),
+    };
+    let scene = pose_at(range.start);
     let aspect = settings.width as f32 / settings.height as f32;
     let base = args.camera.resolve(&scene, aspect)?;
     let path = match seq.camera_path {
@@ -365,18 +378,19 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?
     };
     let render_path = args.mode;
+    let options = SequenceOptions {
+        path: render_path,
+        reuse,
+        reference: seq.reference,
+    };
     let mut sequence = Sequence::new(
         &ctx,
         &renderer,
         &scene,
         &settings,
         base,
-        path,
-        SequenceOptions {
-            path: render_path,
-            reuse,
-            reference: seq.reference,
-        },
+        path.clone(),
+        options,
     )?;
     let bar = indicatif::ProgressBar::new(u64::from(range.end - range.start));
     bar.set_style(
@@ -410,7 +424,33 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let mut start = range.start;
     while start < range.end {
         let end = range.end.min(start.saturating_add(burst));
-        let frames = sequence.render_burst(&ctx, start..end)?;
+        let frames = if animated && start != range.start {
+            // Every frame of an animated scene gets its own pose and acceleration
+            // structures (see `check_animated_sequence`).
+            let posed = pose_at(start);
+            let base = match posed.cameras.is_empty() {
+                true => base,
+                false => args.camera.resolve(&posed, aspect)?,
+            };
+            let renderer = rqr::render::animated::frame_renderer(
+                &ctx,
+                &posed,
+                backend,
+                args.device.bvh_build(&ctx),
+            )?;
+            let mut frame_sequence = Sequence::new(
+                &ctx,
+                &renderer,
+                &posed,
+                &settings,
+                base,
+                path.clone(),
+                options,
+            )?;
+            frame_sequence.render_burst(&ctx, start..end)?
+        } else {
+            sequence.render_burst(&ctx, start..end)?
+        };
         start = end;
         for frame in frames {
             let summary = write_frame(args, ext, &settings, &frame, &bar)?;
@@ -480,6 +520,25 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         .with_context(|| format!("cannot write '{}'", p.display()))?;
     }
     super::common::check_validation(&ctx)
+}
+
+/// Refuses what animated sequences do not support yet: reuse between frames (moving objects
+/// are not reprojected) and burst timing (each frame rebuilds its scene).
+fn check_animated_sequence(args: &RenderArgs, reuse: &ReuseOptions) -> Result<()> {
+    let seq = &args.sequence;
+    if reuse.any() {
+        bail!("--reproject, --frameless and --adaptive-subsample do not support animated scenes yet (moving objects are not reprojected); render with --animation none for the rest pose");
+    }
+    if seq.benchmark {
+        bail!("--benchmark does not support animated scenes yet; use --animation none for the rest pose");
+    }
+    if args.scene.time.is_some() {
+        bail!("--time is for single images: frame k of a sequence shows the animation at k/--fps seconds");
+    }
+    if !(seq.fps.is_finite() && seq.fps > 0.0) {
+        bail!("--fps {} must be a positive number", seq.fps);
+    }
+    Ok(())
 }
 
 /// Writes a frame's image (and sources map), prints its JSON line and returns its summary.

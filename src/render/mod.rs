@@ -1,5 +1,6 @@
 //! Render passes (one module each) and the [`Renderer`] that runs them on an uploaded scene.
 
+pub mod animated;
 pub mod burst;
 pub mod compare;
 pub mod frame;
@@ -14,6 +15,7 @@ pub mod raytraced;
 pub mod reproject;
 pub mod sampling;
 pub mod sequence;
+pub mod skinning;
 pub mod targets;
 pub mod tonemap;
 

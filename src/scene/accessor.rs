@@ -172,8 +172,10 @@ fn read<T: Copy + Default>(
         .get(index)
         .ok_or_else(|| format!("does not exist ({} accessors)", root.accessors.len()))?;
     let (ct, ty) = checked_type(acc)?;
-    if matches!(ty, Type::Mat2 | Type::Mat3 | Type::Mat4) {
-        return Err("matrix accessors are not supported here".into());
+    // MAT4 of FLOAT (inverse bind matrices) has no column padding; other matrices may.
+    let unpadded = ty == Type::Mat4 && ct == ComponentType::F32;
+    if matches!(ty, Type::Mat2 | Type::Mat3 | Type::Mat4) && !unpadded {
+        return Err("matrix accessors are only supported as MAT4 of FLOAT".into());
     }
     let comps = type_components(ty);
     let csize = component_size(ct);

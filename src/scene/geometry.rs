@@ -61,6 +61,13 @@ pub fn compute_flat_normals(g: &mut Geometry) {
     unweld(&mut g.uv0, &indices);
     unweld(&mut g.uv1, &indices);
     unweld(&mut g.colors, &indices);
+    unweld(&mut g.joints, &indices);
+    unweld(&mut g.weights, &indices);
+    for t in &mut g.morph_targets {
+        unweld(&mut t.positions, &indices);
+        unweld(&mut t.normals, &indices);
+        unweld(&mut t.tangents, &indices);
+    }
     g.normals = g
         .positions
         .chunks_exact(3)
@@ -204,6 +211,17 @@ pub fn compute_tangents(g: &mut Geometry, uv_set: u32) -> bool {
         }
         if !g.colors.is_empty() {
             g.colors.push(g.colors[s]);
+        }
+        if !g.joints.is_empty() {
+            g.joints.push(g.joints[s]);
+            g.weights.push(g.weights[s]);
+        }
+        for m in &mut g.morph_targets {
+            for attr in [&mut m.positions, &mut m.normals, &mut m.tangents] {
+                if !attr.is_empty() {
+                    attr.push(attr[s]);
+                }
+            }
         }
         tangents.push(t);
     }

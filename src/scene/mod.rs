@@ -5,6 +5,7 @@
 //! [`textures::GpuTextures`] uploads a scene's images.
 
 mod accessor;
+pub mod animation;
 pub mod camera;
 mod compression;
 mod default_scene;
@@ -17,11 +18,14 @@ mod ktx2;
 pub mod layout;
 mod loader;
 mod material_ext;
+pub mod pose;
 pub mod procedural;
+pub mod skin;
 pub mod textures;
 pub mod types;
 mod variants;
 
+pub use animation::{Animation, AnimationSelection};
 pub use camera::{auto_camera, default_lights, look_at_camera};
 pub use default_scene::{load_default, DEFAULT_SCENE_GLB};
 pub use error::SceneError;

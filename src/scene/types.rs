@@ -70,12 +70,36 @@ pub struct Geometry {
     pub mesh: usize,
     /// Primitive index within that mesh.
     pub primitive: usize,
+    /// Skin joints of each vertex (JOINTS_0 then JOINTS_1), indices into the skin of the
+    /// node that places the geometry; empty for unskinned geometry.
+    pub joints: Vec<[u32; 8]>,
+    /// Skin weights matching `joints` (sum 1); empty for unskinned geometry.
+    pub weights: Vec<[f32; 8]>,
+    /// Morph targets, each with one displacement per vertex per attribute it has.
+    pub morph_targets: Vec<MorphTarget>,
+}
+
+/// One morph target of a geometry: displacements added with the target's weight. An empty
+/// array: the target does not move that attribute.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MorphTarget {
+    /// POSITION displacements.
+    pub positions: Vec<Vec3>,
+    /// NORMAL displacements.
+    pub normals: Vec<Vec3>,
+    /// TANGENT (xyz) displacements.
+    pub tangents: Vec<Vec3>,
 }
 
 impl Geometry {
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
+    }
+
+    /// Whether skinning or morphing can move its vertices.
+    pub fn is_deformable(&self) -> bool {
+        !self.joints.is_empty() || !self.morph_targets.is_empty()
     }
 }
 
@@ -500,6 +524,9 @@ pub struct Scene {
     /// `None` for nodes outside it). Instances and cameras already carry theirs; this is for
     /// tools and tests.
     pub node_world: Vec<Option<Mat4>>,
+    /// Node hierarchy, skins and animations, for posing the scene at a time
+    /// ([`Scene::posed`]); empty for scenes without glTF nodes.
+    pub rig: super::pose::Rig,
 }
 
 impl Scene {

@@ -780,5 +780,6 @@ pub fn cases() -> Vec<Case> {
     node_cases(&mut out);
     image_cases(&mut out);
     crate::extensions::cases(&mut out);
+    crate::animation::cases(&mut out);
     out
 }

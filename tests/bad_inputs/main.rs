@@ -8,6 +8,7 @@ mod common;
 #[path = "../scene_util/mod.rs"]
 mod scene_util;
 
+mod animation;
 mod corpus;
 mod extensions;
 
