@@ -3,10 +3,11 @@
 //!
 //! One bottom-level BVH (BLAS) is built per geometry that an instance uses, in object space;
 //! a top-level BVH (TLAS) is built over the instances' world-space boxes (each the transformed
-//! BLAS root box), so instancing duplicates no triangle. Both levels are binary BVHs built with
-//! `obvhs` (PLOC, parallel reinsertion, SAH leaf collapse) and flattened into one array of
-//! 64-byte nodes that hold both children's boxes (see [`layout`]). Triangles are stored in leaf
-//! order as three exact vertex copies plus their original primitive index.
+//! BLAS root box), so instancing duplicates no triangle. Both levels are built as binary trees
+//! with `obvhs` (PLOC, parallel reinsertion, SAH leaf collapse) and collapsed into one array of
+//! 4-wide, 64-byte nodes that hold their children's boxes quantized to 8 bits (see [`layout`]).
+//! Triangles are stored in leaf order as three exact vertex copies plus their original primitive
+//! index (no separate primitive map).
 //!
 //! With `--bvh-build gpu` the bottom levels are built in compute shaders instead
 //! ([`gpu_build`]: Morton codes, radix sort, PLOC, collapse into the same node layout).
@@ -284,8 +285,9 @@ pub fn check_fits(
     Ok(())
 }
 
-/// The BVH on the device: node, triangle, primitive-map and instance buffers, and the
-/// `BvhRefs` uniform (set 0, binding 2 in every `RAY_BACKEND_BVH` shader).
+/// The BVH on the device: node, triangle (each with its primitive index) and instance
+/// buffers, and the `BvhRefs` uniform (set 0, `BINDING_RAY_BACKEND` in every
+/// `RAY_BACKEND_BVH` shader).
 pub struct GpuBvh {
     nodes: Buffer,
     triangles: Buffer,
