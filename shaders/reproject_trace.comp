@@ -14,6 +14,7 @@
 #include "sampling.glsl"
 #include "brdf.glsl"
 #include "shade.glsl"
+#include "gbuffer_decode.glsl"
 #include "counters.glsl"
 #include "reproject.glsl"
 
@@ -46,36 +47,20 @@ void main() {
     Surface s = unused_surface;
     float t = 0.0;
     if (known) {
-        uvec4 ids = imageLoad(g_ids, pix);
-        info.hit = ids.x != 0xFFFFFFFFu;
+        GbufferTexel g;
+        g.ids = imageLoad(g_ids, pix);
+        info.hit = gbuffer_hit(g.ids);
         if (info.hit) {
-            vec4 p = imageLoad(g_position, pix);
-            vec4 n = imageLoad(g_normal, pix);
-            vec4 ng = imageLoad(g_geometric, pix);
-            vec4 base = imageLoad(g_base, pix);
-            vec4 em = imageLoad(g_emissive, pix);
-            s.position = p.xyz;
-            s.n = n.xyz;
-            s.roughness = n.w;
-            s.ng_front = ng.xyz;
-            s.metallic = ng.w;
-            s.base_color = base.rgb;
-            s.alpha = base.a;
-            s.emissive = em.rgb;
-            s.occlusion = em.a;
-            s.material = ids.z & 0x7FFFFFFFu;
-            s.front_face = (ids.z >> 31) != 0u;
-            s.ng = s.front_face ? s.ng_front : -s.ng_front;
-            s.transmission = uintBitsToFloat(ids.w);
-            GpuMaterial m = scene_material(s.material);
-            s.ior = m.ior;
-            s.atten_color = m.attenuation_color;
-            s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
-            s.alpha_mode = m.alpha_mode;
-            t = p.w;
+            g.position = imageLoad(g_position, pix);
+            g.normal = imageLoad(g_normal, pix);
+            g.geometric = imageLoad(g_geometric, pix);
+            g.base = imageLoad(g_base, pix);
+            g.emissive = imageLoad(g_emissive, pix);
+            gbuffer_decode(g, s);
+            t = g.position.w;
             info.t = t;
-            info.instance = int(ids.x);
-            info.primitive = int(ids.y);
+            info.instance = int(g.ids.x);
+            info.primitive = int(g.ids.y);
             info.normal = s.ng_front;
             info.position = s.position;
         }
