@@ -147,7 +147,6 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         ProgressStyle::with_template("{bar:40} {pos}/{len} batches {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let mut results = Vec::new();
     if runs.contains(&(Backend::Bvh, BvhBuild::Gpu)) {
         // lavapipe JIT-compiles each pipeline inside its first dispatch: build a small
         // scene once so the timed build measures the build, not the compiler.
@@ -158,10 +157,24 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         );
         GpuBvh::build_with(&ctx, &warm, &BvhBuildOptions::default(), BvhBuild::Gpu)?;
     }
+    // Every configuration is built first; then the timed batches run round-robin over them,
+    // so a device whose speed drifts (a CPU device on a shared machine, a GPU changing clocks)
+    // slows every configuration alike instead of whichever happened to run last.
+    struct Prepared {
+        // Declared before the renderer it binds, so it is dropped first.
+        bench: RayBench,
+        renderer: Renderer,
+        backend: Backend,
+        build: serde_json::Value,
+        setup_ms: f64,
+        primary: Vec<RayBatch>,
+        incoherent: Vec<RayBatch>,
+    }
+    let mut prepared = Vec::with_capacity(runs.len());
     for (backend, bvh_build) in &runs {
-        bar.set_message(format!("{} backend", backend.as_str()));
+        bar.set_message(format!("{} backend: build", backend.as_str()));
         let start = Instant::now();
-        let mut renderer = Renderer::with_bvh_build(&ctx, &scene, *backend, *bvh_build)?;
+        let renderer = Renderer::with_bvh_build(&ctx, &scene, *backend, *bvh_build)?;
         let setup_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut build = renderer.backend.stats_json();
         if let RayBackend::Bvh(bvh) = &renderer.backend {
@@ -173,29 +186,42 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let setup = CameraSetup::new(&camera, args.width, args.height, renderer.scene_scale());
         let frame = GpuFrame::new(&settings, &setup, renderer.scene_scale());
         let bench = RayBench::new(&ctx, &renderer.pass_context(), &frame)?;
-        let mut primary = Vec::new();
-        let mut incoherent = Vec::new();
-        for i in 0..=args.repeat {
-            let p = bench.run(&ctx, false)?;
+        prepared.push(Prepared {
+            bench,
+            renderer,
+            backend: *backend,
+            build,
+            setup_ms,
+            primary: Vec::new(),
+            incoherent: Vec::new(),
+        });
+    }
+    bar.set_message("timed batches, configurations in turn");
+    for i in 0..=args.repeat {
+        for run in &mut prepared {
+            let p = run.bench.run(&ctx, false)?;
             bar.inc(1);
-            let s = bench.run(&ctx, true)?;
+            let s = run.bench.run(&ctx, true)?;
             bar.inc(1);
             // Batch 0 JIT-compiles the pipeline on lavapipe: not timed.
             if i > 0 {
-                primary.push(p);
-                incoherent.push(s);
+                run.primary.push(p);
+                run.incoherent.push(s);
             }
         }
-        let (p, s) = (median(primary), median(incoherent));
+    }
+    let mut results = Vec::new();
+    for mut run in prepared {
+        let (p, s) = (median(run.primary), median(run.incoherent));
         if args.refit {
-            if let RayBackend::Bvh(bvh) = &mut renderer.backend {
-                build["refit"] = time_refit(&ctx, &scene, bvh, args.repeat)?;
+            if let RayBackend::Bvh(bvh) = &mut run.renderer.backend {
+                run.build["refit"] = time_refit(&ctx, &scene, bvh, args.repeat)?;
             }
         }
         results.push(json!({
-            "backend": backend.as_str(),
-            "build": build,
-            "upload_and_build_wall_ms": setup_ms,
+            "backend": run.backend.as_str(),
+            "build": run.build,
+            "upload_and_build_wall_ms": run.setup_ms,
             "primary": {"rays": p.rays, "hits": p.hits, "gpu_ms": p.ms, "mrays_per_s": p.mrays_per_s()},
             "incoherent": {"rays": s.rays, "hits": s.hits, "gpu_ms": s.ms, "mrays_per_s": s.mrays_per_s()},
         }));
@@ -210,7 +236,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         "width": args.width,
         "height": args.height,
         "repeat": args.repeat,
-        "timing": "GPU timestamps; median of the timed batches after one untimed warm-up batch",
+        "timing": "GPU timestamps; median of the timed batches after one untimed warm-up batch; the configurations' batches alternate",
         "backends": results,
     });
     if args.json {
