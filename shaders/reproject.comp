@@ -34,8 +34,9 @@ vec3 color_at(uint x, uint y) { return color[y * frame.width + x].rgb; }
 // faster than a pixel per frame can show the farther surface for a few frames beyond that
 // band: the price of the mode; --rt-visibility full and the hybrid path check every pixel.)
 bool near_edge(ivec2 pix, CacheEntry e) {
-    bool miss = (e.meta.x & CACHE_MISS) != 0u;
-    float z = miss ? 1.0 : max(view_depth(e.position.xyz), 1e-6);
+    bool miss = cache_miss(e);
+    float z = miss ? 1.0 : max(view_depth(e.position), 1e-6);
+    vec3 en = unpack_normal(e.normal);
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 n = pix + ivec2(dx, dy);
@@ -43,18 +44,18 @@ bool near_edge(ivec2 pix, CacheEntry e) {
                 continue;
             }
             Shown o = shown[uint(n.y) * frame.width + uint(n.x)];
-            if (o.meta.x == 0u) {
+            if ((o.normal & SHOWN_SAMPLE) == 0u) {
                 // An empty neighbour is traced this frame anyway. Counting it as an edge
                 // would verify the neighbourhood of every pixel a stretched surface leaves
                 // empty: on an orbit, most of the rays this mode saves.
                 continue;
             }
-            bool other_miss = (o.meta.x & CACHE_MISS) != 0u;
+            bool other_miss = (o.normal & SHOWN_MISS) != 0u;
             if (other_miss != miss) {
                 return true;
             }
-            if (!miss && (abs(dot(o.position.xyz - e.position.xyz, e.normal.xyz)) / z > params.edge_threshold
-                    || dot(o.normal.xyz, e.normal.xyz) < params.normal_threshold)) {
+            if (!miss && (abs(dot(o.position - e.position, en)) / z > params.edge_threshold
+                    || dot(unpack_normal(o.normal), en) < params.normal_threshold)) {
                 return true;
             }
         }
@@ -115,18 +116,12 @@ void fill(uint q) {
 // choice) in pixel order for the stages after it.
 void record_shown(uint q) {
     uint w = resolved_winner(q);
-    Shown sh;
     if (w == NO_SAMPLE) {
-        sh.position = vec4(0.0);
-        sh.normal = vec4(0.0);
-        sh.meta = uvec4(0u);
+        shown[q].normal = 0u;
     } else {
         CacheEntry e = cache_prev[w];
-        sh.position = e.position;
-        sh.normal = e.normal;
-        sh.meta = e.meta;
+        shown[q] = Shown(e.position, e.normal | SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u));
     }
-    shown[q] = sh;
 }
 
 bool is_filled(uint q) {
@@ -139,16 +134,17 @@ void count_candidate(uint q, uint age);
 void classify(uint q) {
     uint w = resolved_winner(q);
     uint st;
-    CacheEntry e = empty_entry();
+    uint age = 0u;
     if ((params.flags & RP_REUSE) == 0u) {
         st = PX_TRACE;
     } else if (w == NO_SAMPLE) {
         st = PX_TRACE | PX_HOLE;
     } else {
-        e = shown_entry(q);
-        if ((e.meta.x & CACHE_VIEW_DEPENDENT) != 0u) {
+        CacheEntry e = cache_prev[w];
+        age = cache_age(e.meta);
+        if ((e.meta & CACHE_VIEW_DEPENDENT) != 0u) {
             st = PX_TRACE | PX_VIEW_DEPENDENT;
-        } else if (e.meta.w >= params.max_age) {
+        } else if (age >= params.max_age) {
             st = PX_TRACE | PX_EXPIRED;
         } else if ((params.flags & RP_GBUFFER) != 0u) {
             st = judge_against_gbuffer(ivec2(pixel_of(q)), e);
@@ -165,7 +161,7 @@ void classify(uint q) {
     uint kind = st & PX_KIND_MASK;
     if ((params.flags & RP_FRAMELESS) != 0u) {
         if (kind == PX_REUSE || kind == PX_VERIFY) {
-            count_candidate(q, e.meta.w);
+            count_candidate(q, age);
         } else {
             atomicAdd(counters[C_FORCED], 1u);
         }
@@ -224,7 +220,7 @@ void select_frameless(uint q) {
         return;
     }
     float rank = refresh_rank(pixel_of(q));
-    uint bin = refresh_bin(shown[q].meta.w, rank);
+    uint bin = refresh_bin(cache_age(cache_prev[resolved_winner(q)].meta), rank);
     // Within the last bin, the rank's finer digits decide.
     float within = fract(rank * float(RANK_LEVELS));
     if (bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]))) {
@@ -286,20 +282,22 @@ bool interpolate(uint q) {
         ivec2 ip = ivec2(pix);
         uvec4 ids = imageLoad(g_ids, ip);
         CacheEntry e;
-        e.color = vec4(c, 1.0);
+        e.color = c;
         if (ids.x == 0xFFFFFFFFu) {
-            e.position = vec4(camera_ray(vec2(pix) + 0.5).dir, 0.0);
-            e.normal = vec4(0.0);
-            e.meta = uvec4(CACHE_VALID | CACHE_MISS, 0u, NO_SAMPLE, 0u);
+            e.position = camera_ray(vec2(pix) + 0.5).dir;
+            e.normal = 0u;
+            e.meta = CACHE_VALID | CACHE_MISS;
+            e.material = 0u;
         } else {
             vec4 n = imageLoad(g_normal, ip);
             vec4 ng = imageLoad(g_geometric, ip);
             vec4 base = imageLoad(g_base, ip);
             uint material = ids.z & 0x7FFFFFFFu;
             bool vd = surface_view_dependent(ng.w, n.w, uintBitsToFloat(ids.w), scene_material(material).alpha_mode, base.a);
-            e.position = vec4(imageLoad(g_position, ip).xyz, 1.0);
-            e.normal = vec4(ng.xyz, 0.0);
-            e.meta = uvec4(with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u), material, ids.x, 0u);
+            e.position = imageLoad(g_position, ip).xyz;
+            e.normal = pack_normal(ng.xyz);
+            e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u);
+            e.material = material;
         }
         cache_next[q] = e;
     }
@@ -351,7 +349,7 @@ void main() {
             CacheEntry e = cache_prev[q];
             uint target, key;
             vec2 film;
-            if ((e.meta.x & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
+            if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
                 if (STAGE == STAGE_SCATTER) {
                     atomicMin(DEPTH_KEY(target), key);
                 } else if (DEPTH_KEY(target) == key) {

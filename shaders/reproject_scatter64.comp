@@ -25,7 +25,7 @@ void main() {
     CacheEntry e = cache_prev[q];
     uint target, key;
     vec2 film;
-    if ((e.meta.x & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
+    if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
         atomicMin(key_winner64[target], (uint64_t(key) << 32) | uint64_t(q));
     }
 }

@@ -78,7 +78,7 @@ void main() {
     state[q] = (st & ~PX_KIND_MASK) | PX_TRACED;
 
     CacheEntry e;
-    e.color = vec4(c, 1.0);
+    e.color = c;
     if (info.hit) {
         uint material = known ? s.material : scene_geometry(scene_instance(uint(info.instance)).geometry).material;
         // A path that spawned reflection or refraction rays (Fresnel at grazing angles, glass,
@@ -87,13 +87,15 @@ void main() {
         bool view_dependent = spawned || (known
             ? surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha)
             : material_view_dependent(material));
-        e.position = vec4(info.position, 1.0);
-        e.normal = vec4(info.normal, 0.0);
-        e.meta = uvec4(CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u), material, uint(info.instance), 0u);
+        e.position = info.position;
+        e.normal = pack_normal(info.normal);
+        e.meta = CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u);
+        e.material = material;
     } else {
-        e.position = vec4(camera.dir, 0.0);
-        e.normal = vec4(0.0);
-        e.meta = uvec4(CACHE_VALID | CACHE_MISS, 0u, NO_SAMPLE, 0u);
+        e.position = camera.dir;
+        e.normal = 0u;
+        e.meta = CACHE_VALID | CACHE_MISS;
+        e.material = 0u;
     }
     cache_next[q] = e;
 

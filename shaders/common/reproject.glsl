@@ -14,12 +14,35 @@
 #include "interface_passes.glsl"
 #include "interface_reproject.glsl"
 
-// CacheEntry: a cached sample, the colour of one primary hit and where it was. meta.x holds
-// CACHE_* flags; bits 8-15 of it count how many fills away from where it was computed the
-// colour is (an interpolated colour counts as one); a fill copies only samples below
-// params.max_hops.
-uint cache_hops(CacheEntry e) { return (e.meta.x >> CACHE_HOPS_SHIFT) & 255u; }
-uint with_hops(uint flags, uint hops) { return (flags & ~(255u << CACHE_HOPS_SHIFT)) | (min(hops, 255u) << CACHE_HOPS_SHIFT); }
+// CacheEntry: a cached sample, the colour of one primary hit and where it was. meta holds
+// CACHE_* flags in bits 0-7; bits 8-15 count how many fills away from where it was computed the
+// colour is (an interpolated colour counts as one; a fill copies only samples below
+// params.max_hops); bits 16-31 its age in frames.
+uint cache_hops(CacheEntry e) { return (e.meta >> CACHE_HOPS_SHIFT) & 255u; }
+uint with_hops(uint meta, uint hops) { return (meta & ~(255u << CACHE_HOPS_SHIFT)) | (min(hops, 255u) << CACHE_HOPS_SHIFT); }
+uint cache_age(uint meta) { return meta >> CACHE_AGE_SHIFT; }
+// One frame older (saturating).
+uint aged(uint meta) { return cache_age(meta) < 0xFFFFu ? meta + (1u << CACHE_AGE_SHIFT) : meta; }
+bool cache_miss(CacheEntry e) { return (e.meta & CACHE_MISS) != 0u; }
+
+// Unit normals in one word: octahedral coordinates (Cigolle et al. 2014), 15 bits each in
+// bits 17-31 and 2-16 (bits 0-1 are left for Shown's flags). About 1e-4 rad of error, far
+// below the normal and plane thresholds that read it.
+vec2 oct_wrap(vec2 v) { return (1.0 - abs(v.yx)) * vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
+uint pack_normal(vec3 n) {
+    n /= max(abs(n.x) + abs(n.y) + abs(n.z), 1e-20);
+    vec2 o = n.z >= 0.0 ? n.xy : oct_wrap(n.xy);
+    uvec2 u = uvec2(round(clamp(o * 0.5 + 0.5, 0.0, 1.0) * 32767.0));
+    return (u.x << 17) | (u.y << 2);
+}
+vec3 unpack_normal(uint p) {
+    vec2 o = vec2(uvec2(p >> 17, (p >> 2) & 0x7FFFu)) / 32767.0 * 2.0 - 1.0;
+    vec3 n = vec3(o, 1.0 - abs(o.x) - abs(o.y));
+    if (n.z < 0.0) {
+        n.xy = oct_wrap(n.xy);
+    }
+    return normalize(n);
+}
 
 // Pixel state: a PX_* kind in the low bits plus the reasons that led to it (for statistics).
 // A depth key with FILLED_KEY marks an empty pixel filled from a neighbour (plus the source
@@ -57,16 +80,11 @@ layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_BARY, rgba32f) uniform im
 // of the pass that appended to the list (lists_done()).
 layout(set = 0, binding = BINDING_RP_DISPATCH_ARGS, std430) buffer DispatchArgs { uint dispatch_args[4 * JOB_LISTS]; };
 
-// Per pixel, the cached sample it shows after the scatter and the fill (Shown: CacheEntry
-// without its colour; meta.x = 0 where no sample landed). Written in pixel order by the fill
+// Per pixel, what the neighbour tests need of the cached sample it shows after the scatter and
+// the fill (Shown: position and packed normal with SHOWN_* flags; 0 where no sample landed). Written in pixel order by the fill
 // stage, so the stages that look at a pixel's neighbours read neighbouring memory instead of
 // gathering whole cache entries from wherever they came from.
 layout(set = 0, binding = BINDING_RP_SHOWN, scalar) buffer ShownSamples { Shown shown[]; };
-
-CacheEntry shown_entry(uint q) {
-    Shown s = shown[q];
-    return CacheEntry(vec4(0.0), s.position, s.normal, s.meta);
-}
 
 uint pixel_count() { return frame.width * frame.height; }
 
@@ -173,9 +191,8 @@ bool traced_at(uint st, uvec2 pix, uint level) {
     return (st & PX_KIND_MASK) == PX_TRACE && (level == 1u || is_block_sample(pix, level));
 }
 
-CacheEntry empty_entry() {
-    return CacheEntry(vec4(0.0), vec4(0.0), vec4(0.0), uvec4(0u));
-}
+// An entry without CACHE_VALID is empty: no reader looks past its meta.
+void clear_entry(uint q) { cache_next[q].meta = 0u; }
 
 vec3 camera_forward() { return normalize(-frame.camera_to_world[2].xyz); }
 
@@ -191,12 +208,12 @@ bool project_sample(CacheEntry e, out uint pixel, out uint key, out vec2 film) {
     pixel = NO_SAMPLE;
     key = NO_SAMPLE;
     film = vec2(-1.0);
-    bool miss = (e.meta.x & CACHE_MISS) != 0u;
+    bool miss = cache_miss(e);
     if (miss && frame.ortho != 0u) {
         return false;
     }
-    vec4 clip = frame.view_proj * vec4(e.position.xyz, miss ? 0.0 : 1.0);
-    float z = miss ? 1.0 : view_depth(e.position.xyz);
+    vec4 clip = frame.view_proj * vec4(e.position, miss ? 0.0 : 1.0);
+    float z = miss ? 1.0 : view_depth(e.position);
     if (!(clip.w > 0.0) || !(z > 0.0)) {
         return false;
     }
@@ -227,19 +244,19 @@ bool material_view_dependent(uint material) {
 // `p` with front-face normal `ng` and `material`: same plane (distance relative to the view
 // depth), similar normal, same material.
 bool sample_matches(CacheEntry e, vec3 p, vec3 ng, uint material) {
-    if ((e.meta.x & CACHE_MISS) != 0u) {
+    if (cache_miss(e)) {
         return false;
     }
     float z = max(view_depth(p), 1e-6);
-    float plane = abs(dot(e.position.xyz - p, ng)) / z;
-    return plane <= params.plane_threshold && dot(e.normal.xyz, ng) >= params.normal_threshold && e.meta.y == material;
+    float plane = abs(dot(e.position - p, ng)) / z;
+    return plane <= params.plane_threshold && dot(unpack_normal(e.normal), ng) >= params.normal_threshold && e.material == material;
 }
 
 // Decides a pixel with candidate sample `e` from this frame's primary hit there.
 uint judge_primary(CacheEntry e, bool hit, vec3 p, vec3 ng, uint material, float metallic, float roughness,
                    float transmission, float alpha) {
     if (!hit) {
-        return (e.meta.x & CACHE_MISS) != 0u ? PX_REUSE : (PX_TRACE | PX_REJECTED);
+        return cache_miss(e) ? PX_REUSE : (PX_TRACE | PX_REJECTED);
     }
     if (surface_view_dependent(metallic, roughness, transmission, scene_material(material).alpha_mode, alpha)) {
         return PX_TRACE | PX_VIEW_DEPENDENT;
@@ -267,19 +284,19 @@ uint judge_against_gbuffer(ivec2 pix, CacheEntry e) {
 // that settles pixel q (state `st`).
 void commit(uint q, uint st) {
     if ((st & PX_KIND_MASK) != PX_REUSE) {
-        cache_next[q] = empty_entry();
+        clear_entry(q);
         return;
     }
     CacheEntry e = cache_prev[resolved_winner(q)];
-    vec3 c = e.color.rgb;
-    if ((e.meta.x & CACHE_MISS) != 0u) {
+    vec3 c = e.color;
+    if (cache_miss(e)) {
         c = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
     }
     color[q] = vec4(c, 1.0);
-    e.meta.w += 1u;
-    if ((st & PX_FILLED) != 0u && (e.meta.x & CACHE_MISS) != 0u) {
+    e.meta = aged(e.meta);
+    if ((st & PX_FILLED) != 0u && cache_miss(e)) {
         // A miss's colour is recomputed per pixel: the copy simply becomes this pixel's.
-        e.position = vec4(camera_ray(vec2(pixel_of(q)) + 0.5).dir, 0.0);
+        e.position = camera_ray(vec2(pixel_of(q)) + 0.5).dir;
     } else if ((st & PX_FILLED) != 0u) {
         // A fill carries a copy of a neighbour's colour. Cached as it is, the copy would
         // collide with its original next frame and leave the pixel empty again, so the
@@ -289,19 +306,20 @@ void commit(uint q, uint st) {
         // neighbourhood passed the edge test, so it is that smooth surface).
         ivec2 pix = ivec2(pixel_of(q));
         if ((params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u) {
-            e.position = vec4(imageLoad(g_position, pix).xyz, 1.0);
-            e.normal = vec4(imageLoad(g_geometric, pix).xyz, 0.0);
+            e.position = imageLoad(g_position, pix).xyz;
+            e.normal = pack_normal(imageLoad(g_geometric, pix).xyz);
         } else {
             Ray r = camera_ray(vec2(pix) + 0.5);
-            float denom = dot(r.dir, e.normal.xyz);
+            vec3 n = unpack_normal(e.normal);
+            float denom = dot(r.dir, n);
             if (abs(denom) > 1e-4) {
-                float t = dot(e.position.xyz - r.origin, e.normal.xyz) / denom;
+                float t = dot(e.position - r.origin, n) / denom;
                 if (t > 0.0) {
-                    e.position = vec4(r.origin + t * r.dir, 1.0);
+                    e.position = r.origin + t * r.dir;
                 }
             }
         }
-        e.meta.x = with_hops(e.meta.x, cache_hops(e) + 1u);
+        e.meta = with_hops(e.meta, cache_hops(e) + 1u);
     }
     cache_next[q] = e;
 }

@@ -97,6 +97,12 @@ pub const CACHE_MISS: u32 = 2;
 pub const CACHE_VIEW_DEPENDENT: u32 = 4;
 /// Cache entry flags: bits 8-15 count fills away from where the colour was computed.
 pub const CACHE_HOPS_SHIFT: u32 = 8;
+/// Cache entry flags: bits 16-31 count the frames the sample has been reused.
+pub const CACHE_AGE_SHIFT: u32 = 16;
+/// [`Shown::normal`] bit: a sample landed on (or was filled into) the pixel.
+pub const SHOWN_SAMPLE: u32 = 1;
+/// [`Shown::normal`] bit: the sample is a miss.
+pub const SHOWN_MISS: u32 = 2;
 /// No sample.
 pub const NO_SAMPLE: u32 = 0xFFFF_FFFF;
 /// A depth key with this bit marks an empty pixel filled from a neighbour.
@@ -149,30 +155,38 @@ pub const HISTOGRAM_BINS: u32 = 4096;
 /// Counter slots in all (`C_HISTOGRAM` + `AGE_LEVELS` x `RANK_LEVELS`).
 pub const RP_COUNTER_SLOTS: u32 = 4128;
 
-/// A cached sample: the colour of one primary hit and where it was.
+/// A cached sample: the colour of one primary hit and where it was. Nine words, not sixteen:
+/// every reprojected frame moves each pixel's entry about three times (scatter, fill,
+/// commit), and on a CPU device (lavapipe) every word gathered from a per-pixel address
+/// costs alike, so the entry carries only what a stage reads.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct CacheEntry {
-    /// rgb: linear radiance; a: 1.
-    pub color: [f32; 4],
-    /// xyz: world position of the primary hit (a miss: unit direction).
-    pub position: [f32; 4],
-    /// xyz: geometric normal of the glTF front face.
-    pub normal: [f32; 4],
-    /// x: `CACHE_*` flags, y: material, z: instance, w: age in frames.
-    pub meta: [u32; 4],
+    /// Linear radiance.
+    pub color: [f32; 3],
+    /// World position of the primary hit (a miss: unit direction).
+    pub position: [f32; 3],
+    /// Geometric normal of the glTF front face, octahedral (`pack_normal` of reproject.glsl:
+    /// two 15-bit coordinates in bits 2-31).
+    pub normal: u32,
+    /// Bits 0-7: `CACHE_*` flags; bits 8-15: fills away from where the colour was computed
+    /// (`CACHE_HOPS_SHIFT`); bits 16-31: age in frames (`CACHE_AGE_SHIFT`, saturating).
+    /// 0 (no `CACHE_VALID`) marks an empty entry.
+    pub meta: u32,
+    /// Material index.
+    pub material: u32,
 }
 
-/// The sample a pixel shows after the scatter and the fill: a [`CacheEntry`] without colour.
+/// What the stages that look at a pixel's neighbours need of the sample it shows after the
+/// scatter and the fill, in pixel order: four words.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Shown {
     /// As [`CacheEntry::position`].
-    pub position: [f32; 4],
-    /// As [`CacheEntry::normal`].
-    pub normal: [f32; 4],
-    /// As [`CacheEntry::meta`]; x = 0 where no sample landed.
-    pub meta: [u32; 4],
+    pub position: [f32; 3],
+    /// [`CacheEntry::normal`] with `SHOWN_SAMPLE` and `SHOWN_MISS` in bits 0-1; 0 where no
+    /// sample landed.
+    pub normal: u32,
 }
 
 /// reproject.comp's push constant (the stage is the pipeline's specialization constant).
