@@ -40,7 +40,7 @@ bool near_edge(ivec2 pix, CacheEntry e) {
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 n = pix + ivec2(dx, dy);
-            if ((dx == 0 && dy == 0) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
+            if (abs(dx) == abs(dy) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
                 continue;
             }
             Shown o = shown[uint(n.y) * frame.width + uint(n.x)];
@@ -83,7 +83,7 @@ void fill(uint q) {
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 n = pix + ivec2(dx, dy);
-            if ((dx == 0 && dy == 0) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
+            if (abs(dx) == abs(dy) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
                 continue;
             }
             uint w = WINNER(uint(n.y) * frame.width + uint(n.x));
@@ -129,7 +129,8 @@ bool is_filled(uint q) {
     return k != NO_SAMPLE && k >= FILLED_KEY;
 }
 
-void count_candidate(uint q, uint age);
+float refresh_rank(uvec2 pix);
+uint refresh_bin(uint age, float rank);
 
 void classify(uint q) {
     uint w = resolved_winner(q);
@@ -160,11 +161,13 @@ void classify(uint q) {
     state[q] = st;
     uint kind = st & PX_KIND_MASK;
     if ((params.flags & RP_FRAMELESS) != 0u) {
-        if (kind == PX_REUSE || kind == PX_VERIFY) {
-            count_candidate(q, age);
-        } else {
-            atomicAdd(counters[C_FORCED], 1u);
+        bool candidate = kind == PX_REUSE || kind == PX_VERIFY;
+        if (candidate) {
+            atomicAdd(counters[C_HISTOGRAM + refresh_bin(age, refresh_rank(pixel_of(q)))], 1u);
         }
+        // Summed per subgroup (the histogram's bins differ from pixel to pixel).
+        COUNTER_ADD(counters[C_CANDIDATES], candidate ? 1u : 0u);
+        COUNTER_ADD(counters[C_FORCED], candidate ? 0u : 1u);
     }
 }
 
@@ -179,11 +182,6 @@ float refresh_rank(uvec2 pix) {
 // Histogram bin of a candidate: lower bins are refreshed first.
 uint refresh_bin(uint age, float rank) {
     return (AGE_LEVELS - 1u - min(age, AGE_LEVELS - 1u)) * RANK_LEVELS + min(uint(rank * float(RANK_LEVELS)), RANK_LEVELS - 1u);
-}
-
-void count_candidate(uint q, uint age) {
-    atomicAdd(counters[C_CANDIDATES], 1u);
-    atomicAdd(counters[C_HISTOGRAM + refresh_bin(age, refresh_rank(pixel_of(q)))], 1u);
 }
 
 // Frameless budget: re-trace frameless_fraction of all pixels per frame. Pixels that must be
@@ -335,6 +333,13 @@ void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;
     bool inside = pix.x < frame.width && pix.y < frame.height;
     uint q = pix.y * frame.width + pix.x;
+    if (STAGE == STAGE_INTERPOLATE) {
+        // Dispatched over the pending pixels' job list (one job per invocation), not the image.
+        uint i = gl_WorkGroupID.x * (gl_WorkGroupSize.x * gl_WorkGroupSize.y) + gl_LocalInvocationIndex;
+        inside = i < job_count(LIST_PENDING);
+        q = inside ? job_at(LIST_PENDING, i) : 0u;
+        pix = pixel_of(q);
+    }
     bool frameless = (params.flags & RP_FRAMELESS) != 0u;
     bool settling = (STAGE == STAGE_CLASSIFY && !frameless) || STAGE == STAGE_SELECT;
     uint settled = 0u;
@@ -380,7 +385,12 @@ void main() {
         bool look = inside && wants_visibility(st);
         list_append(LIST_VERIFY, look, q);
         list_append(LIST_TRACE, inside && !look && traced_at(st, pix, pc.gather), q);
-        lists_done(3u, subgroups);
+        uint lists = (1u << LIST_VERIFY) | (1u << LIST_TRACE);
+        if ((params.flags & RP_ADAPTIVE) != 0u) {
+            list_append(LIST_PENDING, inside && (st & PX_KIND_MASK) == PX_TRACE, q);
+            lists |= 1u << LIST_PENDING;
+        }
+        lists_done(lists, subgroups);
     } else if (STAGE == STAGE_INTERPOLATE) {
         COUNTER_ADD(counters[C_INTERP], interpolated ? 1u : 0u);
         if (pc.gather != GATHER_NONE) {

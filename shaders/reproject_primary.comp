@@ -24,6 +24,7 @@ void main() {
     uint q = listed ? job_at(LIST_VERIFY, i) : 0u;
     uint settled = 0u;
     bool trace = false;
+    bool rejected = false;
     if (listed) {
         ivec2 pix = ivec2(pixel_of(q));
         Ray r = camera_ray(vec2(pix) + 0.5);
@@ -58,10 +59,17 @@ void main() {
             // (commit reads this invocation's own G-buffer writes at the pixel).
             commit(q, st);
             settled = st;
+            rejected = (st & PX_KIND_MASK) == PX_TRACE;
         }
         trace = traced_at(st, uvec2(pix), pc.level);
     }
     count_settled(settled);
     list_append(LIST_TRACE, trace, q);
-    lists_done(1u << LIST_TRACE, gl_NumWorkGroups.x * gl_NumSubgroups);
+    uint lists = 1u << LIST_TRACE;
+    if ((params.flags & RP_ADAPTIVE) != 0u) {
+        // Rejected candidates join the pixels the interpolation passes look at.
+        list_append(LIST_PENDING, rejected, q);
+        lists |= 1u << LIST_PENDING;
+    }
+    lists_done(lists, gl_NumWorkGroups.x * gl_NumSubgroups);
 }

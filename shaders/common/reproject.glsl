@@ -63,7 +63,7 @@ layout(set = 0, binding = BINDING_RP_KEY_WINNER, std430) buffer KeyWinner { uint
 #endif
 layout(set = 0, binding = BINDING_RP_STATES, std430) buffer States { uint state[]; };
 layout(set = 0, binding = BINDING_RP_COLORS, scalar) buffer Colors { vec4 color[]; };
-// Two job lists share one buffer: list k holds jobs[k n, k n + n), n = pixels.
+// The job lists share one buffer: list k holds jobs[k n, k n + n), n = pixels.
 layout(set = 0, binding = BINDING_RP_JOBS, std430) buffer Jobs { uint jobs[]; };
 layout(set = 0, binding = BINDING_RP_COUNTERS, std430) buffer Counters { uint counters[]; };
 // The G-buffer images (gbuffer.frag's layout): the raster pass's (hybrid) or the visibility
@@ -101,13 +101,16 @@ uint job_at(uint list, uint i) { return jobs[list * pixel_count() + i]; }
 // 8x8 tile), so neighbouring lanes of a tracing pass trace neighbouring pixels. Call from every
 // invocation of the dispatch. No workgroup barrier: a CPU device (lavapipe) runs shaders with
 // barrier() as coroutines, which cost more than the atomics they would save.
+// The counter slot that holds list `list`'s length while stages append to it.
+uint list_counter(uint list) { return list == LIST_VERIFY ? C_JOBS : (list == LIST_TRACE ? C_TRACE_JOBS : C_PENDING_JOBS); }
+
 void list_append(uint list, bool take, uint q) {
     uint t = take ? 1u : 0u;
     uint within = subgroupExclusiveAdd(t);
     uint total = subgroupAdd(t);
     uint base = 0u;
     if (subgroupElect() && total > 0u) {
-        base = atomicAdd(counters[list == LIST_VERIFY ? C_JOBS : C_TRACE_JOBS], total);
+        base = atomicAdd(counters[list_counter(list)], total);
     }
     base = subgroupBroadcastFirst(base);
     if (take) {
@@ -118,15 +121,15 @@ void list_append(uint list, bool take, uint q) {
 // After every append of the dispatch (`subgroups` of them): the last subgroup to finish turns
 // the lengths of the lists in the bit set `lists` into their indirect dispatches, so no
 // separate pass and barrier is needed. List 0 restarts at zero for the next stage that lists
-// into it; list 1 keeps its length for the visibility pass, which appends to it.
+// into it; lists 1 and 2 keep their lengths for the visibility pass, which appends to them.
 void lists_done(uint lists, uint subgroups) {
     if (subgroupElect()) {
         // This subgroup's appends are counted before it counts itself done.
         memoryBarrierBuffer();
         if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == subgroups) {
-            for (uint list = 0u; list < 2u; ++list) {
+            for (uint list = 0u; list < JOB_LISTS; ++list) {
                 if ((lists & (1u << list)) != 0u) {
-                    uint n = list == LIST_VERIFY ? atomicExchange(counters[C_JOBS], 0u) : atomicAdd(counters[C_TRACE_JOBS], 0u);
+                    uint n = list == LIST_VERIFY ? atomicExchange(counters[C_JOBS], 0u) : atomicAdd(counters[list_counter(list)], 0u);
                     dispatch_args[4u * list] = (n + 63u) / 64u;
                     dispatch_args[4u * list + 1u] = 1u;
                     dispatch_args[4u * list + 2u] = 1u;

@@ -59,8 +59,12 @@ pub const GATHER_NONE: u32 = u32::MAX;
 pub const LIST_VERIFY: u32 = 0;
 /// Job list 1: the first pixels to trace (the settling stage's and the visibility pass's).
 pub const LIST_TRACE: u32 = 1;
+/// Job list 2, adaptive sub-sampling only: the pixels that need new colour (the settling
+/// stage's and the visibility pass's), which the interpolation passes work through instead of
+/// the whole image.
+pub const LIST_PENDING: u32 = 2;
 /// Job lists in the jobs buffer (and indirect dispatches in the arguments buffer).
-pub const JOB_LISTS: u32 = 2;
+pub const JOB_LISTS: u32 = 3;
 
 /// Pixel state: mask of the kind.
 pub const PX_KIND_MASK: u32 = 15;
@@ -144,6 +148,8 @@ pub const C_FILLED: u32 = 19;
 pub const C_TILES_DONE: u32 = 20;
 /// Counter slot: length of job list 1 (two passes append to it).
 pub const C_TRACE_JOBS: u32 = 21;
+/// Counter slot: length of job list 2 (two passes append to it).
+pub const C_PENDING_JOBS: u32 = 22;
 /// Counter slot: first of the age x rank histogram.
 pub const C_HISTOGRAM: u32 = 32;
 /// Histogram: age levels.

@@ -303,6 +303,10 @@ pub struct Reprojector<'r> {
     profiler: Option<GpuProfiler>,
     parity: usize,
     has_history: bool,
+    /// Whether the rt path's visibility images are in GENERAL layout already: they stay
+    /// there, so only the first frame transitions them (every pixel a pass reads from them
+    /// is written earlier in the same frame).
+    visibility_in_general: bool,
     prev_view_proj: Option<[f32; 16]>,
 }
 
@@ -542,6 +546,7 @@ impl<'r> Reprojector<'r> {
             profiler,
             parity: 0,
             has_history: false,
+            visibility_in_general: false,
             prev_view_proj: None,
         })
     }
@@ -746,9 +751,12 @@ impl<'r> Reprojector<'r> {
                 g.record(ctx, cmd, draws, camera.position(), profiler.as_deref_mut())
             }
             Visibility::Traced(images) => {
-                for image in images {
-                    image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
+                if !self.visibility_in_general {
+                    for image in images {
+                        image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
+                    }
                 }
+                self.visibility_in_general = true;
             }
         }
         // Every stage is its own timestamp scope, so the JSON and the reports show where a
@@ -808,8 +816,23 @@ impl<'r> Reprojector<'r> {
                 profiler.as_deref_mut(),
             );
             if let Some(&next) = levels.get(i + 1) {
-                scope(&mut profiler, "interpolate");
-                stage(cmd, STAGE_INTERPOLATE, level, next);
+                // Over the pending pixels' list, sized by its length like the tracing passes.
+                let index = STAGES
+                    .iter()
+                    .position(|&s| s == STAGE_INTERPOLATE)
+                    .expect("a stage of STAGES");
+                traced(
+                    cmd,
+                    &self.stages[index],
+                    stages_set,
+                    "interpolate",
+                    push_bytes(&ReprojectPush {
+                        level,
+                        gather: next,
+                    }),
+                    LIST_PENDING,
+                    profiler.as_deref_mut(),
+                );
             }
         }
         if let Some(p) = profiler.as_deref_mut() {
