@@ -247,7 +247,8 @@ float tent(float u, float c) {
 // the threshold is filled by interpolation: bilinear between the corners plus the centre's
 // deviation from it, fading out towards the block edges (quincunx). Other blocks stay for the
 // next level.
-bool interpolate(uint q) {
+bool interpolate(uint q, out bool uncached) {
+    uncached = false;
     uint st = state[q];
     if ((st & PX_KIND_MASK) != PX_TRACE) {
         return false;
@@ -275,8 +276,10 @@ bool interpolate(uint q) {
     c = max(c, vec3(0.0));
     color[q] = vec4(c, 1.0);
     state[q] = (st & ~PX_KIND_MASK) | PX_INTERP;
-    if ((params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u) {
-        // Cached at the pixel's primary hit, flagged so that fills do not copy it.
+    uncached = (params.flags & RP_GBUFFER) == 0u && (st & PX_VERIFIED) == 0u;
+    if (!uncached) {
+        // Cached at the pixel's primary hit, flagged so that fills do not copy it (the rt
+        // path's pixels without a look at their hit go to the caching pass instead).
         ivec2 ip = ivec2(pix);
         uvec4 ids = imageLoad(g_ids, ip);
         CacheEntry e;
@@ -315,12 +318,11 @@ uint settle(uint q) {
     return st;
 }
 
-// Whether the visibility pass (rt path) looks at pixel q: candidates, and with adaptive
-// sub-sampling every pixel that needs new colour, so that interpolated pixels know their hit
-// and can be cached.
+// Whether the visibility pass (rt path) looks at pixel q: the candidates. (Pixels that need new
+// colour trace their own primary ray, or, when adaptive sub-sampling interpolates them, get
+// one in the caching pass: a G-buffer round trip for every such pixel cost more than it saved.)
 bool wants_visibility(uint st) {
-    uint kind = st & PX_KIND_MASK;
-    return kind == PX_VERIFY || (kind == PX_TRACE && (params.flags & (RP_ADAPTIVE | RP_GBUFFER)) == RP_ADAPTIVE);
+    return (st & PX_KIND_MASK) == PX_VERIFY;
 }
 
 void main() {
@@ -344,6 +346,7 @@ void main() {
     bool settling = (STAGE == STAGE_CLASSIFY && !frameless) || STAGE == STAGE_SELECT;
     uint settled = 0u;
     bool interpolated = false;
+    bool uncached = false;
     if (inside) {
         switch (STAGE) {
         case STAGE_SCATTER:
@@ -369,7 +372,7 @@ void main() {
             break;
         case STAGE_CLASSIFY: classify(q); break;
         case STAGE_SELECT: select_frameless(q); break;
-        case STAGE_INTERPOLATE: interpolated = interpolate(q); break;
+        case STAGE_INTERPOLATE: interpolated = interpolate(q, uncached); break;
         default: break;
         }
         if (settling) {
@@ -393,9 +396,17 @@ void main() {
         lists_done(lists, subgroups);
     } else if (STAGE == STAGE_INTERPOLATE) {
         COUNTER_ADD(counters[C_INTERP], interpolated ? 1u : 0u);
+        uint lists = 0u;
         if (pc.gather != GATHER_NONE) {
             list_append(LIST_VERIFY, inside && traced_at(state[q], pix, pc.gather), q);
-            lists_done(1u, subgroups);
+            lists |= 1u << LIST_VERIFY;
+        }
+        if ((params.flags & RP_GBUFFER) == 0u) {
+            list_append(LIST_CACHE, inside && interpolated && uncached, q);
+            lists |= 1u << LIST_CACHE;
+        }
+        if (lists != 0u) {
+            lists_done(lists, subgroups);
         }
     }
 }

@@ -6,6 +6,10 @@
 // One primary ray per listed pixel; its hit goes to the G-buffer images (gbuffer.frag's
 // layout, so the tracing pass shades it without a second primary ray) and decides between
 // reusing the sample (committed here) and tracing the pixel (listed here for the tracing pass).
+//
+// With push constant `cache` = 1 the same pipeline is the caching pass of adaptive
+// sub-sampling: one primary ray per interpolated pixel that has no hit yet (job list 3), and
+// its interpolated colour cached at that hit.
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "trace.glsl"
@@ -18,7 +22,40 @@ layout(local_size_x = 64) in;
 // VisibilityPush: the adaptive level (1, 2, 4) whose pixels to trace this pass lists.
 layout(push_constant) uniform Push { VisibilityPush pc; };
 
+// The caching pass: the interpolated colour of pixel q, cached at the pixel's own primary hit,
+// flagged one hop from where colour was computed, so that fills do not copy it.
+void cache_interpolated(uint q) {
+    Ray r = camera_ray(vec2(pixel_of(q)) + 0.5);
+    Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
+    CacheEntry e;
+    e.color = color[q].rgb;
+    if (hit_found(h)) {
+        Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
+        bool vd = surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha);
+        e.position = s.position;
+        e.normal = pack_normal(s.ng_front);
+        e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u);
+        e.material = s.material;
+    } else {
+        e.position = r.dir;
+        e.normal = 0u;
+        e.meta = CACHE_VALID | CACHE_MISS;
+        e.material = 0u;
+    }
+    cache_next[q] = e;
+}
+
 void main() {
+    if (pc.cache != 0u) {
+        uint i = gl_GlobalInvocationID.x;
+        bool listed = i < job_count(LIST_CACHE);
+        if (listed) {
+            cache_interpolated(job_at(LIST_CACHE, i));
+        }
+        COUNTER_ADD(counters[0], listed ? 1u : 0u);
+        COUNTER_ADD(counters[C_VERIFY_RAYS], listed ? 1u : 0u);
+        return;
+    }
     uint i = gl_GlobalInvocationID.x;
     bool listed = i < job_count(LIST_VERIFY);
     uint q = listed ? job_at(LIST_VERIFY, i) : 0u;

@@ -102,7 +102,9 @@ uint job_at(uint list, uint i) { return jobs[list * pixel_count() + i]; }
 // invocation of the dispatch. No workgroup barrier: a CPU device (lavapipe) runs shaders with
 // barrier() as coroutines, which cost more than the atomics they would save.
 // The counter slot that holds list `list`'s length while stages append to it.
-uint list_counter(uint list) { return list == LIST_VERIFY ? C_JOBS : (list == LIST_TRACE ? C_TRACE_JOBS : C_PENDING_JOBS); }
+uint list_counter(uint list) {
+    return list == LIST_VERIFY ? C_JOBS : (list == LIST_TRACE ? C_TRACE_JOBS : (list == LIST_PENDING ? C_PENDING_JOBS : C_CACHE_JOBS));
+}
 
 void list_append(uint list, bool take, uint q) {
     uint t = take ? 1u : 0u;
@@ -121,7 +123,7 @@ void list_append(uint list, bool take, uint q) {
 // After every append of the dispatch (`subgroups` of them): the last subgroup to finish turns
 // the lengths of the lists in the bit set `lists` into their indirect dispatches, so no
 // separate pass and barrier is needed. List 0 restarts at zero for the next stage that lists
-// into it; lists 1 and 2 keep their lengths for the visibility pass, which appends to them.
+// into it; the others keep their lengths for the later passes that append to them.
 void lists_done(uint lists, uint subgroups) {
     if (subgroupElect()) {
         // This subgroup's appends are counted before it counts itself done.

@@ -2,15 +2,17 @@
 //! camera positions (issue #7; `shaders/reproject*.comp`).
 //!
 //! A [`Reprojector`] keeps a per-pixel cache of the last frame's samples: linear colour,
-//! world position of the primary hit (or the ray direction of a miss), geometric normal,
-//! material, instance, age and a view-dependence flag. Each frame:
+//! world position of the primary hit (or the ray direction of a miss), geometric normal
+//! (octahedral, one word), material, age and flags: nine words per pixel
+//! (`interface::reproject::CacheEntry`). Each frame:
 //!
 //! 1. **Scatter**: every cached sample is projected into the new camera. The nearest sample
-//!    per pixel wins (a 32-bit `atomicMin` of the depth bits, then an `atomicMin` of the source
-//!    index among the samples at that depth, so ties resolve deterministically). A pixel no
-//!    sample landed on takes the neighbouring sample that projects nearest to its centre
-//!    within [`FILL_RADIUS`] (otherwise empty pixels multiply along the seams between regions
-//!    whose samples have different sub-pixel offsets); it is still checked like any other.
+//!    per pixel wins (one 64-bit `atomicMin` of depth bits << 32 | source index, or two
+//!    32-bit passes without 64-bit atomics, so ties resolve deterministically). A pixel no
+//!    sample landed on takes the sample of an edge-sharing neighbour that projects nearest to
+//!    its centre within [`FILL_RADIUS`] (otherwise empty pixels multiply along the seams
+//!    between regions whose samples have different sub-pixel offsets); it is still checked
+//!    like any other.
 //! 2. **Decide** per pixel: no sample (disocclusion, screen edge, first frame) → trace;
 //!    a view-dependent sample (mirror/metal, transmissive, blended, or a path that spawned
 //!    reflection/refraction rays) → trace; a sample older than `max_age` → trace; otherwise
@@ -23,7 +25,13 @@
 //!    (interleaved gradient noise), so the refresh sweeps evenly over the image.
 //! 4. **Trace** the rest with the shared Whitted loop, or with **adaptive sub-sampling**
 //!    (optional): trace every 4×4 block's corners and centre, interpolate the blocks whose
-//!    samples are similar, recurse into 2×2 blocks, then trace what is left.
+//!    samples are similar, recurse into 2×2 blocks, then trace what is left. On the rt path,
+//!    interpolated pixels then get a primary ray each (the caching pass) for their cache
+//!    entry; traced pixels trace their own.
+//!
+//! Every pass after the decision works through a job list in tile order (pixels to verify,
+//! to trace, pending interpolation, to cache), dispatched indirectly by its length, so its
+//! cost follows its jobs.
 //!
 //! Reused samples keep the world position where their colour was computed (as in the Render
 //! Cache, Walter et al. 1999), so the error of a reused pixel stays within its footprint and
@@ -186,9 +194,9 @@ pub struct ReuseStats {
     pub expired: u64,
     /// Samples re-traced by the frameless refresh.
     pub frameless: u64,
-    /// Primary rays of the rt path's visibility pass (included in the primary ray count):
+    /// Primary rays of the rt path's visibility pipeline (included in the primary ray count):
     /// checks of reprojected samples and, with adaptive sub-sampling, the primary hits of
-    /// the pixels that need new colour (so interpolated pixels can be cached).
+    /// interpolated pixels (the caching pass, so that they can be cached).
     pub verify_rays: u64,
 }
 
@@ -798,7 +806,10 @@ impl<'r> Reprojector<'r> {
                 &self.primary,
                 primary_set,
                 "visibility",
-                push_bytes(&VisibilityPush { level: levels[0] }),
+                push_bytes(&VisibilityPush {
+                    level: levels[0],
+                    cache: 0,
+                }),
                 LIST_VERIFY,
                 profiler.as_deref_mut(),
             );
@@ -834,6 +845,18 @@ impl<'r> Reprojector<'r> {
                     profiler.as_deref_mut(),
                 );
             }
+        }
+        if o.adaptive_subsample && self.path == RenderPath::RayTraced {
+            // Interpolated pixels that never had a primary ray get one, for their cache entry.
+            traced(
+                cmd,
+                &self.primary,
+                primary_set,
+                "cache",
+                push_bytes(&VisibilityPush { level: 0, cache: 1 }),
+                LIST_CACHE,
+                profiler.as_deref_mut(),
+            );
         }
         if let Some(p) = profiler.as_deref_mut() {
             p.end(cmd);
