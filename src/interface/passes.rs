@@ -173,3 +173,44 @@ pub struct RaybenchPush {
     /// `RAYBENCH_*` mode.
     pub mode: u32,
 }
+
+/// skin.comp: rest positions, `vec3` per vertex.
+pub const BINDING_SKIN_REST_POSITIONS: u32 = 0;
+/// skin.comp: rest normals, `vec3` per vertex.
+pub const BINDING_SKIN_REST_NORMALS: u32 = 1;
+/// skin.comp: rest tangents, `vec4` per vertex.
+pub const BINDING_SKIN_REST_TANGENTS: u32 = 2;
+/// skin.comp: 8 joint indices per vertex.
+pub const BINDING_SKIN_JOINTS: u32 = 3;
+/// skin.comp: 8 joint weights per vertex.
+pub const BINDING_SKIN_WEIGHTS: u32 = 4;
+/// skin.comp: morph displacements [attribute (position, normal, tangent)][target][vertex].
+pub const BINDING_SKIN_DELTAS: u32 = 5;
+/// skin.comp: this frame's joint matrices (`mat4` per joint).
+pub const BINDING_SKIN_JOINT_MATRICES: u32 = 6;
+/// skin.comp: this frame's morph weights (`float` per target).
+pub const BINDING_SKIN_MORPH_WEIGHTS: u32 = 7;
+/// skin.comp: deformed positions out.
+pub const BINDING_SKIN_OUT_POSITIONS: u32 = 8;
+/// skin.comp: deformed normals out.
+pub const BINDING_SKIN_OUT_NORMALS: u32 = 9;
+/// skin.comp: deformed tangents out.
+pub const BINDING_SKIN_OUT_TANGENTS: u32 = 10;
+/// [`SkinPush`] flag: linear blend skinning (else morphing only).
+pub const SKIN_SKINNED: u32 = 1;
+/// [`SkinPush`] flag: the geometry has tangents.
+pub const SKIN_TANGENTS: u32 = 2;
+
+/// skin.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct SkinPush {
+    /// Vertices.
+    pub count: u32,
+    /// Morph targets.
+    pub targets: u32,
+    /// `SKIN_*` flags.
+    pub flags: u32,
+    /// Joints of the skin (0: not skinned).
+    pub joint_count: u32,
+}
