@@ -339,19 +339,29 @@ fn blas_sizes(
                 .flags(BLAS_FLAGS)
                 .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
                 .geometries(&geometries);
-            let mut size = vk::AccelerationStructureBuildSizesInfoKHR::default();
-            // SAFETY: `info` describes valid device-address geometry; counts match.
-            unsafe {
-                api.get_acceleration_structure_build_sizes(
-                    vk::AccelerationStructureBuildTypeKHR::DEVICE,
-                    &info,
-                    &[input.triangle_count],
-                    &mut size,
-                )
-            };
-            size
+            build_sizes(api, &info, input.triangle_count)
         })
         .collect()
+}
+
+/// The driver's structure and scratch sizes for building `info` over `count` primitives.
+fn build_sizes(
+    api: &khr::acceleration_structure::Device,
+    info: &vk::AccelerationStructureBuildGeometryInfoKHR,
+    count: u32,
+) -> vk::AccelerationStructureBuildSizesInfoKHR<'static> {
+    let mut size = vk::AccelerationStructureBuildSizesInfoKHR::default();
+    // SAFETY: `info` describes valid device-address geometry (triangles or instances) of
+    // `count` primitives.
+    unsafe {
+        api.get_acceleration_structure_build_sizes(
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            info,
+            &[count],
+            &mut size,
+        )
+    };
+    size
 }
 
 /// Refuses a build whose estimated bytes exceed 90 % of the largest device heap.
@@ -572,16 +582,7 @@ fn build_tlas(
         .flags(vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)
         .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
         .geometries(&geometries);
-    let mut size = vk::AccelerationStructureBuildSizesInfoKHR::default();
-    // SAFETY: valid instance geometry description.
-    unsafe {
-        api.get_acceleration_structure_build_sizes(
-            vk::AccelerationStructureBuildTypeKHR::DEVICE,
-            &info,
-            &[count],
-            &mut size,
-        )
-    };
+    let size = build_sizes(api, &info, count);
     let tlas = AccelStructure::new(
         ctx,
         "TLAS",

@@ -10,10 +10,11 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use rqr::accel::Backend;
 use rqr::render::burst::{self, BurstReport};
+use rqr::render::image::{compare, label, output};
+use rqr::render::passes::gbuffer;
 use rqr::render::sequence::{pass_spreads, Spread};
 use rqr::render::{
-    compare, gbuffer, label, merge_scopes, output, FrameTargets, PassScope, RenderOutput,
-    RenderPath, RenderSettings, Renderer,
+    merge_scopes, FrameTargets, PassScope, RenderOutput, RenderPath, RenderSettings, Renderer,
 };
 use rqr::vk::FrameTiming;
 use serde_json::json;
@@ -299,7 +300,7 @@ impl ShadingSplit {
 /// One backend's results as the reports need them.
 struct BackendSummary {
     backend: Backend,
-    diff: rqr::render::compare::ImageDiff,
+    diff: compare::ImageDiff,
     hybrid_over_rt_time: f64,
     json: serde_json::Value,
 }
@@ -308,7 +309,7 @@ struct BackendSummary {
 #[derive(serde::Serialize)]
 struct CrossBackend {
     backends: [&'static str; 2],
-    flip: rqr::render::compare::ImageDiff,
+    flip: compare::ImageDiff,
     primary_ids_agree: f64,
 }
 
@@ -370,12 +371,12 @@ fn write_outputs(
             )
         });
         if let Some((rs, hs)) = &splits {
-            for (name, sp) in [("rt", rs), ("hybrid", hs)] {
+            for (path, sp) in [(RenderPath::RayTraced, rs), (RenderPath::Hybrid, hs)] {
                 writeln!(
                     split_table,
                     "| {:<7} | {:<6} | {:>9.2} | {:>29.2} | {:>23.2} |",
                     run.backend.as_str(),
-                    name,
+                    path.as_str(),
                     sp.shading_ms,
                     sp.direct_and_shadows_ms,
                     sp.reflections_refractions_ms,
@@ -432,7 +433,7 @@ fn write_images(
     dir: &Path,
     settings: &RenderSettings,
     run: &BackendRun,
-) -> Result<rqr::render::compare::ImageDiff> {
+) -> Result<compare::ImageDiff> {
     let (rt, hybrid, backend) = (&run.rt.last, &run.hybrid.last, run.backend);
     let diff = {
         let _spinner = super::progress::Spinner::start("FLIP");
@@ -500,7 +501,7 @@ fn timing_rows(table: &mut String, run: &BackendRun) -> Result<()> {
 fn backend_summary(
     run: &BackendRun,
     dir: &Path,
-    diff: rqr::render::compare::ImageDiff,
+    diff: compare::ImageDiff,
     splits: Option<(ShadingSplit, ShadingSplit)>,
 ) -> BackendSummary {
     let (rt, hybrid) = (&run.rt, &run.hybrid);

@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
+use rqr::render::image::output;
+use rqr::render::passes::gbuffer;
 use rqr::render::reproject::{
     PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
 };
@@ -17,7 +19,7 @@ use rqr::render::sequence::{
 };
 use rqr::render::targets::RingContents;
 use rqr::render::RenderPath;
-use rqr::render::{gbuffer, output, PassScope, RenderOutput, RenderSettings, Renderer};
+use rqr::render::{PassScope, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
 
 use super::common::{check_output_file, CameraArgs, DeviceArgs, ImageArgs, SceneArgs};

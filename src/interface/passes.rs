@@ -214,3 +214,49 @@ pub struct SkinPush {
     /// Joints of the skin (0: not skinned).
     pub joint_count: u32,
 }
+
+/// bvh_bench.comp (`benches/bvh.rs`, no `Frame` uniform): primary hits, one [`BenchHit`] per
+/// pixel.
+pub const BINDING_BENCH_PRIMARY: u32 = 3;
+/// bvh_bench.comp: bounce hits, one [`BenchHit`] per pixel.
+pub const BINDING_BENCH_BOUNCE: u32 = 4;
+
+/// bvh_bench.comp's record of one closest hit (scalar layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct BenchHit {
+    /// Hit distance.
+    pub t: f32,
+    /// Instance index (-1 on a miss).
+    pub instance: i32,
+    /// Primitive index (-1 on a miss).
+    pub primitive: i32,
+    /// Padding.
+    pub pad: f32,
+    /// Ray origin.
+    pub origin: [f32; 3],
+    /// Padding.
+    pub pad2: f32,
+    /// Ray direction.
+    pub dir: [f32; 3],
+    /// Padding.
+    pub pad3: f32,
+}
+
+/// bvh_bench.comp's push constant (scalar layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct BenchPush {
+    /// Camera position (looking at the origin).
+    pub eye: [f32; 3],
+    /// tan(yfov / 2).
+    pub tan_half_fov: f32,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// 0: primary rays, 1: one bounce from each primary hit.
+    pub mode: u32,
+    /// Bounce sampler seed.
+    pub seed: u32,
+}
