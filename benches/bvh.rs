@@ -13,38 +13,14 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use bytemuck::{Pod, Zeroable};
 use rqr::accel::bvh::testing::{load_mesh, scene_of};
 use rqr::accel::bvh::{BvhBuildOptions, BvhData, GpuBvh};
 use rqr::accel::hw::HwAccel;
+use rqr::interface::{BenchHit, BenchPush as Push, BINDING_BENCH_BOUNCE, BINDING_BENCH_PRIMARY};
 use rqr::scene::gpu::GpuScene;
 use rqr::scene::Scene;
 use rqr::vk::MemoryLocation;
 use rqr::vk::{vk, Binding, Buffer, ComputePipeline, Context, ContextOptions, GpuProfiler};
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct BenchHit {
-    t: f32,
-    instance: i32,
-    primitive: i32,
-    pad: f32,
-    origin: [f32; 3],
-    pad2: f32,
-    dir: [f32; 3],
-    pad3: f32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Push {
-    eye: [f32; 3],
-    tan_half_fov: f32,
-    width: u32,
-    height: u32,
-    mode: u32,
-    seed: u32,
-}
 
 struct Args {
     mesh: PathBuf,
@@ -205,8 +181,8 @@ fn main() {
         .unwrap();
         let set = pipeline.allocate_set().unwrap();
         gpu_scene.bind(&set);
-        set.buffer(3, &primary, Binding::StorageBuffer)
-            .buffer(4, &bounce, Binding::StorageBuffer);
+        set.buffer(BINDING_BENCH_PRIMARY, &primary, Binding::StorageBuffer)
+            .buffer(BINDING_BENCH_BOUNCE, &bounce, Binding::StorageBuffer);
         let _keep_bvh;
         let _keep_hw;
         if backend == "hw" {

@@ -8,10 +8,11 @@
 //! Accepted lines (as `cargo fmt` writes them):
 //! - `//!` and `///` doc comments (copied as `//` comments), other `//` comments, blank lines,
 //!   attributes (`#[...]`) and `use` declarations (skipped);
-//! - `pub const NAME: u32 = VALUE;` (also `usize`, `i32`, `f32`) with VALUE a literal, a hex
+//! - `pub const NAME: u32 = VALUE;` (also `usize`, `u64` below 2^32, `i32`, `f32`) with VALUE a literal, a hex
 //!   literal, `u32::MAX` or `A << B` of literals: `#define NAME VALUEu`;
 //! - `pub struct Name {`, then one `pub field: TYPE,` per line, then `}`: a GLSL `struct` with
-//!   the same fields in the same order (types: `u32`, `i32`, `f32`, `[f32; 2|3|4|16]`,
+//!   the same fields in the same order (types: `u32`, `u64` (`uint64_t`: the including shader
+//!   enables the int64 extension), `i32`, `f32`, `[f32; 2|3|4|16]`,
 //!   `[u32; 2|3|4]`, `[i32; 2|3|4]`), plus, under `#ifdef RQR_LAYOUT_PUT`, a
 //!   `put_Name(Name)` function that writes every field as 32-bit words (for layout tests).
 
@@ -29,6 +30,7 @@ struct Field {
 fn glsl_type(rust: &str) -> Option<(&'static str, &'static str)> {
     Some(match rust {
         "u32" => ("uint", "put"),
+        "u64" => ("uint64_t", "put64"),
         "i32" => ("int", "puti"),
         "f32" => ("float", "putf"),
         "[f32; 2]" => ("vec2", "put2"),
@@ -62,7 +64,7 @@ fn parse_u64(text: &str) -> Option<u64> {
 /// GLSL for `pub const` of `ty` = `value`, or None when it is not a form this parser knows.
 fn constant(ty: &str, value: &str) -> Option<String> {
     match ty {
-        "u32" | "usize" => {
+        "u32" | "usize" | "u64" => {
             let v = parse_u64(value)?;
             let v = u32::try_from(v).ok()?;
             Some(if v >= 0x8000_0000 {

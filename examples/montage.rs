@@ -21,7 +21,7 @@ fn main() -> anyhow::Result<()> {
         .iter()
         .map(|(n, i)| (n.as_str(), i.as_raw().as_slice(), 4))
         .collect();
-    let c = rqr::render::label::side_by_side(w, h, &panels);
+    let c = rqr::render::image::label::side_by_side(w, h, &panels);
     image::RgbImage::from_raw(c.width, c.height, c.rgb)
         .unwrap()
         .save(out)?;

@@ -1,6 +1,8 @@
 //! Development helper: renders the procedural Cornell scene with both paths to `out/`.
 use rqr::accel::Backend;
-use rqr::render::{gbuffer, output, RenderSettings, Renderer};
+use rqr::render::image::output;
+use rqr::render::passes::gbuffer;
+use rqr::render::{RenderSettings, Renderer};
 use rqr::vk::{Context, ContextOptions};
 
 fn main() -> anyhow::Result<()> {

@@ -2,7 +2,8 @@
 //! readme_images`): the built-in scene at recursion depths 1, 2, 3 and 5, and zoomed crops of
 //! an edge under every sampling mode.
 use rqr::accel::BackendChoice;
-use rqr::render::{label, RenderSettings, Renderer, SamplerKind};
+use rqr::render::image::label;
+use rqr::render::{RenderSettings, Renderer, SamplerKind};
 use rqr::vk::{Context, ContextOptions};
 
 fn save(path: &str, c: label::Canvas) -> anyhow::Result<()> {

@@ -2,7 +2,7 @@
 #version 460
 // Compute rasterizer, binning (see raster.glsl; Laine & Karras 2011's bin stage): the
 // triangles raster_triangles.comp queued go into per-tile lists, in three stages picked by a
-// specialization constant (src/render/raster_compute.rs builds one pipeline per stage):
+// specialization constant (src/render/passes/raster_compute.rs builds one pipeline per stage):
 // COUNT (per queued triangle: +1 on every tile its bounding box touches), SCAN (one workgroup:
 // exclusive prefix sum of the counts into each tile's first entry), FILL (per queued triangle:
 // its index into each tile's list). A (triangle, tile) pair beyond the bins' capacity is

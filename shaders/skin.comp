@@ -7,30 +7,23 @@
 // matrix itself; both renormalized. The CPU reference is `scene::pose::deform`.
 #extension GL_EXT_scalar_block_layout : require
 layout(local_size_x = 64) in;
-layout(set = 0, binding = 0, scalar) readonly buffer RestPositions { vec3 rest_positions[]; };
-layout(set = 0, binding = 1, scalar) readonly buffer RestNormals { vec3 rest_normals[]; };
-layout(set = 0, binding = 2, scalar) readonly buffer RestTangents { vec4 rest_tangents[]; };
+#include "interface_passes.glsl"
+layout(set = 0, binding = BINDING_SKIN_REST_POSITIONS, scalar) readonly buffer RestPositions { vec3 rest_positions[]; };
+layout(set = 0, binding = BINDING_SKIN_REST_NORMALS, scalar) readonly buffer RestNormals { vec3 rest_normals[]; };
+layout(set = 0, binding = BINDING_SKIN_REST_TANGENTS, scalar) readonly buffer RestTangents { vec4 rest_tangents[]; };
 // 8 joint indices and 8 weights per vertex.
-layout(set = 0, binding = 3, scalar) readonly buffer Joints { uint joints[]; };
-layout(set = 0, binding = 4, scalar) readonly buffer Weights { float weights[]; };
+layout(set = 0, binding = BINDING_SKIN_JOINTS, scalar) readonly buffer Joints { uint joints[]; };
+layout(set = 0, binding = BINDING_SKIN_WEIGHTS, scalar) readonly buffer Weights { float weights[]; };
 // Displacements [attribute (position, normal, tangent)][target][vertex]; zeros where a
 // target does not move an attribute.
-layout(set = 0, binding = 5, scalar) readonly buffer Deltas { vec3 deltas[]; };
-layout(set = 0, binding = 6, scalar) readonly buffer JointMatrices { mat4 joint_matrices[]; };
-layout(set = 0, binding = 7, scalar) readonly buffer MorphWeights { float morph_weights[]; };
-layout(set = 0, binding = 8, scalar) writeonly buffer OutPositions { vec3 out_positions[]; };
-layout(set = 0, binding = 9, scalar) writeonly buffer OutNormals { vec3 out_normals[]; };
-layout(set = 0, binding = 10, scalar) writeonly buffer OutTangents { vec4 out_tangents[]; };
+layout(set = 0, binding = BINDING_SKIN_DELTAS, scalar) readonly buffer Deltas { vec3 deltas[]; };
+layout(set = 0, binding = BINDING_SKIN_JOINT_MATRICES, scalar) readonly buffer JointMatrices { mat4 joint_matrices[]; };
+layout(set = 0, binding = BINDING_SKIN_MORPH_WEIGHTS, scalar) readonly buffer MorphWeights { float morph_weights[]; };
+layout(set = 0, binding = BINDING_SKIN_OUT_POSITIONS, scalar) writeonly buffer OutPositions { vec3 out_positions[]; };
+layout(set = 0, binding = BINDING_SKIN_OUT_NORMALS, scalar) writeonly buffer OutNormals { vec3 out_normals[]; };
+layout(set = 0, binding = BINDING_SKIN_OUT_TANGENTS, scalar) writeonly buffer OutTangents { vec4 out_tangents[]; };
 
-const uint FLAG_SKINNED = 1u;
-const uint FLAG_TANGENTS = 2u;
-
-layout(push_constant) uniform Push {
-    uint count;
-    uint targets;
-    uint flags;
-    uint joint_count;
-} pc;
+layout(push_constant) uniform Push { SkinPush pc; };
 
 vec3 normalize_or(vec3 v, vec3 fallback) {
     float l2 = dot(v, v);
@@ -40,7 +33,7 @@ vec3 normalize_or(vec3 v, vec3 fallback) {
 void main() {
     uint v = gl_GlobalInvocationID.x;
     if (v >= pc.count) return;
-    bool tangents = (pc.flags & FLAG_TANGENTS) != 0u;
+    bool tangents = (pc.flags & SKIN_TANGENTS) != 0u;
     vec3 p = rest_positions[v];
     vec3 n = rest_normals[v];
     vec4 t = tangents ? rest_tangents[v] : vec4(0.0);
@@ -52,7 +45,7 @@ void main() {
         t.xyz += w * deltas[(2u * pc.targets + k) * pc.count + v];
     }
     mat4 m = mat4(1.0);
-    if ((pc.flags & FLAG_SKINNED) != 0u) {
+    if ((pc.flags & SKIN_SKINNED) != 0u) {
         m = mat4(0.0);
         for (uint i = 0u; i < 8u; ++i) {
             float w = weights[v * 8u + i];

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::accel::bvh::{BvhBuild, BvhBuildChoice};
 use crate::accel::Backend;
-use crate::render::raster_compute::RasterMode;
+use crate::render::passes::raster_compute::RasterMode;
 use crate::vk::{Context, DeviceInfo};
 
 /// Format of the cache file; a file of another format is ignored and rewritten. Format 2: the
@@ -332,7 +332,8 @@ pub fn decision(ctx: &Context) -> Decision {
 
 /// Times the fixed workload on `ctx` (see the module docs).
 pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
-    use crate::render::{gbuffer, RenderSettings, Renderer};
+    use crate::render::passes::gbuffer;
+    use crate::render::{RenderSettings, Renderer};
     let scene = crate::scene::load_default()?;
     let camera = scene
         .cameras

@@ -29,7 +29,7 @@ pub enum Error {
     Vk(#[from] vk::VkError),
     /// Invalid output.
     #[error(transparent)]
-    Output(#[from] render::output::OutputError),
+    Output(#[from] render::image::output::OutputError),
     /// The requested ray backend is unavailable.
     #[error(transparent)]
     Backend(#[from] accel::BackendUnavailable),

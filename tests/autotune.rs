@@ -8,7 +8,7 @@ use std::time::Duration;
 use rqr::accel::bvh::BvhBuild;
 use rqr::accel::{Backend, BackendChoice};
 use rqr::autotune::{self, CacheError, Measurement};
-use rqr::render::raster_compute::RasterMode;
+use rqr::render::passes::raster_compute::RasterMode;
 use rqr::vk::{DeviceInfo, DeviceSelector};
 
 fn lavapipe() -> DeviceInfo {

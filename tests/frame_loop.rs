@@ -6,10 +6,12 @@ mod common;
 
 use rqr::accel::Backend;
 use rqr::render::burst;
-use rqr::render::reproject::{PixelSource, RenderPath, ReuseOptions, RtVisibility};
+use rqr::render::passes::gbuffer;
+use rqr::render::reproject::{PixelSource, ReuseOptions, RtVisibility};
 use rqr::render::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
 use rqr::render::targets::RingContents;
-use rqr::render::{gbuffer, FrameTargets, RenderSettings, Renderer};
+use rqr::render::RenderPath;
+use rqr::render::{FrameTargets, RenderSettings, Renderer};
 use rqr::scene::procedural::cornell;
 use rqr::scene::Scene;
 use rqr::vk::Context;

@@ -9,7 +9,8 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use rqr::accel::Backend;
-use rqr::render::{compare, RenderSettings, Renderer};
+use rqr::render::image::compare;
+use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{LoadOptions, Scene};
 
 const SIZE: u32 = 96;

@@ -175,13 +175,23 @@ fn assert_parts(got: &[u32], parts: &[(&str, Vec<u32>)]) {
 
 #[test]
 fn interface_structs_match_generated_glsl_layout() {
+    use rqr::interface::bvh::{
+        BvhBuildPush, BvhBuildRefs, BvhRefitRefs, BvhRelocatePush, BvhScanPush, BvhTlasLinksPush,
+        GpuBvhRefs,
+    };
     use rqr::interface::reproject::{
         CacheEntry, GpuParams, ReprojectPush, Shown, TracePush, VisibilityPush,
     };
     use rqr::interface::*;
     let ctx = common::gpu();
     let frame: GpuFrame = distinct(1);
+    // The 64-bit structs first (their sizes are multiples of 8, so every struct after them
+    // starts where GLSL puts it).
     let pushes = [
+        ("BvhBuildPush", words(&distinct::<BvhBuildPush>(16))),
+        ("BvhScanPush", words(&distinct::<BvhScanPush>(17))),
+        ("BvhRelocatePush", words(&distinct::<BvhRelocatePush>(18))),
+        ("BvhTlasLinksPush", words(&distinct::<BvhTlasLinksPush>(19))),
         ("RaytracePush", words(&distinct::<RaytracePush>(2))),
         ("HybridPush", words(&distinct::<HybridPush>(3))),
         ("DrawPush", words(&distinct::<DrawPush>(4))),
@@ -191,8 +201,12 @@ fn interface_structs_match_generated_glsl_layout() {
         ("ReprojectPush", words(&distinct::<ReprojectPush>(8))),
         ("VisibilityPush", words(&distinct::<VisibilityPush>(14))),
         ("TracePush", words(&distinct::<TracePush>(15))),
+        ("SkinPush", words(&distinct::<SkinPush>(20))),
     ];
     let records = [
+        ("GpuBvhRefs", words(&distinct::<GpuBvhRefs>(23))),
+        ("BvhBuildRefs", words(&distinct::<BvhBuildRefs>(24))),
+        ("BvhRefitRefs", words(&distinct::<BvhRefitRefs>(25))),
         ("Aov", words(&distinct::<Aov>(9))),
         ("RasterDraw", words(&distinct::<RasterDraw>(10))),
         ("CacheEntry", words(&distinct::<CacheEntry>(11))),

@@ -6,8 +6,10 @@ mod common;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};
-use rqr::render::gbuffer::GbufferLayout;
-use rqr::render::{compare, gbuffer, RenderOutput, RenderSettings, Renderer, SamplerKind};
+use rqr::render::image::compare;
+use rqr::render::passes::gbuffer;
+use rqr::render::passes::gbuffer::GbufferLayout;
+use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::procedural::{assemble, cornell, look_at, quad};
 use rqr::scene::{Instance, Material, Projection, Scene};
 

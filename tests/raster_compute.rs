@@ -4,8 +4,10 @@
 mod common;
 
 use rqr::accel::Backend;
-use rqr::render::raster_compute::RasterMode;
-use rqr::render::{compare, gbuffer, RenderOutput, RenderSettings, Renderer, SamplerKind};
+use rqr::render::image::compare;
+use rqr::render::passes::gbuffer;
+use rqr::render::passes::raster_compute::RasterMode;
+use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::{Camera, Scene};
 
 fn asset(rel: &str) -> Scene {
@@ -92,11 +94,11 @@ fn compute_visibility_matches_graphics_on_the_builtin_scene() {
 fn compute_visibility_survives_full_tile_bins() {
     // Other tests of this binary may build rasterizers meanwhile with the small capacity
     // too; their images must match graphics all the same.
-    std::env::set_var(rqr::render::raster_compute::BIN_CAPACITY_ENV, "1");
+    std::env::set_var(rqr::render::passes::raster_compute::BIN_CAPACITY_ENV, "1");
     let scene = rqr::scene::load_default().unwrap();
     let camera = default_camera(&scene);
     assert_compute_matches_graphics("built-in, 1 bin entry", &scene, &camera, 96);
-    std::env::remove_var(rqr::render::raster_compute::BIN_CAPACITY_ENV);
+    std::env::remove_var(rqr::render::passes::raster_compute::BIN_CAPACITY_ENV);
 }
 
 /// Camera inside the room looking into a corner: walls, floor and ceiling run behind the

@@ -7,7 +7,8 @@ mod scene_util;
 
 use glam::Vec3;
 use rqr::accel::Backend;
-use rqr::render::{compare, RenderSettings, Renderer};
+use rqr::render::image::compare;
+use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, LoadOptions, Scene};
 use scene_util::asset;
 use serde_json::{json, Value};

@@ -6,7 +6,8 @@ mod scene_util;
 
 use glam::Vec2;
 use rqr::accel::Backend;
-use rqr::render::{compare, RenderSettings, Renderer};
+use rqr::render::image::compare;
+use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, Camera, LoadOptions, Scene};
 use scene_util::{asset, bytes, png, quad_doc, Builder};
 use serde_json::{json, Value};

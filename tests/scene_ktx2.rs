@@ -9,7 +9,8 @@ mod ktx2;
 mod scene_util;
 
 use rqr::accel::Backend;
-use rqr::render::{compare, RenderSettings, Renderer};
+use rqr::render::image::compare;
+use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, LoadOptions, Scene};
 use scene_util::{asset, base64, png, quad_doc, Builder};
 use serde_json::{json, Value};

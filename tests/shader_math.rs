@@ -3,7 +3,8 @@
 mod common;
 
 use glam::Vec3;
-use rqr::render::{optics, sampling};
+use rqr::render::reference::optics;
+use rqr::render::sampling;
 use rqr::vk::{vk, Binding, Buffer, ComputePipeline, MemoryLocation};
 
 #[test]

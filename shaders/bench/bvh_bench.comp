@@ -5,6 +5,7 @@
 // cosine-weighted bounce from each primary hit (incoherent rays), closest hit.
 #include "scene.glsl"
 #include "trace.glsl"
+#include "interface_passes.glsl"
 
 // Workgroup shape (experiments compile other shapes with glslc -D, see benches/bvh.rs --wg).
 #ifndef BENCH_WG_X
@@ -13,27 +14,9 @@
 #endif
 layout(local_size_x = BENCH_WG_X, local_size_y = BENCH_WG_Y) in;
 
-struct BenchHit {
-    float t;
-    int instance;
-    int primitive;
-    float pad;
-    vec3 origin;
-    float pad2;
-    vec3 dir;
-    float pad3;
-};
-
-layout(set = 0, binding = 3, scalar) buffer Primary { BenchHit hits[]; };
-layout(set = 0, binding = 4, scalar) writeonly buffer Bounce { BenchHit bounce[]; };
-layout(push_constant, scalar) uniform Push {
-    vec3 eye;
-    float tan_half_fov;
-    uint width;
-    uint height;
-    uint mode;
-    uint seed;
-} pc;
+layout(set = 0, binding = BINDING_BENCH_PRIMARY, scalar) buffer Primary { BenchHit hits[]; };
+layout(set = 0, binding = BINDING_BENCH_BOUNCE, scalar) writeonly buffer Bounce { BenchHit bounce[]; };
+layout(push_constant, scalar) uniform Push { BenchPush pc; };
 
 uint pcg(uint v) {
     uint state = v * 747796405u + 2891336453u;

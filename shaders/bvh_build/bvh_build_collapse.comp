@@ -9,13 +9,13 @@
 layout(local_size_x = 64) in;
 
 bool is_inner(uint node) {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     return node >= r.n && (U32s(r.info).v[node] & INFO_LEAF) == 0u;
 }
 
 // Copies the triangles under `node` (a subtree of at most 16 leaves) to tris_out[at..].
 void emit_leaf(uint node, uint at) {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     uint stack[32];
     uint top = 0u;
     stack[top++] = node;
@@ -34,7 +34,7 @@ void emit_leaf(uint node, uint at) {
 }
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     U32s state = U32s(r.state);
     uint queue_in = pc.a == 0u ? STATE_QUEUE0 : STATE_QUEUE1;
     uint queue_out = pc.a == 0u ? STATE_QUEUE1 : STATE_QUEUE0;

@@ -6,7 +6,7 @@
 layout(local_size_x = 1) in;
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     U32s state = U32s(r.state);
     uint root = state.v[STATE_ROOT];
     bool single = (U32s(r.info).v[root] & INFO_LEAF) != 0u;

@@ -5,7 +5,7 @@
 layout(local_size_x = 1) in;
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     U32s state = U32s(r.state);
     uint consumed = pc.a == 0u ? STATE_QUEUE0 : STATE_QUEUE1;
     uint filled = pc.a == 0u ? STATE_QUEUE1 : STATE_QUEUE0;

@@ -15,7 +15,7 @@ uint spread_bits(uint x) {
 }
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     uint i = gl_GlobalInvocationID.x;
     if (i >= r.n) {
         return;

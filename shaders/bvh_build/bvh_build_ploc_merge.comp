@@ -8,7 +8,7 @@
 layout(local_size_x = 256) in;
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     U32s state = U32s(r.state);
     uint count = state.v[STATE_CLUSTERS];
     uint i = gl_GlobalInvocationID.x;

@@ -6,7 +6,7 @@
 layout(local_size_x = 1) in;
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     U32s state = U32s(r.state);
     uint count = state.v[STATE_CLUSTERS_NEXT];
     state.v[STATE_CLUSTERS] = count;

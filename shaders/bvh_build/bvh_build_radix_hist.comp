@@ -8,7 +8,7 @@ layout(local_size_x = 256) in;
 shared uint digit_counts[16];
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     uint lid = gl_LocalInvocationID.x;
     if (lid < 16u) {
         digit_counts[lid] = 0u;

@@ -8,7 +8,7 @@ layout(local_size_x = 256) in;
 shared uint packed_counts[256 * 8];
 
 void main() {
-    BuildRefs r = BUILD_REFS;
+    BvhBuildRefs r = BUILD_REFS;
     uint lid = gl_LocalInvocationID.x;
     uint i = gl_GlobalInvocationID.x;
     bool valid = i < r.n;

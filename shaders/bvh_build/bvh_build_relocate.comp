@@ -6,7 +6,8 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 layout(local_size_x = 256) in;
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Words { uint v[]; };
-layout(push_constant) uniform Push { uint64_t src; uint64_t dst; uint count; uint offset; } pc;
+#include "interface_bvh.glsl"
+layout(push_constant) uniform Push { BvhRelocatePush pc; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;

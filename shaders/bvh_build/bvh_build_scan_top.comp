@@ -7,7 +7,8 @@
 #include "bvh_build/scan_common.glsl"
 layout(local_size_x = 256) in;
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer U32s { uint v[]; };
-layout(push_constant) uniform Push { uint64_t data; uint64_t sums; uint64_t count; uint64_t total; } pc;
+#include "interface_bvh.glsl"
+layout(push_constant) uniform Push { BvhScanPush pc; };
 
 void main() {
     uint count = U32s(pc.count).v[0];

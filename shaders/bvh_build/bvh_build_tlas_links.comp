@@ -8,13 +8,8 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 layout(local_size_x = 256) in;
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Words { uint v[]; };
-layout(push_constant) uniform Push {
-    uint64_t src;    // built wide nodes (local indices, root 0)
-    uint64_t dst;    // the shared node array; the top level starts at node 0
-    uint64_t leaves; // BvhTriangle[] in leaf order (10 words, primitive last)
-    uint count;
-    uint pad;
-} pc;
+#include "interface_bvh.glsl"
+layout(push_constant) uniform Push { BvhTlasLinksPush pc; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;

@@ -16,7 +16,7 @@ vec3 row_transform(F32s m, uint inst, vec3 p) {
 }
 
 void main() {
-    RefitRefs r = REFIT_REFS;
+    BvhRefitRefs r = REFIT_REFS;
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.b) {
         return;

@@ -10,7 +10,7 @@ vec3 position(uint v) {
 }
 
 void main() {
-    RefitRefs r = REFIT_REFS;
+    BvhRefitRefs r = REFIT_REFS;
     uint t = gl_GlobalInvocationID.x;
     if (t >= r.triangle_count) {
         return;

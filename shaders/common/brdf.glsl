@@ -1,5 +1,5 @@
 // glTF metallic-roughness BRDF pieces (as in the Khronos glTF Sample Viewer) and the
-// reflection/refraction vectors of the seed. Mirrors src/render/optics.rs (unit-tested there).
+// reflection/refraction vectors of the seed. Mirrors src/render/reference/optics.rs (unit-tested there).
 #ifndef RQR_BRDF_GLSL
 #define RQR_BRDF_GLSL
 

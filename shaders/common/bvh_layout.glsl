@@ -1,5 +1,6 @@
 // Records of the compute BVH; byte layout equals src/accel/bvh/layout.rs (scalar block layout).
-// BvhRefs is the ray backend's uniform at set 0, binding 2. See the README section
+// The ray backend's uniform (`GpuBvhRefs`, binding BINDING_RAY_BACKEND) comes from
+// src/interface/bvh.rs. See the README section
 // "Ray backends: compute BVH" for the node layout.
 #ifndef RQR_BVH_LAYOUT_GLSL
 #define RQR_BVH_LAYOUT_GLSL
@@ -46,15 +47,11 @@ struct BvhInstance {
 #define BVH_STACK_SIZE 96
 #define BVH_LINK_EMPTY 0xFFFFFFFFu
 
-layout(set = 0, binding = 2, scalar) uniform BvhRefs {
-    uint64_t nodes;     // BvhNode[]: top level (root = node 0), then every bottom level
-    uint64_t triangles; // BvhTriangle[] in leaf order
-    uint64_t instances; // BvhInstance[], one per scene instance
-    uint node_count;
-    uint triangle_count;
-    uint instance_count;
-    uint tlas_root;
-} bvh;
+#include "interface_shared.glsl"
+#include "interface_bvh.glsl"
+
+// The ray backend's uniform: addresses and counts of the BVH buffers (`GpuBvhRefs`).
+layout(set = 0, binding = BINDING_RAY_BACKEND, scalar) uniform BvhRefs { GpuBvhRefs bvh; };
 
 // Records are read as 64-bit words: a CPU Vulkan (lavapipe) turns every component of a
 // per-lane load into one scalar load per SIMD lane, so two floats per load halve that work.

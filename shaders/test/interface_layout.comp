@@ -5,6 +5,7 @@
 // (put_<Struct>, generated under RQR_LAYOUT_PUT). tests/layout.rs compares with the repr(C)
 // bytes Rust wrote.
 #extension GL_EXT_scalar_block_layout : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
 layout(local_size_x = 1) in;
 layout(set = 0, binding = 6, std430) writeonly buffer Out { uint words[]; };
@@ -22,13 +23,20 @@ void putu4(uvec4 v) { put(v.x); put(v.y); put(v.z); put(v.w); }
 void puti2(ivec2 v) { puti(v.x); puti(v.y); }
 void puti3(ivec3 v) { puti(v.x); puti(v.y); puti(v.z); }
 void puti4(ivec4 v) { puti(v.x); puti(v.y); puti(v.z); puti(v.w); }
+void put64(uint64_t v) { put(uint(v)); put(uint(v >> 32)); }
 
 #define RQR_LAYOUT_PUT
 #include "frame.glsl"
 #include "interface_passes.glsl"
 #include "interface_reproject.glsl"
+#include "interface_bvh.glsl"
 
+// The 64-bit structs first, so that every struct starts 8-byte aligned as in Rust.
 layout(set = 0, binding = 4, std430) readonly buffer Pushes {
+    BvhBuildPush bvh_build;
+    BvhScanPush bvh_scan;
+    BvhRelocatePush bvh_relocate;
+    BvhTlasLinksPush bvh_tlas_links;
     RaytracePush raytrace;
     HybridPush hybrid;
     DrawPush draw;
@@ -38,9 +46,13 @@ layout(set = 0, binding = 4, std430) readonly buffer Pushes {
     ReprojectPush reproject;
     VisibilityPush visibility;
     TracePush trace;
+    SkinPush skin;
 } pushes;
 
 layout(set = 0, binding = 5, scalar) readonly buffer Records {
+    GpuBvhRefs bvh_refs;
+    BvhBuildRefs bvh_build_refs;
+    BvhRefitRefs bvh_refit_refs;
     Aov aov;
     RasterDraw raster_draw;
     CacheEntry cache_entry;
@@ -50,6 +62,10 @@ layout(set = 0, binding = 5, scalar) readonly buffer Records {
 
 void main() {
     put_GpuFrame(frame);
+    put_BvhBuildPush(pushes.bvh_build);
+    put_BvhScanPush(pushes.bvh_scan);
+    put_BvhRelocatePush(pushes.bvh_relocate);
+    put_BvhTlasLinksPush(pushes.bvh_tlas_links);
     put_RaytracePush(pushes.raytrace);
     put_HybridPush(pushes.hybrid);
     put_DrawPush(pushes.draw);
@@ -59,6 +75,10 @@ void main() {
     put_ReprojectPush(pushes.reproject);
     put_VisibilityPush(pushes.visibility);
     put_TracePush(pushes.trace);
+    put_SkinPush(pushes.skin);
+    put_GpuBvhRefs(records.bvh_refs);
+    put_BvhBuildRefs(records.bvh_build_refs);
+    put_BvhRefitRefs(records.bvh_refit_refs);
     put_Aov(records.aov);
     put_RasterDraw(records.raster_draw);
     put_CacheEntry(records.cache_entry);

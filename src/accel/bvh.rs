@@ -27,11 +27,12 @@ pub mod testing;
 #[cfg(test)]
 mod tests;
 
+use crate::interface::bvh::GpuBvhRefs;
 use crate::scene::Scene;
 use crate::vk::{
     vk, Binding, Buffer, Context, DescriptorSet, MemoryHeapInfo, MemoryLocation, VkError,
 };
-use layout::{BvhInstance, BvhNode, BvhTriangle, GpuBvhRefs};
+use layout::{BvhInstance, BvhNode, BvhTriangle};
 
 /// Node index of the top-level root.
 pub const TLAS_ROOT: u32 = 0;

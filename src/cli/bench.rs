@@ -7,7 +7,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rqr::accel::bvh::{sah, testing, BvhBuild, BvhBuildOptions, GpuBvh};
 use rqr::accel::{Backend, RayBackend};
-use rqr::render::raybench::{RayBatch, RayBench};
+use rqr::render::passes::raybench::{RayBatch, RayBench};
 use rqr::render::{CameraSetup, GpuFrame, RenderSettings, Renderer};
 use serde_json::json;
 

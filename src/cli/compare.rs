@@ -10,10 +10,11 @@ use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use rqr::accel::Backend;
 use rqr::render::burst::{self, BurstReport};
+use rqr::render::image::{compare, label, output};
+use rqr::render::passes::gbuffer;
 use rqr::render::sequence::{pass_spreads, Spread};
 use rqr::render::{
-    compare, gbuffer, label, merge_scopes, output, FrameTargets, PassScope, RenderOutput,
-    RenderPath, RenderSettings, Renderer,
+    merge_scopes, FrameTargets, PassScope, RenderOutput, RenderPath, RenderSettings, Renderer,
 };
 use rqr::vk::FrameTiming;
 use serde_json::json;
@@ -270,18 +271,73 @@ fn time_backend(
     ))
 }
 
-/// The shading pass split of `full` (requested depth) by `direct` (depth 1).
-fn shading_split(full: &PathTiming, direct: &PathTiming, shading: &str) -> serde_json::Value {
-    let (total, first) = (
-        full.median(shading).unwrap_or(0.0),
-        direct.median(shading).unwrap_or(0.0),
-    );
-    json!({
-        "shading_ms": total,
-        "direct_and_shadows_ms": first,
-        "reflections_refractions_ms": (total - first).max(0.0),
-        "method": "shading pass at depth 1 (primary hit, direct light, shadow rays) vs at the requested depth; medians of the same alternating bursts",
-    })
+/// Where the shading pass's time goes: the same frames at depth 1 (primary hit, direct light,
+/// shadow rays) against the requested depth.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+struct ShadingSplit {
+    shading_ms: f64,
+    direct_and_shadows_ms: f64,
+    reflections_refractions_ms: f64,
+    method: &'static str,
+}
+
+impl ShadingSplit {
+    /// The shading pass split of `full` (requested depth) by `direct` (depth 1).
+    fn new(full: &PathTiming, direct: &PathTiming, shading: PassScope) -> Self {
+        let (total, first) = (
+            full.median(shading.name()).unwrap_or(0.0),
+            direct.median(shading.name()).unwrap_or(0.0),
+        );
+        Self {
+            shading_ms: total,
+            direct_and_shadows_ms: first,
+            reflections_refractions_ms: (total - first).max(0.0),
+            method: "shading pass at depth 1 (primary hit, direct light, shadow rays) vs at the requested depth; medians of the same alternating bursts",
+        }
+    }
+}
+
+/// One backend's results as the reports need them.
+struct BackendSummary {
+    backend: Backend,
+    diff: compare::ImageDiff,
+    hybrid_over_rt_time: f64,
+    json: serde_json::Value,
+}
+
+/// The ray-traced images of the first two backends against each other.
+#[derive(serde::Serialize)]
+struct CrossBackend {
+    backends: [&'static str; 2],
+    flip: compare::ImageDiff,
+    primary_ids_agree: f64,
+}
+
+/// Wall time of the command split into start-up, GPU frames and host overhead.
+#[derive(serde::Serialize)]
+struct HostTimes {
+    wall_ms: f64,
+    startup_ms: f64,
+    gpu_frames_ms: f64,
+    host_overhead_ms: f64,
+    host_overhead_share: f64,
+    method: &'static str,
+}
+
+impl HostTimes {
+    fn new(started: Instant, startup: Duration, gpu_frames_ms: f64) -> Self {
+        let wall_ms = started.elapsed().as_secs_f64() * 1e3;
+        let startup_ms = startup.as_secs_f64() * 1e3;
+        let host_overhead_ms = wall_ms - startup_ms - gpu_frames_ms;
+        Self {
+            wall_ms,
+            startup_ms,
+            gpu_frames_ms,
+            host_overhead_ms,
+            host_overhead_share: host_overhead_ms / gpu_frames_ms.max(1e-9),
+            method: "wall time of the command (until its reports are written) minus start-up (scene load, device, renderers, frame targets) minus the GPU time of every frame run, warm-up included",
+        }
+    }
 }
 
 /// Writes every backend's images, FLIP map, side-by-side, report.json and report.md (after
@@ -297,151 +353,47 @@ fn write_outputs(
     let first = runs.first().context("no backend ran")?.backend;
     let mut table = String::new();
     let mut split_table = String::new();
-    let mut report_backends = Vec::new();
-    let mut gpu_frames_ms = 0.0;
+    let mut summaries = Vec::new();
     for run in runs {
-        let (rt, hybrid, backend) = (&run.rt, &run.hybrid, run.backend);
-        gpu_frames_ms += run.burst.gpu_ms_all_frames;
-        let diff = {
-            let _spinner = super::progress::Spinner::start("FLIP");
-            compare::compare(
-                settings.width,
-                settings.height,
-                &rt.last.rgba8,
-                &hybrid.last.rgba8,
-            )
-        };
-        let dir = if backend == first {
+        let dir = if run.backend == first {
             args.output.clone()
         } else {
-            let d = args.output.join(backend.as_str());
+            let d = args.output.join(run.backend.as_str());
             std::fs::create_dir_all(&d)?;
             d
         };
-        output::write_png(&dir.join("rt.png"), &rt.last)?;
-        output::write_png(&dir.join("hybrid.png"), &hybrid.last)?;
-        write_rgb(
-            &dir.join("flip.png"),
-            settings.width,
-            settings.height,
-            diff.heatmap.clone(),
-        )?;
-        let sbs = label::side_by_side(
-            settings.width,
-            settings.height,
-            &[
-                (
-                    &format!("RAY TRACED ({})", backend.as_str()),
-                    &rt.last.rgba8,
-                    4,
-                ),
-                ("HYBRID", &hybrid.last.rgba8, 4),
-                (&format!("FLIP {:.4}", diff.flip_mean), &diff.heatmap, 3),
-            ],
-        );
-        write_rgb(
-            &dir.join("side_by_side.png"),
-            sbs.width,
-            sbs.height,
-            sbs.rgb,
-        )?;
-        for (path, r) in [(RenderPath::RayTraced, rt), (RenderPath::Hybrid, hybrid)] {
-            let (name, shading) = (path.as_str(), PassScope::shading(path).name());
-            let get = |k: &str| {
-                r.timing
-                    .median(k)
-                    .map_or("-".to_string(), |v| format!("{v:.2}"))
-            };
-            let rays = r.last.rays;
-            writeln!(
-                table,
-                "| {:<7} | {:<6} | {:>8} | {:>9} | {:>7} | {:>9.2} | {:>15} | {:>9} | {:>8} | {:>8} | {:>8} | {:>8.2} |",
-                backend.as_str(),
-                name,
-                get("gbuffer"),
-                get(shading),
-                get("tonemap"),
-                r.total(),
-                format!("{:.2}–{:.2}", r.timing.frame.min, r.timing.frame.max),
-                rays.primary,
-                rays.shadow,
-                rays.reflection,
-                rays.refraction,
-                mrays_per_s(&r.with_medians()),
-            )?;
-        }
+        let diff = write_images(&dir, settings, run)?;
+        timing_rows(&mut table, run)?;
         let splits = run.depth1.as_ref().map(|(rt_d1, hybrid_d1)| {
             (
-                shading_split(&rt.timing, rt_d1, "rt"),
-                shading_split(&hybrid.timing, hybrid_d1, "hybrid shading"),
+                ShadingSplit::new(&run.rt.timing, rt_d1, PassScope::RayTraced),
+                ShadingSplit::new(&run.hybrid.timing, hybrid_d1, PassScope::HybridShading),
             )
         });
         if let Some((rs, hs)) = &splits {
-            for (name, sp) in [("rt", rs), ("hybrid", hs)] {
+            for (path, sp) in [(RenderPath::RayTraced, rs), (RenderPath::Hybrid, hs)] {
                 writeln!(
                     split_table,
                     "| {:<7} | {:<6} | {:>9.2} | {:>29.2} | {:>23.2} |",
-                    backend.as_str(),
-                    name,
-                    sp["shading_ms"].as_f64().unwrap_or(0.0),
-                    sp["direct_and_shadows_ms"].as_f64().unwrap_or(0.0),
-                    sp["reflections_refractions_ms"].as_f64().unwrap_or(0.0),
+                    run.backend.as_str(),
+                    path.as_str(),
+                    sp.shading_ms,
+                    sp.direct_and_shadows_ms,
+                    sp.reflections_refractions_ms,
                 )?;
             }
         }
-        let mut rt_json = rt.json();
-        let mut hybrid_json = hybrid.json();
-        if let Some((rs, hs)) = splits {
-            rt_json["shading_split"] = rs;
-            hybrid_json["shading_split"] = hs;
-        }
-        report_backends.push(json!({
-            "backend": backend.as_str(),
-            "rt": rt_json,
-            "hybrid": hybrid_json,
-            "hybrid_over_rt_time": hybrid.total() / rt.total().max(1e-9),
-            "flip": diff,
-            "burst": run.burst,
-            "files": {
-                "rt": dir.join("rt.png"), "hybrid": dir.join("hybrid.png"),
-                "flip": dir.join("flip.png"), "side_by_side": dir.join("side_by_side.png"),
-            },
-        }));
+        summaries.push(backend_summary(run, &dir, diff, splits));
     }
-    let cross_backend = match runs {
-        [a, b, ..] => {
-            let (a_out, b_out) = (&a.rt.last, &b.rt.last);
-            let d = compare::compare(settings.width, settings.height, &a_out.rgba8, &b_out.rgba8);
-            let ids = a_out
-                .aov
-                .iter()
-                .zip(&b_out.aov)
-                .filter(|(x, y)| x.instance() == y.instance() && x.primitive() == y.primitive())
-                .count() as f64
-                / a_out.aov.len().max(1) as f64;
-            Some(
-                json!({"backends": [a.backend.as_str(), b.backend.as_str()], "flip": d, "primary_ids_agree": ids}),
-            )
-        }
-        _ => None,
-    };
+    let gpu_frames_ms = runs.iter().map(|r| r.burst.gpu_ms_all_frames).sum();
+    let cross_backend = cross_backend(settings, runs);
     let timing = format!(
         "GPU timestamps per frame; the paths' frames alternate, recorded back to back with no host work between them, after warm-up bursts of {} frames per path until two consecutive bursts agree within {:.0} %; median (and min–max) of {} timed frames per path",
         args.repeat.min(3),
         burst::WARM_UP_TOLERANCE * 100.0,
         args.repeat
     );
-    let wall_ms = started.elapsed().as_secs_f64() * 1e3;
-    let startup_ms = startup.as_secs_f64() * 1e3;
-    let host_overhead_ms = wall_ms - startup_ms - gpu_frames_ms;
-    let host = json!({
-        "wall_ms": wall_ms,
-        "startup_ms": startup_ms,
-        "gpu_frames_ms": gpu_frames_ms,
-        "host_overhead_ms": host_overhead_ms,
-        "host_overhead_share": host_overhead_ms / gpu_frames_ms.max(1e-9),
-        "method": "wall time of the command (until its reports are written) minus start-up (scene load, device, renderers, frame targets) minus the GPU time of every frame run, warm-up included",
-    });
+    let host = HostTimes::new(started, startup, gpu_frames_ms);
     let report = json!({
         "schema": 1,
         "device": ctx.info().name,
@@ -450,7 +402,7 @@ fn write_outputs(
         "settings": settings,
         "timing": timing,
         "host": host,
-        "backends": report_backends,
+        "backends": summaries.iter().map(|s| s.json.clone()).collect::<Vec<_>>(),
         "rt_across_backends": cross_backend,
     });
     std::fs::write(
@@ -458,7 +410,162 @@ fn write_outputs(
         serde_json::to_string_pretty(&report)?,
     )?;
     super::report_html::write(&args.output, &report)?;
+    let md = markdown_report(
+        args,
+        ctx,
+        settings,
+        &timing,
+        &table,
+        &split_table,
+        &summaries,
+        cross_backend.as_ref(),
+        &host,
+    )?;
+    std::fs::write(args.output.join("report.md"), &md)?;
+    out!("{md}")?;
+    outln!("wrote {}", args.output.display())?;
+    super::common::check_validation(ctx)
+}
 
+/// Writes `run`'s ray-traced and hybrid images, their FLIP map and the labelled side-by-side
+/// into `dir`; returns the hybrid-vs-ray-traced difference.
+fn write_images(
+    dir: &Path,
+    settings: &RenderSettings,
+    run: &BackendRun,
+) -> Result<compare::ImageDiff> {
+    let (rt, hybrid, backend) = (&run.rt.last, &run.hybrid.last, run.backend);
+    let diff = {
+        let _spinner = super::progress::Spinner::start("FLIP");
+        compare::compare(settings.width, settings.height, &rt.rgba8, &hybrid.rgba8)
+    };
+    output::write_png(&dir.join("rt.png"), rt)?;
+    output::write_png(&dir.join("hybrid.png"), hybrid)?;
+    write_rgb(
+        &dir.join("flip.png"),
+        settings.width,
+        settings.height,
+        diff.heatmap.clone(),
+    )?;
+    let sbs = label::side_by_side(
+        settings.width,
+        settings.height,
+        &[
+            (&format!("RAY TRACED ({})", backend.as_str()), &rt.rgba8, 4),
+            ("HYBRID", &hybrid.rgba8, 4),
+            (&format!("FLIP {:.4}", diff.flip_mean), &diff.heatmap, 3),
+        ],
+    );
+    write_rgb(
+        &dir.join("side_by_side.png"),
+        sbs.width,
+        sbs.height,
+        sbs.rgb,
+    )?;
+    Ok(diff)
+}
+
+/// Appends `run`'s two rows (ray traced, hybrid) to the timing table.
+fn timing_rows(table: &mut String, run: &BackendRun) -> Result<()> {
+    for (path, r) in [
+        (RenderPath::RayTraced, &run.rt),
+        (RenderPath::Hybrid, &run.hybrid),
+    ] {
+        let get = |scope: PassScope| {
+            r.timing
+                .median(scope.name())
+                .map_or("-".to_string(), |v| format!("{v:.2}"))
+        };
+        let rays = r.last.rays;
+        writeln!(
+            table,
+            "| {:<7} | {:<6} | {:>8} | {:>9} | {:>7} | {:>9.2} | {:>15} | {:>9} | {:>8} | {:>8} | {:>8} | {:>8.2} |",
+            run.backend.as_str(),
+            path.as_str(),
+            get(PassScope::Gbuffer),
+            get(PassScope::shading(path)),
+            get(PassScope::Tonemap),
+            r.total(),
+            format!("{:.2}–{:.2}", r.timing.frame.min, r.timing.frame.max),
+            rays.primary,
+            rays.shadow,
+            rays.reflection,
+            rays.refraction,
+            mrays_per_s(&r.with_medians()),
+        )?;
+    }
+    Ok(())
+}
+
+/// `run`'s entry of report.json, with the values the markdown report needs.
+fn backend_summary(
+    run: &BackendRun,
+    dir: &Path,
+    diff: compare::ImageDiff,
+    splits: Option<(ShadingSplit, ShadingSplit)>,
+) -> BackendSummary {
+    let (rt, hybrid) = (&run.rt, &run.hybrid);
+    let mut rt_json = rt.json();
+    let mut hybrid_json = hybrid.json();
+    if let Some((rs, hs)) = splits {
+        rt_json["shading_split"] = json!(rs);
+        hybrid_json["shading_split"] = json!(hs);
+    }
+    let hybrid_over_rt_time = hybrid.total() / rt.total().max(1e-9);
+    let json = json!({
+        "backend": run.backend.as_str(),
+        "rt": rt_json,
+        "hybrid": hybrid_json,
+        "hybrid_over_rt_time": hybrid_over_rt_time,
+        "flip": diff,
+        "burst": run.burst,
+        "files": {
+            "rt": dir.join("rt.png"), "hybrid": dir.join("hybrid.png"),
+            "flip": dir.join("flip.png"), "side_by_side": dir.join("side_by_side.png"),
+        },
+    });
+    BackendSummary {
+        backend: run.backend,
+        diff,
+        hybrid_over_rt_time,
+        json,
+    }
+}
+
+/// The first two backends' ray-traced images against each other (FLIP, primary ids).
+fn cross_backend(settings: &RenderSettings, runs: &[BackendRun]) -> Option<CrossBackend> {
+    let [a, b, ..] = runs else {
+        return None;
+    };
+    let (a_out, b_out) = (&a.rt.last, &b.rt.last);
+    let flip = compare::compare(settings.width, settings.height, &a_out.rgba8, &b_out.rgba8);
+    let primary_ids_agree = a_out
+        .aov
+        .iter()
+        .zip(&b_out.aov)
+        .filter(|(x, y)| x.instance() == y.instance() && x.primitive() == y.primitive())
+        .count() as f64
+        / a_out.aov.len().max(1) as f64;
+    Some(CrossBackend {
+        backends: [a.backend.as_str(), b.backend.as_str()],
+        flip,
+        primary_ids_agree,
+    })
+}
+
+/// report.md: settings, the timing tables, the image differences and the host times.
+#[allow(clippy::too_many_arguments)]
+fn markdown_report(
+    args: &CompareArgs,
+    ctx: &rqr::vk::Context,
+    settings: &RenderSettings,
+    timing: &str,
+    table: &str,
+    split_table: &str,
+    summaries: &[BackendSummary],
+    cross_backend: Option<&CrossBackend>,
+    host: &HostTimes,
+) -> Result<String> {
     let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | frame ms  | frame min–max   | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(
         "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}, visibility pass: {}. Timing: {timing}. Pass columns are medians; \"frame ms\" is the median whole frame (passes, barriers, everything between them).\n\n{header}{table}\n",
@@ -479,41 +586,38 @@ fn write_outputs(
             "Where the shading pass's time goes (derived: the same frames at depth 1 give direct light and shadow rays; the rest is reflection and refraction rays):\n\n| backend | path   | shading   | depth 1: hit, direct, shadows | reflections/refractions |\n|---------|--------|-----------|-------------------------------|-------------------------|\n{split_table}\n"
         )?;
     }
-    for b in &report_backends {
-        let f = &b["flip"];
+    for s in summaries {
+        let f = &s.diff;
         writeln!(
             md,
             "{}: hybrid vs ray traced: FLIP mean {:.4} (p95 {:.4}, p99 {:.4}, max {:.4}), PSNR {:.2} dB; hybrid/RT time {:.2}",
-            b["backend"].as_str().unwrap_or("?"),
-            f["flip_mean"].as_f64().unwrap_or(0.0),
-            f["flip_p95"].as_f64().unwrap_or(0.0),
-            f["flip_p99"].as_f64().unwrap_or(0.0),
-            f["flip_max"].as_f64().unwrap_or(0.0),
-            f["psnr_db"].as_f64().unwrap_or(f64::INFINITY),
-            b["hybrid_over_rt_time"].as_f64().unwrap_or(0.0),
+            s.backend.as_str(),
+            f64::from(f.flip_mean),
+            f64::from(f.flip_p95),
+            f64::from(f.flip_p99),
+            f64::from(f.flip_max),
+            f.psnr_db,
+            s.hybrid_over_rt_time,
         )?;
     }
-    if let Some(c) = &cross_backend {
+    if let Some(c) = cross_backend {
         writeln!(
             md,
             "\nRay traced, {} vs {}: FLIP mean {:.5}, primary ids agree on {:.4} % of pixels",
-            c["backends"][0],
-            c["backends"][1],
-            c["flip"]["flip_mean"].as_f64().unwrap_or(0.0),
-            100.0 * c["primary_ids_agree"].as_f64().unwrap_or(0.0)
+            json!(c.backends[0]),
+            json!(c.backends[1]),
+            f64::from(c.flip.flip_mean),
+            100.0 * c.primary_ids_agree
         )?;
     }
     writeln!(
         md,
         "\nWall time {:.0} ms: start-up {:.0} ms, GPU frames {:.0} ms (warm-up included), host overhead {:.0} ms ({:.1} % of the GPU time).",
-        wall_ms,
-        startup_ms,
-        gpu_frames_ms,
-        host_overhead_ms,
-        100.0 * host_overhead_ms / gpu_frames_ms.max(1e-9)
+        host.wall_ms,
+        host.startup_ms,
+        host.gpu_frames_ms,
+        host.host_overhead_ms,
+        100.0 * host.host_overhead_ms / host.gpu_frames_ms.max(1e-9)
     )?;
-    std::fs::write(args.output.join("report.md"), &md)?;
-    out!("{md}")?;
-    outln!("wrote {}", args.output.display())?;
-    super::common::check_validation(ctx)
+    Ok(md)
 }

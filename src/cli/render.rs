@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
+use rqr::render::image::output;
+use rqr::render::passes::gbuffer;
 use rqr::render::reproject::{
     PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
 };
@@ -17,7 +19,7 @@ use rqr::render::sequence::{
 };
 use rqr::render::targets::RingContents;
 use rqr::render::RenderPath;
-use rqr::render::{gbuffer, output, RenderOutput, RenderSettings, Renderer};
+use rqr::render::{PassScope, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
 
 use super::common::{check_output_file, CameraArgs, DeviceArgs, ImageArgs, SceneArgs};
@@ -190,7 +192,7 @@ pub fn mrays_per_s(out: &RenderOutput) -> f64 {
     let ms: f64 = out
         .gpu_ms
         .iter()
-        .filter(|(name, _)| name != "tonemap" && name != "gbuffer")
+        .filter(|(name, _)| name != PassScope::Tonemap.name() && name != PassScope::Gbuffer.name())
         .map(|p| p.1)
         .sum();
     if ms > 0.0 {

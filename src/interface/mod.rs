@@ -8,7 +8,8 @@
 //! | Rust file | header | for |
 //! |---|---|---|
 //! | `shared.rs` | `interface_shared.glsl` | set-0 bindings 0-3, `Frame` ([`GpuFrame`]), sampler/filter codes, ray kinds and counter slots |
-//! | `passes.rs` | `interface_passes.glsl` | ray-traced, hybrid, G-buffer, compute-raster, tonemap and ray-bench passes, [`Aov`] |
+//! | `passes.rs` | `interface_passes.glsl` | ray-traced, hybrid, G-buffer, compute-raster, tonemap, ray-bench and skinning passes, [`Aov`] |
+//! | `bvh.rs` | `interface_bvh.glsl` | the compute BVH's uniform, the GPU build and refit passes' records, push constants and state words |
 //! | `reproject.rs` | `interface_reproject.glsl` | temporal reprojection |
 //!
 //! **Adding a binding** (or a flag, a counter): add a `pub const` to the right file, use the
@@ -19,6 +20,7 @@
 //! them back on the GPU. Only constants and structs belong in these files: the generator
 //! rejects anything else with the file and line.
 
+pub mod bvh;
 pub mod passes;
 pub mod reproject;
 pub mod shared;
@@ -113,12 +115,13 @@ mod tests {
         assert_eq!(
             names,
             [
+                "interface_bvh.glsl",
                 "interface_passes.glsl",
                 "interface_reproject.glsl",
                 "interface_shared.glsl"
             ]
         );
-        let shared = crate::shaders::INTERFACE_GLSL[2].1;
+        let shared = crate::shaders::INTERFACE_GLSL[3].1;
         assert!(shared.contains(&format!("#define BINDING_FRAME {BINDING_FRAME}u")));
         assert!(shared.contains("struct GpuFrame {"));
     }

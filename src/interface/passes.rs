@@ -173,3 +173,90 @@ pub struct RaybenchPush {
     /// `RAYBENCH_*` mode.
     pub mode: u32,
 }
+
+/// skin.comp: rest positions, `vec3` per vertex.
+pub const BINDING_SKIN_REST_POSITIONS: u32 = 0;
+/// skin.comp: rest normals, `vec3` per vertex.
+pub const BINDING_SKIN_REST_NORMALS: u32 = 1;
+/// skin.comp: rest tangents, `vec4` per vertex.
+pub const BINDING_SKIN_REST_TANGENTS: u32 = 2;
+/// skin.comp: 8 joint indices per vertex.
+pub const BINDING_SKIN_JOINTS: u32 = 3;
+/// skin.comp: 8 joint weights per vertex.
+pub const BINDING_SKIN_WEIGHTS: u32 = 4;
+/// skin.comp: morph displacements [attribute (position, normal, tangent)][target][vertex].
+pub const BINDING_SKIN_DELTAS: u32 = 5;
+/// skin.comp: this frame's joint matrices (`mat4` per joint).
+pub const BINDING_SKIN_JOINT_MATRICES: u32 = 6;
+/// skin.comp: this frame's morph weights (`float` per target).
+pub const BINDING_SKIN_MORPH_WEIGHTS: u32 = 7;
+/// skin.comp: deformed positions out.
+pub const BINDING_SKIN_OUT_POSITIONS: u32 = 8;
+/// skin.comp: deformed normals out.
+pub const BINDING_SKIN_OUT_NORMALS: u32 = 9;
+/// skin.comp: deformed tangents out.
+pub const BINDING_SKIN_OUT_TANGENTS: u32 = 10;
+/// [`SkinPush`] flag: linear blend skinning (else morphing only).
+pub const SKIN_SKINNED: u32 = 1;
+/// [`SkinPush`] flag: the geometry has tangents.
+pub const SKIN_TANGENTS: u32 = 2;
+
+/// skin.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct SkinPush {
+    /// Vertices.
+    pub count: u32,
+    /// Morph targets.
+    pub targets: u32,
+    /// `SKIN_*` flags.
+    pub flags: u32,
+    /// Joints of the skin (0: not skinned).
+    pub joint_count: u32,
+}
+
+/// bvh_bench.comp (`benches/bvh.rs`, no `Frame` uniform): primary hits, one [`BenchHit`] per
+/// pixel.
+pub const BINDING_BENCH_PRIMARY: u32 = 3;
+/// bvh_bench.comp: bounce hits, one [`BenchHit`] per pixel.
+pub const BINDING_BENCH_BOUNCE: u32 = 4;
+
+/// bvh_bench.comp's record of one closest hit (scalar layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct BenchHit {
+    /// Hit distance.
+    pub t: f32,
+    /// Instance index (-1 on a miss).
+    pub instance: i32,
+    /// Primitive index (-1 on a miss).
+    pub primitive: i32,
+    /// Padding.
+    pub pad: f32,
+    /// Ray origin.
+    pub origin: [f32; 3],
+    /// Padding.
+    pub pad2: f32,
+    /// Ray direction.
+    pub dir: [f32; 3],
+    /// Padding.
+    pub pad3: f32,
+}
+
+/// bvh_bench.comp's push constant (scalar layout).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct BenchPush {
+    /// Camera position (looking at the origin).
+    pub eye: [f32; 3],
+    /// tan(yfov / 2).
+    pub tan_half_fov: f32,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// 0: primary rays, 1: one bounce from each primary hit.
+    pub mode: u32,
+    /// Bounce sampler seed.
+    pub seed: u32,
+}

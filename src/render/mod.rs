@@ -1,23 +1,30 @@
-//! Render passes (one module each) and the [`Renderer`] that runs them on an uploaded scene.
+//! Rendering: the [`Renderer`] that runs the passes on an uploaded scene, and around it
+//!
+//! - [`passes`]: the GPU passes, one module each;
+//! - [`settings`] (what to render), [`memory`] (what it will allocate), [`frame`] (the `Frame`
+//!   uniform and camera matrices) and [`sampling`] (the host mirror of the sample sequences);
+//! - the frame drivers: [`targets`] (one frame's resources), [`burst`] (timed frames),
+//!   [`reproject`], [`sequence`] and [`animated`] (camera sequences and animation);
+//! - [`image`]: host image utilities (PNG/EXR output, labels and charts, FLIP/PSNR);
+//! - [`reference`]: CPU references of shader code, used only by tests.
 
 pub mod animated;
 pub mod burst;
-pub mod compare;
 pub mod frame;
-pub mod gbuffer;
-pub mod hybrid;
-pub mod label;
-pub mod optics;
-pub mod output;
-pub mod raster_compute;
-pub mod raybench;
-pub mod raytraced;
+pub mod image;
+pub mod memory;
+pub mod passes;
+pub mod reference;
 pub mod reproject;
 pub mod sampling;
 pub mod sequence;
-pub mod skinning;
+pub mod settings;
 pub mod targets;
-pub mod tonemap;
+
+// The paths the frame drivers (`reproject`, `sequence`, `targets`) still use for the moved
+// modules, until those drivers move into their own folder.
+pub(crate) use image::{compare, label};
+pub(crate) use passes::{gbuffer, hybrid, raytraced, tonemap};
 
 use ash::vk;
 
@@ -25,8 +32,8 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{Context, DescriptorSet};
-pub use frame::RenderPath;
-pub use frame::{CameraSetup, FilterKind, GpuFrame, RenderSettings, SamplerKind, Tonemap};
+pub use frame::{CameraSetup, GpuFrame};
+pub use settings::{FilterKind, RenderPath, RenderSettings, SamplerKind, Tonemap};
 pub use targets::FrameTargets;
 
 pub use crate::interface::Aov;

@@ -1,6 +1,6 @@
 //! Posing a scene at a time: node transforms from the animations, joint matrices of the
 //! skins, morph weights, and the CPU reference of skinning and morphing that the GPU pass
-//! (`render::skinning`) is tested against.
+//! (`render::passes::skinning`) is tested against.
 
 use ::gltf::json as gj;
 use glam::{Mat3, Mat4, Quat, Vec3, Vec4};

@@ -32,6 +32,12 @@ use passes::{sort_blocks, GpuBuildRefs, Pipelines, Push, RelocatePush, ScanPush,
 use super::builder::{self, gather_geometry, max_abs, GeometryTris};
 use super::layout::{BvhNode, BvhTriangle, LINK_FIRST_MASK, MAX_LEAF_PRIMITIVES};
 use super::{BvhBuildOptions, BvhData, BvhError, BvhStats, GpuBvh, PlocSearch};
+// Words of the state buffer, shared with the shaders.
+use crate::interface::bvh::{
+    STATE_ARGS_BLOCKS, STATE_ARGS_COLLAPSE, STATE_ARGS_ELEMS, STATE_ARGS_SINGLE, STATE_CLUSTERS,
+    STATE_CLUSTERS_NEXT, STATE_ERROR, STATE_HIST_COUNT, STATE_ITERATIONS, STATE_MAX_DEPTH,
+    STATE_MAX_STACK, STATE_QUEUE0, STATE_WIDE_COUNT, STATE_WORDS,
+};
 use crate::scene::Scene;
 use crate::vk::{
     memory_barrier, vk, Buffer, ComputePipeline, Context, GpuProfiler, MemoryLocation,
@@ -46,22 +52,6 @@ const PLOC_CHUNK: u32 = 16;
 const COLLAPSE_CHUNK: u32 = 16;
 /// More levels than any tree the traversal stack accepts can have (each level pushes ≥ 1).
 const MAX_COLLAPSE_LEVELS: u32 = 128;
-
-// Words of the state buffer (shaders/bvh_build/build_common.glsl).
-const STATE_WORDS: usize = 32;
-const STATE_CLUSTERS: usize = 0;
-const STATE_CLUSTERS_NEXT: usize = 1;
-const STATE_WIDE_COUNT: usize = 4;
-const STATE_QUEUE0: usize = 5;
-const STATE_MAX_DEPTH: usize = 7;
-const STATE_MAX_STACK: usize = 8;
-const STATE_ITERATIONS: usize = 9;
-const STATE_ERROR: usize = 10;
-const STATE_HIST_COUNT: usize = 11;
-const STATE_ARGS_ELEMS: u64 = 16;
-const STATE_ARGS_BLOCKS: u64 = 20;
-const STATE_ARGS_SINGLE: u64 = 24;
-const STATE_ARGS_COLLAPSE: u64 = 28;
 
 /// GPU milliseconds per build phase, summed over every bottom level.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]

@@ -253,27 +253,8 @@ pub struct BvhInstance {
     pub pad: u32,
 }
 
-/// Addresses and counts of the BVH buffers: the uniform at set 0, binding 2.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuBvhRefs {
-    /// `BvhNode[]`: top level first (root = node 0), then every bottom level.
-    pub nodes: u64,
-    /// `BvhTriangle[]` in leaf order, every bottom level one after the other.
-    pub triangles: u64,
-    /// `BvhInstance[]`, one per scene instance.
-    pub instances: u64,
-    /// Number of nodes.
-    pub node_count: u32,
-    /// Number of triangles.
-    pub triangle_count: u32,
-    /// Number of instances.
-    pub instance_count: u32,
-    /// Node index of the top-level root (always 0).
-    pub tlas_root: u32,
-}
-
 const _: () = {
+    use crate::interface::bvh::GpuBvhRefs;
     assert!(std::mem::size_of::<BvhNode>() == 64);
     assert!(std::mem::size_of::<BvhTriangle>() == 40);
     assert!(std::mem::size_of::<BvhInstance>() == 64);

@@ -21,11 +21,11 @@ use glam::Vec3;
 use super::cpu::world_to_object_rows;
 use super::layout::{decode_link, BvhInstance, BvhNode, LINK_EMPTY};
 use super::{sah, BvhError, GpuBvh, TLAS_ROOT};
+use crate::interface::bvh::{BvhBuildPush as Push, BvhRefitRefs as GpuRefitRefs};
 use crate::scene::Scene;
 use crate::vk::{
     memory_barrier, vk, Buffer, ComputePipeline, Context, GpuProfiler, MemoryLocation,
 };
-use bytemuck::{Pod, Zeroable};
 
 /// SAH costs of a BVH before and after a refit (see [`super::sah`]), and the refit's GPU time.
 #[derive(Clone, Debug, PartialEq)]
@@ -58,34 +58,6 @@ impl RefitReport {
         growth(self.blas_sah_before, self.blas_sah_after)
             .max(growth(self.tlas_sah_before, self.tlas_sah_after))
     }
-}
-
-/// `RefitRefs` of refit_common.glsl (scalar layout).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct GpuRefitRefs {
-    nodes: u64,
-    triangles: u64,
-    bounds: u64,
-    order: u64,
-    owner: u64,
-    scales: u64,
-    instances: u64,
-    object_to_world: u64,
-    positions: u64,
-    vertex_ids: u64,
-    status: u64,
-    tlas_nodes: u32,
-    triangle_count: u32,
-}
-
-/// Push constants (build_common.glsl's `Push`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Push {
-    refs: u64,
-    a: u32,
-    b: u32,
 }
 
 /// One refitted geometry: where its positions go in the concatenated array.

@@ -2,78 +2,15 @@
 
 use std::sync::Arc;
 
-use bytemuck::{Pod, Zeroable};
-
 use super::STATE_WORDS;
 use crate::accel::bvh::layout::BvhNode;
 use crate::vk::{vk, Buffer, ComputePipeline, Context, MemoryLocation, VkError};
 
-/// `BuildRefs` of build_common.glsl (scalar layout).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub(super) struct GpuBuildRefs {
-    pub(super) tris_in: u64,
-    pub(super) tris_out: u64,
-    pub(super) boxes: u64,
-    pub(super) children: u64,
-    pub(super) info: u64,
-    pub(super) cost: u64,
-    pub(super) keys0: u64,
-    pub(super) keys1: u64,
-    pub(super) vals0: u64,
-    pub(super) vals1: u64,
-    pub(super) flags: u64,
-    pub(super) sums: u64,
-    pub(super) state: u64,
-    pub(super) nodes: u64,
-    pub(super) queue0: u64,
-    pub(super) queue1: u64,
-    pub(super) n: u32,
-    pub(super) tri_base: u32,
-    pub(super) max_leaf: u32,
-    pub(super) traversal_cost: f32,
-    pub(super) centroid_min: [f32; 3],
-    pub(super) pad_scale: f32,
-    pub(super) centroid_inv_extent: [f32; 3],
-    pub(super) radius: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub(super) struct Push {
-    pub(super) refs: u64,
-    pub(super) a: u32,
-    pub(super) b: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub(super) struct ScanPush {
-    pub(super) data: u64,
-    pub(super) sums: u64,
-    pub(super) count: u64,
-    pub(super) total: u64,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub(super) struct RelocatePush {
-    pub(super) src: u64,
-    pub(super) dst: u64,
-    pub(super) count: u32,
-    pub(super) offset: u32,
-}
-
-/// Push constants of bvh_build_tlas_links.comp.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub(super) struct TlasLinksPush {
-    pub(super) src: u64,
-    pub(super) dst: u64,
-    pub(super) leaves: u64,
-    pub(super) count: u32,
-    pub(super) pad: u32,
-}
+// The records and push constants of the build passes are in the host/shader interface.
+pub(super) use crate::interface::bvh::{
+    BvhBuildPush as Push, BvhBuildRefs as GpuBuildRefs, BvhRelocatePush as RelocatePush,
+    BvhScanPush as ScanPush, BvhTlasLinksPush as TlasLinksPush,
+};
 
 pub(super) struct Pipelines {
     pub(super) morton: Arc<ComputePipeline>,

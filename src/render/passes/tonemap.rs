@@ -4,8 +4,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::frame::Tonemap;
 use crate::interface::{self as io, bindings, push_bytes, TonemapPush};
+use crate::render::Tonemap;
 use crate::vk::{
     Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, MemoryLocation, VkResult,
 };
@@ -69,7 +69,7 @@ impl TonemapPass {
         };
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, super::PassScope::Tonemap.name());
+            p.begin(cmd, crate::render::PassScope::Tonemap.name());
         }
         self.pipeline.dispatch(
             cmd,

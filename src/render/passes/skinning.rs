@@ -7,6 +7,13 @@ use std::sync::Arc;
 use ash::vk;
 use glam::{Mat4, Vec3, Vec4};
 
+use crate::interface::{
+    bindings, push_bytes, SkinPush, BINDING_SKIN_DELTAS, BINDING_SKIN_JOINTS,
+    BINDING_SKIN_JOINT_MATRICES, BINDING_SKIN_MORPH_WEIGHTS, BINDING_SKIN_OUT_NORMALS,
+    BINDING_SKIN_OUT_POSITIONS, BINDING_SKIN_OUT_TANGENTS, BINDING_SKIN_REST_NORMALS,
+    BINDING_SKIN_REST_POSITIONS, BINDING_SKIN_REST_TANGENTS, BINDING_SKIN_WEIGHTS, SKIN_SKINNED,
+    SKIN_TANGENTS,
+};
 use crate::scene::pose::Deformed;
 use crate::scene::Geometry;
 use crate::vk::{
@@ -14,11 +21,18 @@ use crate::vk::{
     VkResult,
 };
 
-const FLAG_SKINNED: u32 = 1;
-const FLAG_TANGENTS: u32 = 2;
-
 /// Name of the pass in GPU timings.
 pub const PASS_NAME: &str = "skin";
+
+/// Bindings of the rest data, in the order of `SkinningPass::_rest`.
+const REST_BINDINGS: [u32; 6] = [
+    BINDING_SKIN_REST_POSITIONS,
+    BINDING_SKIN_REST_NORMALS,
+    BINDING_SKIN_REST_TANGENTS,
+    BINDING_SKIN_JOINTS,
+    BINDING_SKIN_WEIGHTS,
+    BINDING_SKIN_DELTAS,
+];
 
 /// Rest data, per-frame inputs and output vertex buffer of one deformed geometry.
 pub struct SkinningPass {
@@ -67,8 +81,23 @@ impl SkinningPass {
             ctx,
             "skin",
             crate::shaders::SKIN_COMP,
-            &[Binding::StorageBuffer; 11],
-            16,
+            &bindings(
+                &[
+                    REST_BINDINGS.as_slice(),
+                    &[
+                        BINDING_SKIN_JOINT_MATRICES,
+                        BINDING_SKIN_MORPH_WEIGHTS,
+                        BINDING_SKIN_OUT_POSITIONS,
+                        BINDING_SKIN_OUT_NORMALS,
+                        BINDING_SKIN_OUT_TANGENTS,
+                    ],
+                ]
+                .concat()
+                .into_iter()
+                .map(|b| (b, Binding::StorageBuffer))
+                .collect::<Vec<_>>(),
+            ),
+            std::mem::size_of::<SkinPush>() as u32,
         )?;
         let n = g.positions.len();
         if g.normals.len() != n {
@@ -143,14 +172,26 @@ impl SkinningPass {
             if has_tangents { n as u64 * 16 } else { 0 },
         )?;
         let set = pipeline.allocate_set()?;
-        for (b, buffer) in rest.iter().enumerate() {
-            set.buffer(b as u32, buffer, Binding::StorageBuffer);
+        for (binding, buffer) in REST_BINDINGS.into_iter().zip(&rest) {
+            set.buffer(binding, buffer, Binding::StorageBuffer);
         }
-        set.buffer(6, &joint_matrices, Binding::StorageBuffer)
-            .buffer(7, &morph_weights, Binding::StorageBuffer)
-            .buffer(8, &positions, Binding::StorageBuffer)
-            .buffer(9, &normals, Binding::StorageBuffer)
-            .buffer(10, &tangents, Binding::StorageBuffer);
+        set.buffer(
+            BINDING_SKIN_JOINT_MATRICES,
+            &joint_matrices,
+            Binding::StorageBuffer,
+        )
+        .buffer(
+            BINDING_SKIN_MORPH_WEIGHTS,
+            &morph_weights,
+            Binding::StorageBuffer,
+        )
+        .buffer(
+            BINDING_SKIN_OUT_POSITIONS,
+            &positions,
+            Binding::StorageBuffer,
+        )
+        .buffer(BINDING_SKIN_OUT_NORMALS, &normals, Binding::StorageBuffer)
+        .buffer(BINDING_SKIN_OUT_TANGENTS, &tangents, Binding::StorageBuffer);
         Ok(Self {
             pipeline,
             set,
@@ -163,7 +204,7 @@ impl SkinningPass {
             count: n as u32,
             targets: targets as u32,
             joint_count: if skinned { joint_count as u32 } else { 0 },
-            flags: (u32::from(skinned) * FLAG_SKINNED) | (u32::from(has_tangents) * FLAG_TANGENTS),
+            flags: (u32::from(skinned) * SKIN_SKINNED) | (u32::from(has_tangents) * SKIN_TANGENTS),
         })
     }
 
@@ -184,16 +225,22 @@ impl SkinningPass {
 
     /// Records the dispatch (a pass named [`PASS_NAME`] in `profiler`).
     pub fn record(&self, cmd: vk::CommandBuffer, profiler: Option<&mut GpuProfiler>) {
-        let mut push = Vec::with_capacity(16);
-        for v in [self.count, self.targets, self.flags, self.joint_count] {
-            push.extend_from_slice(&v.to_le_bytes());
-        }
+        let push = SkinPush {
+            count: self.count,
+            targets: self.targets,
+            flags: self.flags,
+            joint_count: self.joint_count,
+        };
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
             p.begin(cmd, PASS_NAME);
         }
-        self.pipeline
-            .dispatch(cmd, Some(&self.set), &push, [self.count.div_ceil(64), 1, 1]);
+        self.pipeline.dispatch(
+            cmd,
+            Some(&self.set),
+            push_bytes(&push),
+            [self.count.div_ceil(64), 1, 1],
+        );
         if let Some(p) = profiler {
             p.end(cmd);
         }
@@ -206,7 +253,7 @@ impl SkinningPass {
             let f: Vec<f32> = b.read(ctx)?;
             Ok(f.chunks_exact(3).take(n).map(Vec3::from_slice).collect())
         };
-        let tangents = if self.flags & FLAG_TANGENTS != 0 {
+        let tangents = if self.flags & SKIN_TANGENTS != 0 {
             let f: Vec<f32> = self.tangents.read(ctx)?;
             f.chunks_exact(4).take(n).map(Vec4::from_slice).collect()
         } else {

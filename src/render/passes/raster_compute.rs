@@ -24,7 +24,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::gbuffer::Draw;
-use super::PassContext;
+use crate::render::PassContext;
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, Image,
     MemoryLocation, VkError, VkResult,

@@ -7,9 +7,9 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::gbuffer::{GbufferLayout, GbufferPass};
-use super::PassContext;
 use crate::accel::Backend;
 use crate::interface::{self as io, bindings, push_bytes, scene_bindings, HybridPush};
+use crate::render::PassContext;
 use crate::vk::{Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, VkResult};
 
 pub use crate::interface::{HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
@@ -52,7 +52,7 @@ impl HybridPass {
         );
         let pipeline = ComputePipeline::cached(
             ctx,
-            super::PassScope::HybridShading.name(),
+            crate::render::PassScope::HybridShading.name(),
             spirv(pass.backend.kind(), gbuffer.layout()),
             &bindings(&entries),
             std::mem::size_of::<HybridPush>() as u32,
@@ -86,7 +86,7 @@ impl HybridPass {
         let push = HybridPush { flags, weight };
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, super::PassScope::HybridShading.name());
+            p.begin(cmd, crate::render::PassScope::HybridShading.name());
         }
         self.pipeline.dispatch(
             cmd,

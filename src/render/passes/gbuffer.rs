@@ -8,8 +8,8 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::raster_compute::{ComputeRaster, DepthAtomics, RasterMode};
-use super::PassContext;
 use crate::interface::{self as io, bindings, push_bytes, DrawPush};
+use crate::render::PassContext;
 use crate::scene::Scene;
 use crate::vk::{
     Binding, Buffer, Context, DescriptorSet, GpuProfiler, GraphicsPipeline, GraphicsTargets, Image,
@@ -243,7 +243,7 @@ impl GbufferPass {
         let device = ctx.device();
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, super::PassScope::Gbuffer.name());
+            p.begin(cmd, crate::render::PassScope::Gbuffer.name());
         }
         for image in &self.images {
             image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);

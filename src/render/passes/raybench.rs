@@ -5,10 +5,10 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::frame::GpuFrame;
-use super::PassContext;
 use crate::accel::Backend;
 use crate::interface::{self as io, bindings, push_bytes, scene_bindings, RaybenchPush};
+use crate::render::GpuFrame;
+use crate::render::PassContext;
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler,
     MemoryLocation, VkResult,

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use image::{ImageBuffer, Rgb, Rgba};
 
-use super::{Aov, RenderOutput};
+use crate::render::{Aov, RenderOutput};
 
 /// Output failures (path and reason).
 #[derive(Debug, thiserror::Error)]

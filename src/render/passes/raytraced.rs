@@ -4,13 +4,13 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::frame::{GpuFrame, RenderSettings, SamplerKind};
-use super::{Aov, PassContext};
 use crate::accel::Backend;
 use crate::interface::{
     self as io, bindings, push_bytes, scene_bindings, RaytracePush, FLAG_ADAPTIVE_CORNERS,
     FLAG_WRITE_AOV,
 };
+use crate::render::{Aov, PassContext};
+use crate::render::{GpuFrame, RenderSettings, SamplerKind};
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler,
     MemoryLocation, VkResult,
@@ -147,7 +147,7 @@ impl RaytracedPass {
         memory_barrier(device, cmd);
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
-            p.begin(cmd, super::PassScope::RayTraced.name());
+            p.begin(cmd, crate::render::PassScope::RayTraced.name());
         }
         if f.sampler_kind == SamplerKind::Adaptive.code() {
             let push = RaytracePush {

@@ -1,0 +1,123 @@
+//! Device-memory estimates of a render, checked against the device before allocating.
+
+use super::settings::{RenderPath, RenderSettings, SettingsError};
+
+/// Bytes per texel of the formats the passes allocate.
+fn format_bytes(format: ash::vk::Format) -> u64 {
+    use ash::vk::Format;
+    match format {
+        Format::R32G32B32A32_SFLOAT | Format::R32G32B32A32_UINT => 16,
+        Format::R16G16B16A16_SFLOAT | Format::R32G32_UINT => 8,
+        _ => 4,
+    }
+}
+
+/// Bytes of one `vec4` (colour, accumulation and adaptive-corner texels).
+const RGBA32F: u64 = 16;
+/// Bytes of one pixel's [`super::Aov`].
+const AOV_BYTES: u64 = std::mem::size_of::<super::Aov>() as u64;
+
+impl RenderSettings {
+    /// Pixels of the image.
+    pub fn pixels(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height)
+    }
+
+    /// Device memory a render at these settings allocates for its own buffers and images:
+    /// colour, adaptive corners and tonemap output (ray-traced), or accumulation, tonemap
+    /// output and one G-buffer with depth per sample (hybrid), plus the per-pixel AOVs when
+    /// `aov` (without, the passes bind a one-element placeholder). The scene and the ray
+    /// backend come on top (see [`crate::accel`]).
+    pub fn estimate_bytes(&self, path: RenderPath, aov: bool) -> u64 {
+        let pixels = self.pixels();
+        let aov = if aov { AOV_BYTES } else { 0 };
+        let tonemapped = 4;
+        match path {
+            RenderPath::RayTraced => {
+                let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1);
+                pixels * (RGBA32F + aov + tonemapped) + corners * RGBA32F
+            }
+            RenderPath::Hybrid => {
+                let gbuffer: u64 = self
+                    .gbuffer
+                    .formats()
+                    .iter()
+                    .map(|&f| format_bytes(f))
+                    .sum::<u64>()
+                    + 4; // D32 depth
+                pixels * (RGBA32F + aov + tonemapped)
+                    + pixels.saturating_mul(gbuffer * u64::from(self.spp))
+            }
+        }
+    }
+
+    /// The largest buffer a pass binds as one storage buffer, to compare with
+    /// `maxStorageBufferRange`: the per-pixel AOVs when `aov`, else the colour (or the
+    /// ray-traced path's adaptive corners, one row and column larger).
+    pub fn largest_buffer_bytes(&self, aov: bool) -> u64 {
+        let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1) * RGBA32F;
+        let aov = if aov { self.pixels() * AOV_BYTES } else { 0 };
+        aov.max(corners)
+    }
+
+    /// [`Self::validate`] against the device's image limit, then checks that every per-pixel
+    /// buffer (the AOVs only when `aov`) fits `maxStorageBufferRange` and that
+    /// [`Self::estimate_bytes`] plus `in_use` bytes fit the largest device-local heap: a
+    /// clear error before anything is allocated, instead of an allocation failure or an
+    /// invalid descriptor mid-frame.
+    pub fn check_device(
+        &self,
+        info: &crate::vk::DeviceInfo,
+        path: RenderPath,
+        aov: bool,
+        in_use: u64,
+    ) -> Result<(), SettingsError> {
+        self.validate(info.max_image_dimension_2d)?;
+        let mib = |b: u64| b.div_ceil(1 << 20);
+        let range = u64::from(info.max_storage_buffer_range);
+        let largest = self.largest_buffer_bytes(aov);
+        if largest > range {
+            // Name the way out: AOVs alone need three times the colour's range.
+            let (what, hint) = if aov && self.largest_buffer_bytes(false) <= range {
+                (
+                    " with AOVs",
+                    "lower the resolution or render without AOVs (--aov)",
+                )
+            } else {
+                ("", "lower the resolution")
+            };
+            return Err(SettingsError(format!(
+                "resolution {}x{}{what} needs a {} MiB per-pixel buffer, but '{}' binds at most {} MiB per storage buffer (maxStorageBufferRange); {hint}",
+                self.width,
+                self.height,
+                mib(largest),
+                info.name,
+                mib(range)
+            )));
+        }
+        let heap = info.largest_device_heap();
+        let needed = self.estimate_bytes(path, aov);
+        if needed.saturating_add(in_use) > heap {
+            return Err(SettingsError(format!(
+                "{}x{} at {} spp ({}{}) needs about {} MiB of device memory on top of {} MiB in use, more than the {} MiB device heap of '{}'; lower the resolution{}",
+                self.width,
+                self.height,
+                self.spp,
+                match path {
+                    RenderPath::RayTraced => "ray traced",
+                    RenderPath::Hybrid => "hybrid",
+                },
+                if aov { ", with AOVs" } else { "" },
+                mib(needed),
+                mib(in_use),
+                mib(heap),
+                info.name,
+                match path {
+                    RenderPath::RayTraced => "",
+                    RenderPath::Hybrid => " or --spp (the hybrid path keeps one G-buffer per sample)",
+                }
+            )));
+        }
+        Ok(())
+    }
+}

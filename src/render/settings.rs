@@ -1,0 +1,256 @@
+//! Render settings (`RenderSettings` and its enums), their limits and validation, and the
+//! rendering path.
+
+use glam::Vec3;
+
+/// Sub-pixel sample placement (`--sampler`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SamplerKind {
+    /// Pixel centres only.
+    #[default]
+    Center,
+    /// Regular √N×√N grid (N must be a square).
+    Grid,
+    /// Stratified √N×√N grid with a random offset per cell (N must be a square).
+    Jitter,
+    /// Halton (2,3) with a per-pixel Cranley-Patterson rotation.
+    Halton,
+    /// Owen-scrambled Sobol (hash-based nested uniform scrambling, Burley 2020).
+    Sobol,
+    /// R2 sequence offset per pixel by interleaved gradient noise (Jimenez 2014).
+    Bluenoise,
+    /// The seed's adaptive quincunx supersampling.
+    Adaptive,
+}
+
+impl SamplerKind {
+    /// The shaders' `SAMPLER_*` code.
+    pub fn code(self) -> u32 {
+        use crate::interface as i;
+        match self {
+            Self::Center => i::SAMPLER_CENTER,
+            Self::Grid => i::SAMPLER_GRID,
+            Self::Jitter => i::SAMPLER_JITTER,
+            Self::Halton => i::SAMPLER_HALTON,
+            Self::Sobol => i::SAMPLER_SOBOL,
+            Self::Bluenoise => i::SAMPLER_BLUENOISE,
+            Self::Adaptive => i::SAMPLER_ADAPTIVE,
+        }
+    }
+}
+
+/// Pixel reconstruction filter (`--filter`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FilterKind {
+    /// Samples inside the pixel, equal weights.
+    #[default]
+    Box,
+    /// Samples within one pixel of the centre, weighted (1-|dx|)(1-|dy|).
+    Tent,
+}
+
+impl FilterKind {
+    /// The shaders' `FILTER_*` code.
+    pub fn code(self) -> u32 {
+        match self {
+            Self::Box => crate::interface::FILTER_BOX,
+            Self::Tent => crate::interface::FILTER_TENT,
+        }
+    }
+}
+
+/// Tonemapping operator for PNG output (`--tonemap`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Tonemap {
+    /// Clamp only.
+    None,
+    /// ACES filmic (Narkowicz fit).
+    Aces,
+    /// Khronos PBR Neutral.
+    #[default]
+    KhronosNeutral,
+}
+
+/// Everything that shapes one rendered image.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RenderSettings {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Samples per pixel (ignored by the adaptive sampler).
+    pub spp: u32,
+    /// Sample placement.
+    pub sampler: SamplerKind,
+    /// Reconstruction filter.
+    pub filter: FilterKind,
+    /// Maximum segments per path (1 = primary + shadow rays only).
+    pub max_depth: u32,
+    /// Paths stop when their weight's largest channel drops below this.
+    pub min_weight: f32,
+    /// Ray offset along the geometric normal; `None` = 1e-4 × scene diagonal.
+    pub epsilon: Option<f32>,
+    /// Ambient radiance (times base colour and occlusion).
+    pub ambient: Vec3,
+    /// Background radiance (scaled sky gradient when `sky`).
+    pub background: Vec3,
+    /// Sky gradient instead of a constant background.
+    pub sky: bool,
+    /// Adaptive sampler: subdivide when two samples differ by more than this (per channel, clamped to 1).
+    pub adaptive_threshold: f32,
+    /// Adaptive sampler: maximum subdivision levels.
+    pub adaptive_depth: u32,
+    /// Disable the GGX specular lobe of direct light (for energy tests).
+    pub no_specular: bool,
+    /// Seed of the random samplers.
+    pub seed: u32,
+    /// Tonemapping operator for 8-bit output.
+    pub tonemap: Tonemap,
+    /// Exposure in EV (multiplies by 2^EV before tonemapping).
+    pub exposure: f32,
+    /// What the hybrid path's raster pass writes.
+    pub gbuffer: super::passes::gbuffer::GbufferLayout,
+    /// What runs the hybrid path's visibility pass.
+    pub raster: super::passes::raster_compute::RasterMode,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            width: 512,
+            height: 512,
+            spp: 1,
+            sampler: SamplerKind::Center,
+            filter: FilterKind::Box,
+            max_depth: 5,
+            min_weight: 0.05,
+            epsilon: None,
+            ambient: Vec3::splat(0.03),
+            background: Vec3::splat(0.05),
+            sky: false,
+            adaptive_threshold: 0.1,
+            adaptive_depth: 2,
+            no_specular: false,
+            seed: 0,
+            tonemap: Tonemap::default(),
+            exposure: 0.0,
+            gbuffer: Default::default(),
+            raster: Default::default(),
+        }
+    }
+}
+
+/// Largest `--max-depth` (the shader's path stack holds `MAX_DEPTH + 4` rays).
+pub const MAX_DEPTH: u32 = 16;
+/// Largest `--spp`.
+pub const MAX_SPP: u32 = 4096;
+/// Largest `--adaptive-depth`.
+pub const MAX_ADAPTIVE_DEPTH: u32 = 4;
+
+/// Invalid settings, found before any GPU work.
+#[derive(Debug, thiserror::Error)]
+#[error("invalid render settings: {0}")]
+pub struct SettingsError(pub String);
+
+impl RenderSettings {
+    /// Checks ranges; `max_dimension` is the largest image side allowed (rqr's own limit
+    /// before a device is open, the device's `maxImageDimension2D` after).
+    pub fn validate(&self, max_dimension: u32) -> Result<(), SettingsError> {
+        let bad = |m: String| Err(SettingsError(m));
+        if self.width == 0 || self.height == 0 {
+            return bad(format!(
+                "resolution {}x{} must be at least 1x1",
+                self.width, self.height
+            ));
+        }
+        if self.width > max_dimension || self.height > max_dimension {
+            return bad(format!(
+                "resolution {}x{} exceeds the limit of {max_dimension} pixels per side",
+                self.width, self.height
+            ));
+        }
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return bad(format!("--spp {} must be in 1..={MAX_SPP}", self.spp));
+        }
+        if matches!(self.sampler, SamplerKind::Grid | SamplerKind::Jitter) {
+            let k = (self.spp as f64).sqrt().round() as u32;
+            if k * k != self.spp {
+                return bad(format!(
+                    "--sampler {:?} needs a square --spp (1, 4, 9, 16, …), got {}",
+                    self.sampler, self.spp
+                )
+                .to_lowercase());
+            }
+        }
+        if self.max_depth == 0 || self.max_depth > MAX_DEPTH {
+            return bad(format!(
+                "--max-depth {} must be in 1..={MAX_DEPTH}",
+                self.max_depth
+            ));
+        }
+        if !(0.0..1.0).contains(&self.min_weight) {
+            return bad(format!(
+                "--min-weight {} must be in [0, 1)",
+                self.min_weight
+            ));
+        }
+        if self.adaptive_depth > MAX_ADAPTIVE_DEPTH {
+            return bad(format!(
+                "--adaptive-depth {} must be at most {MAX_ADAPTIVE_DEPTH}",
+                self.adaptive_depth
+            ));
+        }
+        if !self.exposure.is_finite() {
+            return bad(format!("--exposure {} must be finite", self.exposure));
+        }
+        if !(self.adaptive_threshold.is_finite() && self.adaptive_threshold >= 0.0) {
+            return bad(format!(
+                "--adaptive-threshold {} must be a finite non-negative number",
+                self.adaptive_threshold
+            ));
+        }
+        if let Some(e) = self.epsilon {
+            if !(e.is_finite() && e >= 0.0) {
+                return bad(format!(
+                    "--epsilon {e} must be a finite non-negative number"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which rendering path (`--mode`; also what memory estimates and frame loops are for).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+pub enum RenderPath {
+    /// Pure ray tracing: primary, shadow, reflection and refraction rays.
+    #[default]
+    #[value(name = "rt")]
+    #[serde(rename = "rt")]
+    RayTraced,
+    /// Raster G-buffer for primary visibility, ray-traced shadows/reflections/refractions.
+    #[value(name = "hybrid")]
+    #[serde(rename = "hybrid")]
+    Hybrid,
+}
+
+impl RenderPath {
+    /// The `--mode` name (`rt`, `hybrid`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::RayTraced => "rt",
+            Self::Hybrid => "hybrid",
+        }
+    }
+
+    /// Human-readable name (`ray traced`, `hybrid`).
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::RayTraced => "ray traced",
+            Self::Hybrid => "hybrid",
+        }
+    }
+}
