@@ -1,0 +1,245 @@
+//! [`Reprojector::record`]: one reprojected frame's passes, in order, into a command buffer.
+
+use ash::vk;
+
+use super::*;
+
+impl Reprojector<'_> {
+    /// Records one frame through `camera` into `cmd`, reusing what the cache allows and
+    /// caching its samples for the next frame, then, with `out`, copies its counters, image and
+    /// pixel states into that ring slot. Frames recorded back to back into one command buffer
+    /// give the same images as frames submitted one by one: every per-frame input (camera,
+    /// parameters) is written by the frame's own commands. `draws` are the scene's raster
+    /// draws (hybrid path; ignored by the rt path). Timestamp scopes go to `profiler`.
+    pub fn record(
+        &mut self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        draws: &[gbuffer::Draw],
+        camera: &Camera,
+        mut profiler: Option<&mut GpuProfiler>,
+        out: Option<(&FrameRing, u32)>,
+    ) {
+        let s = &self.settings;
+        let scale = self.renderer.scene_scale();
+        let setup = CameraSetup::new(camera, s.width, s.height, scale);
+        let mut frame = GpuFrame::new(s, &setup, scale);
+        if let Some(prev) = self.prev_view_proj {
+            frame.prev_view_proj = prev;
+        }
+        let o = &self.options;
+        let reuse = o.reuses() && self.has_history;
+        let mut flags = 0;
+        if reuse {
+            flags |= RP_REUSE;
+        }
+        if self.path == RenderPath::Hybrid {
+            flags |= RP_GBUFFER;
+        } else if o.rt_visibility == RtVisibility::Full {
+            flags |= RP_VERIFY_ALL;
+        }
+        if o.frameless_percent.is_some() {
+            flags |= RP_FRAMELESS;
+        }
+        if o.adaptive_subsample {
+            flags |= RP_ADAPTIVE;
+        }
+        let params = GpuParams {
+            flags,
+            max_age: o.max_age.unwrap_or(u32::MAX),
+            frameless_fraction: o.frameless_percent.unwrap_or(0.0) / 100.0,
+            subsample_threshold: o.subsample_threshold,
+            pad0: 0,
+            plane_threshold: PLANE_DISTANCE_THRESHOLD,
+            normal_threshold: NORMAL_DOT_THRESHOLD,
+            edge_threshold: EDGE_PLANE_THRESHOLD,
+            specular_metallic: SPECULAR_METALLIC,
+            specular_roughness: SPECULAR_ROUGHNESS,
+            fill_radius: FILL_RADIUS,
+            max_hops: MAX_FILL_HOPS,
+        };
+        let tiles = [s.width.div_ceil(TILE), s.height.div_ceil(TILE), 1];
+        let [stages_set, primary_set, trace_set] = &self.sets[self.parity];
+        let device = ctx.device();
+        // One pass of reproject.comp; `gather` names the level whose pixels to trace it lists.
+        let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, gather: u32| {
+            let push = ReprojectPush { level, gather };
+            let groups = if stage == STAGE_THRESHOLD {
+                [1, 1, 1]
+            } else {
+                tiles
+            };
+            let index = STAGES
+                .iter()
+                .position(|&s| s == stage)
+                .expect("a stage of STAGES");
+            self.stages[index].dispatch(cmd, Some(stages_set), push_bytes(&push), groups);
+            memory_barrier(device, cmd);
+        };
+        // A tracing pass over job list `list`, sized by the list's length (written by the last
+        // subgroup of the pass that appended to it), so its cost follows its jobs.
+        let traced = |cmd: vk::CommandBuffer,
+                      pipeline: &ComputePipeline,
+                      set: &DescriptorSet,
+                      name: &str,
+                      push: &[u8],
+                      list: u32,
+                      profiler: Option<&mut GpuProfiler>| {
+            let mut profiler = profiler;
+            if let Some(p) = profiler.as_deref_mut() {
+                p.begin(cmd, name);
+            }
+            pipeline.dispatch_indirect_at(cmd, Some(set), push, &self.args, 16 * u64::from(list));
+            memory_barrier(device, cmd);
+            if let Some(p) = profiler {
+                p.end(cmd);
+            }
+        };
+        let levels: &[u32] = if o.adaptive_subsample {
+            &[4, 2, 1]
+        } else {
+            &[1]
+        };
+        let rt_verify = (reuse || o.adaptive_subsample) && self.path == RenderPath::RayTraced;
+        let frameless = flags & RP_FRAMELESS != 0;
+
+        // Write-after-read against the previous frame in the same command buffer.
+        memory_barrier(device, cmd);
+        self.frame
+            .record_update(device, cmd, bytemuck::bytes_of(&frame));
+        self.params
+            .record_update(device, cmd, bytemuck::bytes_of(&params));
+        // SAFETY: recording command buffer; the buffers are ours.
+        unsafe {
+            device.cmd_fill_buffer(cmd, self.key_winner.raw(), 0, vk::WHOLE_SIZE, !0);
+            device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0);
+        }
+        memory_barrier(device, cmd);
+        match &self.visibility {
+            Visibility::Raster(g) => {
+                g.record(ctx, cmd, draws, camera.position(), profiler.as_deref_mut())
+            }
+            Visibility::Traced(images) => {
+                if !self.visibility_in_general {
+                    for image in images {
+                        image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
+                    }
+                }
+                self.visibility_in_general = true;
+            }
+        }
+        // Every stage is its own timestamp scope, so the JSON and the reports show where a
+        // reprojected frame's time goes.
+        let scope = |profiler: &mut Option<&mut GpuProfiler>, name: &str| {
+            if let Some(p) = profiler.as_deref_mut() {
+                p.begin(cmd, name);
+            }
+        };
+        if reuse {
+            scope(&mut profiler, "scatter");
+            match &self.scatter64 {
+                Some((pipeline, sets)) => {
+                    pipeline.dispatch(cmd, Some(&sets[self.parity]), &[], tiles);
+                    memory_barrier(device, cmd);
+                }
+                None => {
+                    stage(cmd, STAGE_SCATTER, 0, GATHER_NONE);
+                    stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
+                }
+            }
+            scope(&mut profiler, "fill");
+            stage(cmd, STAGE_FILL, 0, GATHER_NONE);
+        }
+        // The stage that settles the pixels commits the reused ones, counts them, and lists
+        // the pixels left for rays: for the visibility pass (rt path) and for the first trace.
+        scope(&mut profiler, "classify");
+        if frameless {
+            stage(cmd, STAGE_CLASSIFY, 0, GATHER_NONE);
+            stage(cmd, STAGE_THRESHOLD, 0, GATHER_NONE);
+            stage(cmd, STAGE_SELECT, 0, levels[0]);
+        } else {
+            stage(cmd, STAGE_CLASSIFY, 0, levels[0]);
+        }
+        if rt_verify {
+            // Settles the candidates and lists the rejected ones for the first trace.
+            traced(
+                cmd,
+                &self.primary,
+                primary_set,
+                "visibility",
+                push_bytes(&VisibilityPush {
+                    level: levels[0],
+                    cache: 0,
+                }),
+                LIST_VERIFY,
+                profiler.as_deref_mut(),
+            );
+        }
+        // Each interpolation lists the next level's pixels to trace in list 0.
+        for (i, &level) in levels.iter().enumerate() {
+            let list = if i == 0 { LIST_TRACE } else { LIST_VERIFY };
+            traced(
+                cmd,
+                &self.trace,
+                trace_set,
+                "trace",
+                push_bytes(&TracePush { list }),
+                list,
+                profiler.as_deref_mut(),
+            );
+            if let Some(&next) = levels.get(i + 1) {
+                // Over the pending pixels' list, sized by its length like the tracing passes.
+                let index = STAGES
+                    .iter()
+                    .position(|&s| s == STAGE_INTERPOLATE)
+                    .expect("a stage of STAGES");
+                traced(
+                    cmd,
+                    &self.stages[index],
+                    stages_set,
+                    "interpolate",
+                    push_bytes(&ReprojectPush {
+                        level,
+                        gather: next,
+                    }),
+                    LIST_PENDING,
+                    profiler.as_deref_mut(),
+                );
+            }
+        }
+        if o.adaptive_subsample && self.path == RenderPath::RayTraced {
+            // Interpolated pixels that never had a primary ray get one, for their cache entry.
+            traced(
+                cmd,
+                &self.primary,
+                primary_set,
+                "cache",
+                push_bytes(&VisibilityPush { level: 0, cache: 1 }),
+                LIST_CACHE,
+                profiler.as_deref_mut(),
+            );
+        }
+        if let Some(p) = profiler.as_deref_mut() {
+            p.end(cmd);
+        }
+        self.tonemap.record(cmd, profiler, s.tonemap, s.exposure);
+        if let Some((ring, slot)) = out {
+            memory_barrier(device, cmd);
+            ring.record_copy(
+                device,
+                cmd,
+                slot,
+                &RingSources {
+                    counters: &self.counters,
+                    rgba8: &self.tonemap.output,
+                    color: &self.color,
+                    aov: None,
+                    states: Some(&self.state),
+                },
+            );
+        }
+        self.parity = 1 - self.parity;
+        self.has_history = true;
+        self.prev_view_proj = Some(frame.view_proj);
+    }
+}
