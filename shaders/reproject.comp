@@ -27,37 +27,56 @@ layout(push_constant) uniform Push { ReprojectPush pc; };
 
 vec3 color_at(uint x, uint y) { return color[y * frame.width + x].rgb; }
 
+// A pixel's 4 edge-sharing neighbours, in pixel order: the records of the samples they show
+// (Shown, written by the previous stage), and their pixel indices (NO_SAMPLE outside the
+// image). The edge test and the fill both look at these, so classify loads them once.
+struct Neighbours {
+    Shown shown[4];
+    uint pixel[4];
+};
+
+const ivec2 EDGE_NEIGHBOURS[4] = ivec2[4](ivec2(0, -1), ivec2(-1, 0), ivec2(1, 0), ivec2(0, 1));
+
+Neighbours load_neighbours(ivec2 pix) {
+    Neighbours nb;
+    for (uint k = 0u; k < 4u; ++k) {
+        ivec2 n = pix + EDGE_NEIGHBOURS[k];
+        bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
+        nb.pixel[k] = inside ? uint(n.y) * frame.width + uint(n.x) : NO_SAMPLE;
+        nb.shown[k] = Shown(vec3(0.0), 0u);
+        if (inside) {
+            nb.shown[k] = shown[nb.pixel[k]];
+        }
+    }
+    return nb;
+}
+
 // Render Cache-style edge test for the rt path without a full primary-visibility pass: a
-// sample is trusted when the samples of its 3x3 neighbourhood lie on the same smooth surface.
-// A surface that was hidden comes into view next to the silhouette that hid it, a depth edge,
+// sample is trusted when the samples of its edge-sharing neighbours lie on the same smooth
+// surface (an edge that is a continuous curve passes between a pixel and one of them). A
+// surface that was hidden comes into view next to the silhouette that hid it, a depth edge,
 // so the pixels there get a primary ray. (A hidden surface coming out from behind an edge
 // faster than a pixel per frame can show the farther surface for a few frames beyond that
 // band: the price of the mode; --rt-visibility full and the hybrid path check every pixel.)
-bool near_edge(ivec2 pix, CacheEntry e) {
+bool near_edge(CacheEntry e, Neighbours nb) {
     bool miss = cache_miss(e);
     float z = miss ? 1.0 : max(view_depth(e.position), 1e-6);
     vec3 en = unpack_normal(e.normal);
-    for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-            ivec2 n = pix + ivec2(dx, dy);
-            if (abs(dx) == abs(dy) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
-                continue;
-            }
-            Shown o = shown[uint(n.y) * frame.width + uint(n.x)];
-            if ((o.normal & SHOWN_SAMPLE) == 0u) {
-                // An empty neighbour is traced this frame anyway. Counting it as an edge
-                // would verify the neighbourhood of every pixel a stretched surface leaves
-                // empty: on an orbit, most of the rays this mode saves.
-                continue;
-            }
-            bool other_miss = (o.normal & SHOWN_MISS) != 0u;
-            if (other_miss != miss) {
-                return true;
-            }
-            if (!miss && (abs(dot(o.position - e.position, en)) / z > params.edge_threshold
-                    || dot(unpack_normal(o.normal), en) < params.normal_threshold)) {
-                return true;
-            }
+    for (uint k = 0u; k < 4u; ++k) {
+        Shown o = nb.shown[k];
+        if ((o.normal & SHOWN_SAMPLE) == 0u) {
+            // An empty neighbour is traced this frame anyway (or filled from its own
+            // neighbours). Counting it as an edge would verify the neighbourhood of every pixel
+            // a stretched surface leaves empty: on an orbit, most of the rays this mode saves.
+            continue;
+        }
+        bool other_miss = (o.normal & SHOWN_MISS) != 0u;
+        if (other_miss != miss) {
+            return true;
+        }
+        if (!miss && (abs(dot(o.position - e.position, en)) / z > params.edge_threshold
+                || dot(unpack_normal(o.normal), en) < params.normal_threshold)) {
+            return true;
         }
     }
     return false;
@@ -67,76 +86,79 @@ bool near_edge(ivec2 pix, CacheEntry e) {
 // before, and along the seams between regions whose samples have different sub-pixel offsets
 // (samples keep the world position their colour belongs to). Left alone, each such pixel is
 // traced at its centre, starts a region with yet another offset, and empty pixels multiply
-// frame after frame. So an empty pixel takes the neighbouring pixel's sample that projects
-// nearest to its centre, within fill_radius pixels (nearest first, then the lowest source
-// index): a splat footprint, as in the Render Cache. The pixel still goes through the
-// visibility tests (the G-buffer; on the rt path the edge test or a primary ray), so a
-// disocclusion is not filled with whatever lies next to it.
-void fill(uint q) {
-    if (WINNER(q) != NO_SAMPLE) {
-        return;
-    }
-    vec2 centre = vec2(pixel_of(q)) + 0.5;
-    ivec2 pix = ivec2(pixel_of(q));
+// frame after frame. So an empty pixel takes the sample of an edge-sharing neighbour that
+// projects nearest to its centre, within fill_radius pixels (nearest first, then the lowest
+// source index): a splat footprint, as in the Render Cache. Only samples that sit where their
+// colour was computed are copied (not fills or interpolations), so a colour moves at most one
+// fill radius. The pixel still goes through the visibility tests (the G-buffer; on the rt
+// path the edge test or a primary ray), so a disocclusion is not filled with whatever lies
+// next to it. Returns the chosen sample's index, NO_SAMPLE when none qualifies.
+uint fill(ivec2 pix, Neighbours nb) {
+    vec2 centre = vec2(pix) + 0.5;
     uint best = NO_SAMPLE;
     float best_d = params.fill_radius;
-    for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-            ivec2 n = pix + ivec2(dx, dy);
-            if (abs(dx) == abs(dy) || n.x < 0 || n.y < 0 || n.x >= int(frame.width) || n.y >= int(frame.height)) {
-                continue;
-            }
-            uint w = WINNER(uint(n.y) * frame.width + uint(n.x));
-            uint target, key;
-            vec2 film;
-            if (w == NO_SAMPLE) {
-                continue;
-            }
-            CacheEntry e = cache_prev[w];
-            // Copies are made of samples that sit where their colour was computed (not of
-            // fills or interpolations), so a colour moves at most one fill radius.
-            if (cache_hops(e) >= params.max_hops || !project_sample(e, target, key, film)) {
-                continue;
-            }
-            float d = distance(film, centre);
-            if (d < best_d || (d == best_d && w < best)) {
-                best_d = d;
-                best = w;
-            }
+    for (uint k = 0u; k < 4u; ++k) {
+        Shown o = nb.shown[k];
+        if ((o.normal & (SHOWN_SAMPLE | SHOWN_COPYABLE)) != (SHOWN_SAMPLE | SHOWN_COPYABLE)) {
+            continue;
+        }
+        CacheEntry e;
+        e.position = o.position;
+        e.meta = CACHE_VALID | ((o.normal & SHOWN_MISS) != 0u ? CACHE_MISS : 0u);
+        uint target, key;
+        vec2 film;
+        if (!project_sample(e, target, key, film)) {
+            continue;
+        }
+        uint w = WINNER(nb.pixel[k]);
+        float d = distance(film, centre);
+        if (d < best_d || (d == best_d && w < best)) {
+            best_d = d;
+            best = w;
         }
     }
-    if (best != NO_SAMPLE) {
-        // The fill pass reads neighbours' winners, so its choice waits in the depth key
-        // (free on empty pixels); later stages read it through resolved_winner().
-        DEPTH_KEY(q) = FILLED_KEY | best;
-    }
+    return best;
 }
 
-// The fill stage's second half: records the sample pixel q shows (its winner, or the fill's
-// choice) in pixel order for the stages after it.
+// Records the sample pixel q shows (the scatter's winner) in pixel order, for the stage that
+// looks at neighbours.
 void record_shown(uint q) {
-    uint w = resolved_winner(q);
+    uint w = WINNER(q);
     if (w == NO_SAMPLE) {
         shown[q].normal = 0u;
     } else {
         CacheEntry e = cache_prev[w];
-        shown[q] = Shown(e.position, e.normal | SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u));
+        uint bits = SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u) | (cache_hops(e) < params.max_hops ? SHOWN_COPYABLE : 0u);
+        shown[q] = Shown(e.position, e.normal | bits);
     }
-}
-
-bool is_filled(uint q) {
-    uint k = DEPTH_KEY(q);
-    return k != NO_SAMPLE && k >= FILLED_KEY;
 }
 
 float refresh_rank(uvec2 pix);
 uint refresh_bin(uint age, float rank);
 
 void classify(uint q) {
-    uint w = resolved_winner(q);
+    ivec2 pix = ivec2(pixel_of(q));
+    uint w = WINNER(q);
+    bool reuse = (params.flags & RP_REUSE) != 0u;
+    // The neighbours are needed by a pixel to fill, and by the edge test (rt path).
+    bool edge_test = (params.flags & (RP_GBUFFER | RP_VERIFY_ALL)) == 0u;
+    Neighbours nb;
+    if (reuse && (w == NO_SAMPLE || edge_test)) {
+        nb = load_neighbours(pix);
+    }
+    bool filled = false;
+    if (reuse && w == NO_SAMPLE) {
+        w = fill(pix, nb);
+        if (w != NO_SAMPLE) {
+            // Later stages read the choice through resolved_winner(): the depth key is free
+            // on a pixel no sample landed on.
+            DEPTH_KEY(q) = FILLED_KEY | w;
+            filled = true;
+        }
+    }
     uint st;
     uint age = 0u;
-    if ((params.flags & RP_REUSE) == 0u) {
+    if (!reuse) {
         st = PX_TRACE;
     } else if (w == NO_SAMPLE) {
         st = PX_TRACE | PX_HOLE;
@@ -148,14 +170,14 @@ void classify(uint q) {
         } else if (age >= params.max_age) {
             st = PX_TRACE | PX_EXPIRED;
         } else if ((params.flags & RP_GBUFFER) != 0u) {
-            st = judge_against_gbuffer(ivec2(pixel_of(q)), e);
-        } else if ((params.flags & RP_VERIFY_ALL) != 0u || near_edge(ivec2(pixel_of(q)), e)) {
+            st = judge_against_gbuffer(pix, e);
+        } else if ((params.flags & RP_VERIFY_ALL) != 0u || near_edge(e, nb)) {
             st = PX_VERIFY;
         } else {
             st = PX_REUSE;
         }
     }
-    if (w != NO_SAMPLE && is_filled(q)) {
+    if (filled) {
         st |= PX_FILLED;
     }
     state[q] = st;
@@ -366,10 +388,7 @@ void main() {
             }
             break;
         }
-        case STAGE_FILL:
-            fill(q);
-            record_shown(q);
-            break;
+        case STAGE_SHOWN: record_shown(q); break;
         case STAGE_CLASSIFY: classify(q); break;
         case STAGE_SELECT: select_frameless(q); break;
         case STAGE_INTERPOLATE: interpolated = interpolate(q, uncached); break;

@@ -25,18 +25,18 @@ uint cache_age(uint meta) { return meta >> CACHE_AGE_SHIFT; }
 uint aged(uint meta) { return cache_age(meta) < 0xFFFFu ? meta + (1u << CACHE_AGE_SHIFT) : meta; }
 bool cache_miss(CacheEntry e) { return (e.meta & CACHE_MISS) != 0u; }
 
-// Unit normals in one word: octahedral coordinates (Cigolle et al. 2014), 15 bits each in
-// bits 17-31 and 2-16 (bits 0-1 are left for Shown's flags). About 1e-4 rad of error, far
+// Unit normals in one word: octahedral coordinates (Cigolle et al. 2014), 14 bits each in
+// bits 18-31 and 4-17 (bits 0-3 are left for Shown's flags). About 2e-4 rad of error, far
 // below the normal and plane thresholds that read it.
 vec2 oct_wrap(vec2 v) { return (1.0 - abs(v.yx)) * vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
 uint pack_normal(vec3 n) {
     n /= max(abs(n.x) + abs(n.y) + abs(n.z), 1e-20);
     vec2 o = n.z >= 0.0 ? n.xy : oct_wrap(n.xy);
-    uvec2 u = uvec2(round(clamp(o * 0.5 + 0.5, 0.0, 1.0) * 32767.0));
-    return (u.x << 17) | (u.y << 2);
+    uvec2 u = uvec2(round(clamp(o * 0.5 + 0.5, 0.0, 1.0) * 16383.0));
+    return (u.x << 18) | (u.y << 4);
 }
 vec3 unpack_normal(uint p) {
-    vec2 o = vec2(uvec2(p >> 17, (p >> 2) & 0x7FFFu)) / 32767.0 * 2.0 - 1.0;
+    vec2 o = vec2(uvec2(p >> 18, (p >> 4) & 0x3FFFu)) / 16383.0 * 2.0 - 1.0;
     vec3 n = vec3(o, 1.0 - abs(o.x) - abs(o.y));
     if (n.z < 0.0) {
         n.xy = oct_wrap(n.xy);

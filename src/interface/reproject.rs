@@ -50,8 +50,8 @@ pub const STAGE_THRESHOLD: u32 = 3;
 pub const STAGE_SELECT: u32 = 4;
 /// reproject.comp stage: adaptive interpolation.
 pub const STAGE_INTERPOLATE: u32 = 7;
-/// reproject.comp stage: fill empty pixels from neighbours.
-pub const STAGE_FILL: u32 = 9;
+/// reproject.comp stage: record the sample each pixel shows, in pixel order (`Shown`).
+pub const STAGE_SHOWN: u32 = 9;
 
 /// [`ReprojectPush::gather`] of a stage that lists no pixels to trace.
 pub const GATHER_NONE: u32 = u32::MAX;
@@ -110,6 +110,8 @@ pub const CACHE_AGE_SHIFT: u32 = 16;
 pub const SHOWN_SAMPLE: u32 = 1;
 /// [`Shown::normal`] bit: the sample is a miss.
 pub const SHOWN_MISS: u32 = 2;
+/// [`Shown::normal`] bit: a fill may copy the sample (fewer hops than `max_hops`).
+pub const SHOWN_COPYABLE: u32 = 4;
 /// No sample.
 pub const NO_SAMPLE: u32 = 0xFFFF_FFFF;
 /// A depth key with this bit marks an empty pixel filled from a neighbour.
@@ -178,7 +180,7 @@ pub struct CacheEntry {
     /// World position of the primary hit (a miss: unit direction).
     pub position: [f32; 3],
     /// Geometric normal of the glTF front face, octahedral (`pack_normal` of reproject.glsl:
-    /// two 15-bit coordinates in bits 2-31).
+    /// two 14-bit coordinates in bits 4-31).
     pub normal: u32,
     /// Bits 0-7: `CACHE_*` flags; bits 8-15: fills away from where the colour was computed
     /// (`CACHE_HOPS_SHIFT`); bits 16-31: age in frames (`CACHE_AGE_SHIFT`, saturating).
@@ -195,8 +197,7 @@ pub struct CacheEntry {
 pub struct Shown {
     /// As [`CacheEntry::position`].
     pub position: [f32; 3],
-    /// [`CacheEntry::normal`] with `SHOWN_SAMPLE` and `SHOWN_MISS` in bits 0-1; 0 where no
-    /// sample landed.
+    /// [`CacheEntry::normal`] with the `SHOWN_*` bits in bits 0-2; 0 where no sample landed.
     pub normal: u32,
 }
 

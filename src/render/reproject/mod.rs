@@ -80,7 +80,7 @@ const STAGES: [u32; 7] = [
     STAGE_THRESHOLD,
     STAGE_SELECT,
     STAGE_INTERPOLATE,
-    STAGE_FILL,
+    STAGE_SHOWN,
 ];
 
 /// Side of the 8x8-pixel workgroups of `reproject.comp`.

@@ -147,8 +147,8 @@ impl Reprojector<'_> {
                     stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
                 }
             }
-            scope(&mut profiler, "fill");
-            stage(cmd, STAGE_FILL, 0, GATHER_NONE);
+            scope(&mut profiler, "shown");
+            stage(cmd, STAGE_SHOWN, 0, GATHER_NONE);
         }
         // The stage that settles the pixels commits the reused ones, counts them, and lists
         // the pixels left for rays: for the visibility pass (rt path) and for the first trace.
