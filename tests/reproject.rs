@@ -146,6 +146,41 @@ fn static_camera_on(ctx: &Context, scene: &Scene, backend: Backend) {
     }
 }
 
+/// Pixels traced from the G-buffer (hybrid path, rt path with full visibility) shade their
+/// material layers (clearcoat, sheen, specular) like a full render: a static camera over
+/// ClearCoatTest reproduces the full render every frame.
+#[test]
+fn layered_materials_shade_alike_when_reprojected() {
+    let ctx = common::gpu();
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/gltf/ClearCoatTest/ClearCoatTest.glb");
+    let scene = rqr::scene::load(&path, &rqr::scene::LoadOptions::default()).unwrap();
+    let r = renderer(&ctx, &scene);
+    let s = settings(64);
+    let camera = scene.camera(None, 1.0).unwrap();
+    for (path, visibility) in MODES {
+        let options = SequenceOptions {
+            path,
+            reuse: ReuseOptions {
+                rt_visibility: visibility,
+                ..reproject()
+            },
+            reference: true,
+        };
+        let mut seq =
+            Sequence::new(&ctx, &r, &scene, &s, camera, CameraPath::Static, options).unwrap();
+        for k in 0..3 {
+            let f = seq.render_frame(&ctx, k).unwrap();
+            let d = max_diff(f.reference_output.as_ref().unwrap(), &f.output);
+            assert!(
+                d < 2e-3,
+                "{path:?} {visibility:?} frame {k}: max difference {d}"
+            );
+        }
+    }
+    common::assert_validation_clean(&ctx);
+}
+
 /// With RQR_DEBUG_DIR set: writes sources | frame | reference, 4x, for looking at failures.
 fn debug_dump(f: &SequenceFrame, name: &str) {
     let Ok(dir) = std::env::var("RQR_DEBUG_DIR") else {

@@ -18,9 +18,9 @@ struct GbufferTexel {
 // Whether the texel holds a hit (instance 0xFFFFFFFF: the background).
 bool gbuffer_hit(uvec4 ids) { return ids.x != 0xFFFFFFFFu; }
 
-// Fills `s` with the Surface of a G-buffer hit and its material's volume parameters; the other
-// fields of `s` (the layers) stay as they were. The full G-buffer keeps no layer textures: a
-// caller that shades layers adds their factors (surface_layers).
+// Fills `s` with the Surface of a G-buffer hit, its material's volume parameters and its layers
+// (clearcoat, sheen, specular: surface_layers). The full G-buffer keeps no layer textures, so
+// the layers get their material's factors.
 void gbuffer_decode(GbufferTexel g, inout Surface s) {
     s.position = g.position.xyz;
     s.n = g.normal.xyz;
@@ -40,5 +40,6 @@ void gbuffer_decode(GbufferTexel g, inout Surface s) {
     s.atten_color = m.attenuation_color;
     s.atten_dist = m.thickness > 0.0 ? m.attenuation_distance : BIG_FLOAT;
     s.alpha_mode = m.alpha_mode;
+    surface_layers(s, m);
 }
 #endif

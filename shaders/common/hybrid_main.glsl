@@ -77,8 +77,6 @@ void main() {
         g.ids = ids;
         Surface s;
         gbuffer_decode(g, s);
-        // The full G-buffer keeps no layer textures: their factors only.
-        surface_layers(s, scene_material(s.material));
         Hit at = miss_hit(BIG_FLOAT);
         at.t = p.w;
         c = whitted(camera, PRIMARY_SURFACE, s, at, info);
