@@ -55,6 +55,7 @@ layout(buffer_reference, scalar, buffer_reference_align = 8) readonly buffer Bui
     float pad_scale;
     vec3 centroid_inv_extent;
     uint radius;
+    uint64_t wide;     // per inner binary node: 4-wide nodes the collapse makes of its subtree
 };
 
 layout(push_constant) uniform Push {

@@ -1,0 +1,54 @@
+// The choice of the collapse (bvh_build_collapse.comp) of which binary nodes become the
+// children of one 4-wide node, shared with the PLOC merge, which counts the wide nodes each
+// subtree will become so that the collapse can place them in depth-first pre-order.
+#ifndef RQR_BVH_BUILD_GATHER_GLSL
+#define RQR_BVH_BUILD_GATHER_GLSL
+
+#include "bvh_build/build_common.glsl"
+
+// An inner binary node that the collapse opens (not emitted as one leaf).
+bool is_inner(uint node) {
+    BuildRefs r = BUILD_REFS;
+    return node >= r.n && (U32s(r.info).v[node] & INFO_LEAF) == 0u;
+}
+
+// The children of the binary node with children `left`, `right` gathered into one 4-wide
+// node as in the host build (builder::open_children): the inner child with the largest
+// surface area is opened until there are four. Returns the count.
+uint gather_children(uint left, uint right, out uint kids[4]) {
+    BuildRefs r = BUILD_REFS;
+    U32s children = U32s(r.children);
+    kids[0] = left;
+    kids[1] = right;
+    kids[2] = 0u;
+    kids[3] = 0u;
+    uint count = 2u;
+    while (count < 4u) {
+        int pos = -1;
+        float best = -1.0;
+        for (uint k = 0u; k < count; ++k) {
+            if (is_inner(kids[k])) {
+                vec3 lo, hi;
+                load_box(r.boxes, kids[k], lo, hi);
+                float area = half_area(lo, hi);
+                if (area > best) {
+                    best = area;
+                    pos = int(k);
+                }
+            }
+        }
+        if (pos < 0) {
+            break;
+        }
+        uint opened = kids[pos];
+        for (uint k = count; k > uint(pos) + 1u; --k) {
+            kids[k] = kids[k - 1u];
+        }
+        kids[pos] = children.v[2u * (opened - r.n)];
+        kids[pos + 1] = children.v[2u * (opened - r.n) + 1u];
+        count += 1u;
+    }
+    return count;
+}
+
+#endif
