@@ -52,13 +52,16 @@ void main() {
     info.v[node] = leaves | (as_leaf ? INFO_LEAF : 0u);
     cost.v[node] = as_leaf ? leaf_cost : inner_cost;
     // Every node below is final: the collapse's wide node for this one plus those of the
-    // inner children it gathers (unused when this subtree becomes one leaf).
-    uint kids[4];
-    uint gathered = gather_children(left, right, kids);
-    uint wide_nodes = 1u;
-    for (uint k = 0u; k < gathered; ++k) {
-        if (is_inner(kids[k])) {
-            wide_nodes += U32s(r.wide).v[kids[k] - r.n];
+    // inner children it gathers. A subtree emitted as one leaf makes none (count unused).
+    uint wide_nodes = 0u;
+    if (!as_leaf) {
+        uint kids[4];
+        uint gathered = gather_children(left, right, kids);
+        wide_nodes = 1u;
+        for (uint k = 0u; k < gathered; ++k) {
+            if (is_inner(kids[k])) {
+                wide_nodes += U32s(r.wide).v[kids[k] - r.n];
+            }
         }
     }
     U32s(r.wide).v[node - r.n] = wide_nodes;
