@@ -1,7 +1,8 @@
 //! The GPU BVH build (`--bvh-build gpu`) against the host build: the same closest hits
 //! (instance, primitive, t within 1e-5 relative) on primary and incoherent rays, through the
-//! same traversal shader; watertightness; degenerate inputs; limits and memory checks; and the
-//! SAH cost of both trees.
+//! same traversal shader; watertightness; degenerate inputs; limits and memory checks; the
+//! SAH cost of both trees; and the memory order both lay their nodes out in (depth-first
+//! pre-order, every subtree's nodes and triangles contiguous).
 
 mod common;
 
@@ -11,9 +12,9 @@ use std::path::Path;
 
 use glam::{Mat4, Quat, Vec3};
 use rqr::accel::bvh::cpu::Ray;
-use rqr::accel::bvh::layout::decode_link;
+use rqr::accel::bvh::layout::{decode_link, LINK_LEAF};
 use rqr::accel::bvh::testing::*;
-use rqr::accel::bvh::{sah, BvhBuild, BvhBuildOptions, BvhError, GpuBvh};
+use rqr::accel::bvh::{locality, sah, BvhBuild, BvhBuildOptions, BvhData, BvhError, GpuBvh};
 use rqr::scene::{Instance, LoadOptions, Scene};
 use rqr::vk::{Binding, Context};
 
@@ -57,6 +58,25 @@ fn check_structure(name: &str, ctx: &Context, scene: &Scene, bvh: &GpuBvh) {
     );
     let usable = scene.unique_triangle_count() - data.stats.skipped_triangles;
     assert_eq!(data.triangles.len(), usable, "{name}: triangle count");
+}
+
+/// Requires depth-first pre-order for the top level and every bottom level, and every
+/// subtree's triangles in one contiguous range.
+fn assert_depth_first(name: &str, data: &BvhData) {
+    if let Err(e) = locality::check_depth_first(&data.nodes, 0) {
+        panic!("{name}: top level not depth-first: {e}");
+    }
+    for (i, inst) in data.instances.iter().enumerate() {
+        if (inst.blas_root as usize) < data.stats.tlas_nodes {
+            continue; // skipped instance
+        }
+        if let Err(e) = locality::check_depth_first(&data.nodes, inst.blas_root) {
+            panic!("{name}: bottom level of instance {i} not depth-first: {e}");
+        }
+    }
+    let l = locality::measure(data);
+    assert!(l.depth_first, "{name}: {l:?}");
+    assert_eq!(l.contiguous_subtrees, 1.0, "{name}: {l:?}");
 }
 
 /// Requires the same closest hit for every ray: both hit or both miss, t within 1e-5
@@ -106,13 +126,19 @@ fn compare_builds(ctx: &Context, name: &str, scene: &Scene, rays: &[Ray]) -> (us
     let want = trace(ctx, scene, &host, rays);
     let got = trace(ctx, scene, &gpu, rays);
     let (hits, ties) = assert_same_hits(name, rays, &want, &got);
-    let host_sah = sah::blas_cost(&host.read_back(ctx).unwrap());
-    let gpu_sah = sah::blas_cost(&gpu.read_back(ctx).unwrap());
+    let host_data = host.read_back(ctx).unwrap();
+    let gpu_data = gpu.read_back(ctx).unwrap();
+    assert_depth_first(&format!("{name} (host build)"), &host_data);
+    assert_depth_first(&format!("{name} (GPU build)"), &gpu_data);
+    let host_sah = sah::blas_cost(&host_data);
+    let gpu_sah = sah::blas_cost(&gpu_data);
     eprintln!(
-        "{name}: {hits} hits of {} rays ({ties} edge ties); SAH host {host_sah:.3}, gpu {gpu_sah:.3} ({:+.1} %); gpu phases {:?}",
+        "{name}: {hits} hits of {} rays ({ties} edge ties); SAH host {host_sah:.3}, gpu {gpu_sah:.3} ({:+.1} %); gpu phases {:?}; locality host {:?}, gpu {:?}",
         rays.len(),
         (gpu_sah / host_sah - 1.0) * 100.0,
-        gpu.stats().gpu_phases
+        gpu.stats().gpu_phases,
+        locality::measure(&host_data),
+        locality::measure(&gpu_data),
     );
     (hits, gpu_sah / host_sah.max(1e-30))
 }
@@ -193,6 +219,47 @@ fn instanced_grid_gpu_build_matches_host_build() {
     let rays = random_rays(&mut rng, &scene, 20_000);
     compare_builds(&ctx, "instanced grid", &scene, &rays);
     common::assert_validation_clean(&ctx);
+}
+
+/// The order check itself: a tree whose root lists its inner children in another order than
+/// they are stored, or whose leaves' triangle ranges interleave, is reported.
+#[test]
+fn depth_first_check_reports_other_orders() {
+    let mut rng = Rng::new(5);
+    let scene = scene_of(vec![random_triangles(&mut rng, 3000, 10.0, 0.3)], vec![]);
+    let data = BvhData::build(&scene, &BvhBuildOptions::default()).unwrap();
+    assert_depth_first("random triangles (host build)", &data);
+    let root = data.instances[0].blas_root;
+    let node = &data.nodes[root as usize];
+    let inner: Vec<usize> = (0..4).filter(|&k| node.links[k] & LINK_LEAF == 0).collect();
+    assert!(inner.len() >= 2, "root has {} inner children", inner.len());
+    // Swapping two child slots (boxes and links together) keeps the tree, not the order.
+    let mut swapped = data.nodes.clone();
+    let (a, b) = (inner[0], inner[1]);
+    let children: Vec<_> = (0..4).map(|k| node.child(k)).collect();
+    let mut order: Vec<_> = children.iter().flatten().copied().collect();
+    let (ia, ib) = (
+        order.iter().position(|c| c.link == node.links[a]).unwrap(),
+        order.iter().position(|c| c.link == node.links[b]).unwrap(),
+    );
+    order.swap(ia, ib);
+    swapped[root as usize] = rqr::accel::bvh::layout::BvhNode::new(&order).unwrap();
+    assert!(locality::check_depth_first(&swapped, root).is_err());
+    // Two leaves' triangle ranges exchanged between subtrees: nodes still in order, triangles not.
+    let mut mixed = data.clone();
+    let leaf_slots: Vec<(usize, usize)> = (root as usize..mixed.nodes.len())
+        .flat_map(|n| (0..4).map(move |k| (n, k)))
+        .filter(|&(n, k)| {
+            let l = mixed.nodes[n].links[k];
+            l != u32::MAX && l & LINK_LEAF != 0
+        })
+        .collect();
+    let (first, last) = (leaf_slots[0], leaf_slots[leaf_slots.len() - 1]);
+    let link = mixed.nodes[first.0].links[first.1];
+    mixed.nodes[first.0].links[first.1] = mixed.nodes[last.0].links[last.1];
+    mixed.nodes[last.0].links[last.1] = link;
+    let l = locality::measure(&mixed);
+    assert!(l.depth_first && l.contiguous_subtrees < 1.0, "{l:?}");
 }
 
 /// Rays from inside closed meshes aimed exactly at every vertex and edge midpoint (as in

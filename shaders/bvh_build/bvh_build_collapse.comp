@@ -1,17 +1,14 @@
 #version 460
 // Collapse, one level of the 4-wide tree per dispatch: each work item turns a binary node
-// into one 4-wide node. Its children are gathered as in the host build (open the inner child
-// with the largest surface area until there are four); children emitted as leaves get their
-// triangles copied in leaf order into the output array, inner children get a new wide node
-// and a work item for the next level. Boxes are padded and quantized like BvhNode::new.
-// `pc.a`: parity of the input queue.
+// into one 4-wide node at the index its item carries. Its children are gathered as in the
+// host build (gather.glsl); children emitted as leaves get their triangles copied in leaf
+// order into the output array, inner children get a work item for the next level and the
+// index that puts every subtree's nodes in one contiguous range, in depth-first pre-order as
+// the host build lays them out (a ray's path stays in nearby cache lines and pages). Boxes are
+// padded and quantized like BvhNode::new. `pc.a`: parity of the input queue.
 #include "bvh_build/quantize.glsl"
+#include "bvh_build/gather.glsl"
 layout(local_size_x = 64) in;
-
-bool is_inner(uint node) {
-    BvhBuildRefs r = BUILD_REFS;
-    return node >= r.n && (U32s(r.info).v[node] & INFO_LEAF) == 0u;
-}
 
 // Copies the triangles under `node` (a subtree of at most 16 leaves) to tris_out[at..].
 void emit_leaf(uint node, uint at) {
@@ -53,37 +50,12 @@ void main() {
         kids[0] = item.x;
         count = 1u;
     } else {
-        kids[0] = children.v[2u * (item.x - r.n)];
-        kids[1] = children.v[2u * (item.x - r.n) + 1u];
-        count = 2u;
-        while (count < 4u) {
-            int pos = -1;
-            float best = -1.0;
-            for (uint k = 0u; k < count; ++k) {
-                if (is_inner(kids[k])) {
-                    vec3 lo, hi;
-                    load_box(r.boxes, kids[k], lo, hi);
-                    float area = half_area(lo, hi);
-                    if (area > best) {
-                        best = area;
-                        pos = int(k);
-                    }
-                }
-            }
-            if (pos < 0) {
-                break;
-            }
-            uint opened = kids[pos];
-            for (uint k = count; k > uint(pos) + 1u; --k) {
-                kids[k] = kids[k - 1u];
-            }
-            kids[pos] = children.v[2u * (opened - r.n)];
-            kids[pos + 1] = children.v[2u * (opened - r.n) + 1u];
-            count += 1u;
-        }
+        count = gather_children(children.v[2u * (item.x - r.n)],
+                                children.v[2u * (item.x - r.n) + 1u], kids);
     }
     uint child_pushed = pushed + count - 1u;
     uint first = item.z;
+    uint next_wide = item.y + 1u;
     vec3 bmin[4];
     vec3 bmax[4];
     uint links[4];
@@ -102,10 +74,12 @@ void main() {
         bmax[k] = hi;
         uint leaves = info.v[c] & INFO_COUNT;
         if (is_inner(c)) {
-            uint wide = atomicAdd(state.v[STATE_WIDE_COUNT], 1u);
-            links[k] = wide;
+            // Depth-first pre-order: the first inner child follows its parent, each later one
+            // follows the whole subtree of the one before (sizes counted by the PLOC merge).
+            links[k] = next_wide;
             uint slot = atomicAdd(state.v[queue_out], 1u);
-            next.v[slot] = uvec4(c, wide, first, (depth + 1u) | (child_pushed << 8));
+            next.v[slot] = uvec4(c, next_wide, first, (depth + 1u) | (child_pushed << 8));
+            next_wide += U32s(r.wide).v[c - r.n];
         } else {
             uint at = r.tri_base + first;
             links[k] = LINK_LEAF | ((leaves - 1u) << 27) | at;

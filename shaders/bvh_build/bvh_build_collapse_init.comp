@@ -14,7 +14,8 @@ void main() {
     UVec4s(r.queue0).v[0] = uvec4(root, 0u, 0u, 1u | (single ? 0x80000000u : 0u));
     state.v[STATE_QUEUE0] = 1u;
     state.v[STATE_QUEUE1] = 0u;
-    state.v[STATE_WIDE_COUNT] = 1u;
+    // Nodes of the whole tree, placed depth-first by the collapse.
+    state.v[STATE_WIDE_COUNT] = single ? 1u : U32s(r.wide).v[root - r.n];
     state.v[STATE_ARGS_COLLAPSE] = 1u;
     state.v[STATE_ARGS_COLLAPSE + 1u] = 1u;
     state.v[STATE_ARGS_COLLAPSE + 2u] = 1u;

@@ -2,9 +2,10 @@
 // PLOC step 2: mutual nearest neighbours merge into a new inner node (the lower index keeps
 // it, the higher one is dropped); every other cluster is kept. Also computes the new node's
 // leaf count and SAH cost, and whether its subtree is better emitted as one leaf (at most
-// `max_leaf` triangles and a leaf cost not above the subtree's). Writes the surviving
-// cluster to keys0[i] and the keep flag to flags[i]. `pc.a`: source cluster array.
-#include "bvh_build/build_common.glsl"
+// `max_leaf` triangles and a leaf cost not above the subtree's), and how many 4-wide nodes the
+// collapse will make of it (so the collapse can lay them out depth-first). Writes the
+// surviving cluster to keys0[i] and the keep flag to flags[i]. `pc.a`: source cluster array.
+#include "bvh_build/gather.glsl"
 layout(local_size_x = 256) in;
 
 void main() {
@@ -50,6 +51,20 @@ void main() {
     bool as_leaf = leaves <= r.max_leaf && leaf_cost <= inner_cost;
     info.v[node] = leaves | (as_leaf ? INFO_LEAF : 0u);
     cost.v[node] = as_leaf ? leaf_cost : inner_cost;
+    // Every node below is final: the collapse's wide node for this one plus those of the
+    // inner children it gathers. A subtree emitted as one leaf makes none (count unused).
+    uint wide_nodes = 0u;
+    if (!as_leaf) {
+        uint kids[4];
+        uint gathered = gather_children(left, right, kids);
+        wide_nodes = 1u;
+        for (uint k = 0u; k < gathered; ++k) {
+            if (is_inner(kids[k])) {
+                wide_nodes += U32s(r.wide).v[kids[k] - r.n];
+            }
+        }
+    }
+    U32s(r.wide).v[node - r.n] = wide_nodes;
     survivor.v[i] = node;
     keep.v[i] = 1u;
 }

@@ -21,6 +21,7 @@ mod builder;
 pub mod cpu;
 pub mod gpu_build;
 pub mod layout;
+pub mod locality;
 pub mod refit;
 pub mod sah;
 pub mod testing;

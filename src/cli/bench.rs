@@ -5,7 +5,7 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rqr::accel::bvh::{sah, testing, BvhBuild, BvhBuildOptions, GpuBvh};
+use rqr::accel::bvh::{locality, sah, testing, BvhBuild, BvhBuildOptions, GpuBvh};
 use rqr::accel::{Backend, RayBackend};
 use rqr::render::passes::raybench::{RayBatch, RayBench};
 use rqr::render::{CameraSetup, GpuFrame, RenderSettings, Renderer};
@@ -182,6 +182,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let data = bvh.read_back(&ctx)?;
             build["sah_cost"] = json!(sah::blas_cost(&data));
             build["tlas_sah_cost"] = json!(sah::subtree_cost(&data.nodes, 0));
+            build["locality"] = json!(locality::measure(&data));
         }
         let setup = CameraSetup::new(&camera, args.width, args.height, renderer.scene_scale());
         let frame = GpuFrame::new(&settings, &setup, renderer.scene_scale());

@@ -80,6 +80,9 @@ pub struct BvhBuildRefs {
     pub centroid_inv_extent: [f32; 3],
     /// PLOC search radius.
     pub radius: u32,
+    /// Per inner binary node: the 4-wide nodes the collapse makes of its subtree (for the
+    /// depth-first layout).
+    pub wide: u64,
 }
 
 /// Push constant of the build passes (and the refit passes, where `refs` is the address of a

@@ -14,6 +14,9 @@
 //! 4. **Collapse**: top-down, one dispatch per level of the 4-wide tree: each binary node
 //!    opens its largest-area inner children until it has four (as `builder::flatten` does),
 //!    copies leaf triangles into place and quantizes the child boxes like `BvhNode::new`.
+//!    Nodes go to depth-first pre-order positions, the host build's layout (checked by
+//!    [`super::locality::check_depth_first`]): the PLOC merges count, bottom-up, how many wide
+//!    nodes each subtree becomes, so a node's children get their indices without a scan.
 //!
 //! The nodes of every bottom level are copied behind room reserved for the top level with
 //! their links shifted (`relocate`); the top level is then built by the same passes over the
@@ -153,6 +156,7 @@ impl<'a> Builder<'a> {
             nodes: addr(11),
             queue0: addr(12),
             queue1: addr(13),
+            wide: addr(14),
             max_leaf,
             traversal_cost: opts.collapse_traversal_cost,
             radius: radius(opts.search),

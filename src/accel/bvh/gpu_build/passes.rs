@@ -98,7 +98,7 @@ pub(super) fn flag_words(n: u64) -> u64 {
 
 /// Byte sizes of the scratch arrays for geometries of up to `n` triangles, in the order of
 /// [`Scratch::new`].
-pub(super) fn scratch_sizes(n: u64) -> [(&'static str, u64); 14] {
+pub(super) fn scratch_sizes(n: u64) -> [(&'static str, u64); 15] {
     let n = n.max(1);
     let binary = 2 * n - 1;
     [
@@ -118,6 +118,8 @@ pub(super) fn scratch_sizes(n: u64) -> [(&'static str, u64); 14] {
         // Items of one level are disjoint subtrees of at least two triangles each.
         ("queue0", 16 * (n / 2 + 1)),
         ("queue1", 16 * (n / 2 + 1)),
+        // Per inner binary node, its subtree's 4-wide node count (depth-first placement).
+        ("wide node counts", 4 * n),
     ]
 }
 
