@@ -36,14 +36,7 @@ void main() {
     Ray camera = camera_ray(vec2(pix) + 0.5);
     bool known = (params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u;
 
-    PrimaryInfo info;
-    info.hit = false;
-    info.t = 0.0;
-    info.instance = -1;
-    info.primitive = -1;
-    info.bary = vec2(0.0);
-    info.normal = vec3(0.0);
-    info.position = vec3(0.0);
+    PrimaryInfo info = primary_miss();
     Surface s = unused_surface;
     float t = 0.0;
     if (known) {

@@ -89,12 +89,7 @@ void main() {
         info.position = s.position;
     } else {
         c = background_radiance(camera.dir);
-        info.t = 0.0;
-        info.instance = -1;
-        info.primitive = -1;
-        info.bary = vec2(0.0);
-        info.normal = vec3(0.0);
-        info.position = vec3(0.0);
+        info = primary_miss();
     }
 #endif
     vec4 contribution = vec4(c * pc.weight, pc.weight);

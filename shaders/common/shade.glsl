@@ -132,6 +132,11 @@ struct PrimaryInfo {
     vec3 position;
 };
 
+// What a pixel whose primary ray found nothing reports.
+PrimaryInfo primary_miss() {
+    return PrimaryInfo(false, 0.0, -1, -1, vec2(0.0), vec3(0.0), vec3(0.0));
+}
+
 PathRay path_stack[STACK_SIZE];
 
 // Shades surface `s` hit by `r` and pushes the reflection/refraction continuations.
