@@ -1,5 +1,5 @@
 #version 460
-// Temporal reprojection, the stages that trace no rays (src/render/reproject.rs records them):
+// Temporal reprojection, the stages that trace no rays (src/render/passes/reproject/ records them):
 // scatter/resolve of the previous frame's samples into this camera, per-pixel decisions,
 // the frameless selection, job lists for the tracing passes, adaptive sub-sampling's
 // interpolation, and statistics. One thread per pixel (per cached sample for the scatter),
@@ -18,7 +18,7 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 // The stage that runs (STAGE_* of src/interface/reproject.rs): a specialization constant, so
-// that each stage's pipeline holds its own code only (src/render/reproject.rs builds one
+// that each stage's pipeline holds its own code only (src/render/passes/reproject/ builds one
 // pipeline per stage).
 layout(constant_id = 0) const uint STAGE = 0u;
 // ReprojectPush: level, the adaptive level the stage works at (interpolate); gather, the level

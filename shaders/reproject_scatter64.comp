@@ -1,6 +1,6 @@
 #version 460
 // Temporal reprojection's scatter in one pass, for devices with 64-bit buffer atomics
-// (src/render/reproject.rs picks it; reproject.comp's SCATTER + RESOLVE do the same in two
+// (src/render/passes/reproject/ picks it; reproject.comp's SCATTER + RESOLVE do the same in two
 // 32-bit passes elsewhere): every cached sample is projected into this camera and takes its
 // pixel with an atomicMin of depth key << 32 | source index, so the nearest sample wins and
 // equal depths go to the lowest index, exactly as the two-pass version decides.

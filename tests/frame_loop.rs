@@ -5,11 +5,11 @@
 mod common;
 
 use rqr::accel::Backend;
-use rqr::render::burst;
+use rqr::render::drivers::burst;
+use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
+use rqr::render::drivers::targets::RingContents;
 use rqr::render::passes::gbuffer;
-use rqr::render::reproject::{PixelSource, ReuseOptions, RtVisibility};
-use rqr::render::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
-use rqr::render::targets::RingContents;
+use rqr::render::passes::reproject::{PixelSource, ReuseOptions, RtVisibility};
 use rqr::render::RenderPath;
 use rqr::render::{FrameTargets, RenderSettings, Renderer};
 use rqr::scene::procedural::cornell;

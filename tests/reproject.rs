@@ -7,10 +7,10 @@ use std::process::Command;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::{Backend, BackendChoice};
-use rqr::render::reproject::{PixelSource, RenderPath, ReuseOptions, RtVisibility};
-use rqr::render::sequence::{
+use rqr::render::drivers::sequence::{
     CameraAnimation, CameraPath, CameraPathSpec, Sequence, SequenceFrame, SequenceOptions,
 };
+use rqr::render::passes::reproject::{PixelSource, RenderPath, ReuseOptions, RtVisibility};
 use rqr::render::{CameraSetup, RenderOutput, RenderSettings, Renderer};
 use rqr::scene::procedural::{assemble, cornell, cube, look_at, quad};
 use rqr::scene::{Camera, Instance, Material, Scene};

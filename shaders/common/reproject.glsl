@@ -1,4 +1,4 @@
-// Temporal reprojection (src/render/reproject.rs): the per-pixel sample cache, pixel states,
+// Temporal reprojection (src/render/passes/reproject/): the per-pixel sample cache, pixel states,
 // parameters and the tests shared by reproject.comp, reproject_primary.comp and
 // reproject_trace.comp. Include after scene.glsl and frame.glsl.
 //

@@ -9,10 +9,10 @@ use anyhow::{Context as _, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use rqr::accel::Backend;
-use rqr::render::burst::{self, BurstReport};
+use rqr::render::drivers::burst::{self, BurstReport};
+use rqr::render::drivers::sequence::{pass_spreads, Spread};
 use rqr::render::image::{compare, label, output};
 use rqr::render::passes::gbuffer;
-use rqr::render::sequence::{pass_spreads, Spread};
 use rqr::render::{
     merge_scopes, FrameTargets, PassScope, RenderOutput, RenderPath, RenderSettings, Renderer,
 };

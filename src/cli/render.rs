@@ -7,17 +7,17 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
-use rqr::render::image::output;
-use rqr::render::passes::gbuffer;
-use rqr::render::reproject::{
-    PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
-};
-use rqr::render::sequence::SequenceFrame;
-use rqr::render::sequence::{
+use rqr::render::drivers::sequence::SequenceFrame;
+use rqr::render::drivers::sequence::{
     self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
     SequenceSummary,
 };
-use rqr::render::targets::RingContents;
+use rqr::render::drivers::targets::RingContents;
+use rqr::render::image::output;
+use rqr::render::passes::gbuffer;
+use rqr::render::passes::reproject::{
+    PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
+};
 use rqr::render::RenderPath;
 use rqr::render::{PassScope, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;

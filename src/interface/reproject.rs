@@ -1,4 +1,4 @@
-//! Temporal reprojection (`render/reproject.rs`, `reproject*.comp`, `common/reproject.glsl`):
+//! Temporal reprojection (`render/passes/reproject/`, `reproject*.comp`, `common/reproject.glsl`):
 //! bindings, params flags, stages, job lists, pixel states, cache flags and counter slots
 //! (`interface_reproject.glsl`). Bindings 0-3 are the shared ones of `shared.rs`.
 

@@ -9,22 +9,14 @@
 //! - [`reference`]: CPU references of shader code, used only by tests.
 
 pub mod animated;
-pub mod burst;
+pub mod drivers;
 pub mod frame;
 pub mod image;
 pub mod memory;
 pub mod passes;
 pub mod reference;
-pub mod reproject;
 pub mod sampling;
-pub mod sequence;
 pub mod settings;
-pub mod targets;
-
-// The paths the frame drivers (`reproject`, `sequence`, `targets`) still use for the moved
-// modules, until those drivers move into their own folder.
-pub(crate) use image::{compare, label};
-pub(crate) use passes::{gbuffer, hybrid, raytraced, tonemap};
 
 use ash::vk;
 
@@ -32,9 +24,9 @@ use crate::accel::{Backend, RayBackend};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{Context, DescriptorSet};
+pub use drivers::targets::FrameTargets;
 pub use frame::{CameraSetup, GpuFrame};
 pub use settings::{FilterKind, RenderPath, RenderSettings, SamplerKind, Tonemap};
-pub use targets::FrameTargets;
 
 pub use crate::interface::Aov;
 
@@ -238,7 +230,7 @@ impl Renderer {
     pub fn render_hybrid(
         &self,
         ctx: &Context,
-        scene_draws: &[gbuffer::Draw],
+        scene_draws: &[passes::gbuffer::Draw],
         settings: &RenderSettings,
         camera: &Camera,
         write_aov: bool,

@@ -53,15 +53,15 @@ use std::sync::Arc;
 
 use ash::vk;
 
-pub use super::frame::RenderPath;
-use super::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind, SettingsError};
-use super::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
-use super::targets::{FrameRing, RingContents, RingSources};
-use super::tonemap::TonemapPass;
-use super::{merge_scopes, RenderOutput, Renderer};
 use crate::accel::Backend;
 use crate::interface::reproject::{self as io, *};
 use crate::interface::{bindings, push_bytes, BINDING_FRAME, BINDING_SCENE, BINDING_TEXTURES};
+use crate::render::drivers::targets::{FrameRing, RingContents, RingSources};
+pub use crate::render::frame::RenderPath;
+use crate::render::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind, SettingsError};
+use crate::render::passes::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
+use crate::render::passes::tonemap::TonemapPass;
+use crate::render::{merge_scopes, RenderOutput, Renderer};
 use crate::scene::Camera;
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, Image,
@@ -429,7 +429,7 @@ impl<'r> Reprojector<'r> {
     /// buffer against `maxStorageBufferRange`, and [`Self::estimate_bytes`] plus the full
     /// render's estimate against the largest device heap (the cache and the full render live
     /// together: a sequence with `--reference` makes one per frame). [`Self::new`] and
-    /// [`super::sequence::Sequence::new`] run it first.
+    /// [`crate::render::drivers::sequence::Sequence::new`] run it first.
     pub fn check_device(
         settings: &RenderSettings,
         info: &crate::vk::DeviceInfo,

@@ -3,8 +3,8 @@
 
 use serde::Serialize;
 
-use crate::render::compare::ImageDiff;
-use crate::render::reproject::{PixelSource, RenderPath, ReuseOptions, ReuseStats};
+use crate::render::image::compare::ImageDiff;
+use crate::render::passes::reproject::{PixelSource, RenderPath, ReuseOptions, ReuseStats};
 use crate::render::{RayCounts, RenderOutput};
 use crate::scene::Camera;
 

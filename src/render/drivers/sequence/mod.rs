@@ -1,6 +1,6 @@
 //! Camera sequences (issue #7): camera paths (orbit, dolly, glTF camera animation) and the
 //! driver that renders frame after frame, with or without reuse between frames
-//! ([`super::reproject`]), and optionally compares each frame with a full render.
+//! ([`crate::render::passes::reproject`]), and optionally compares each frame with a full render.
 //!
 //! Frame numbers are global: frame `k` of a path is the same camera whichever range is
 //! rendered, so a scheduler can spread a sequence over machines. The sample cache starts
@@ -20,11 +20,11 @@ pub use summary::{
 
 use serde::Serialize;
 
-use super::compare;
-use super::gbuffer::{self, Draw};
-use super::reproject::{PixelSource, ReprojectedFrame, Reprojector, ReuseStats};
-use super::targets::{FrameRing, FrameTargets, RingContents};
-use super::{merge_scopes, RenderOutput, RenderSettings, Renderer};
+use crate::render::drivers::targets::{FrameRing, FrameTargets, RingContents};
+use crate::render::image::compare;
+use crate::render::passes::gbuffer::{self, Draw};
+use crate::render::passes::reproject::{PixelSource, ReprojectedFrame, Reprojector, ReuseStats};
+use crate::render::{merge_scopes, RenderOutput, RenderSettings, Renderer};
 use crate::scene::{Camera, Scene};
 use crate::vk::{Context, FrameTiming, GpuProfiler, VkError};
 
@@ -84,7 +84,7 @@ impl BurstResources {
             })
             .transpose()?;
         // Each frame (and its reference) is one profiler frame plus its scopes.
-        let scopes = (super::reproject::SCOPES_PER_FRAME + 8) * frames * 2;
+        let scopes = (crate::render::passes::reproject::SCOPES_PER_FRAME + 8) * frames * 2;
         Ok(Self {
             frames: ring,
             references,
@@ -106,7 +106,7 @@ pub struct WarmUp {
     pub settled: bool,
 }
 
-pub use super::burst::{WARM_UP_MAX_BURSTS, WARM_UP_TOLERANCE};
+pub use crate::render::drivers::burst::{WARM_UP_MAX_BURSTS, WARM_UP_TOLERANCE};
 
 impl<'r> Sequence<'r> {
     /// Prepares a sequence of `scene` (already uploaded into `renderer`) along `path`, where
@@ -461,7 +461,7 @@ impl<'r> Sequence<'r> {
                 burst.iter().map(|f| f.frame_gpu_ms).sum::<f64>() / burst.len().max(1) as f64;
             w.burst_mean_ms.push(mean);
             if let [.., a, b] = w.burst_mean_ms[..] {
-                if super::burst::bursts_agree(&[a], &[b]) {
+                if crate::render::drivers::burst::bursts_agree(&[a], &[b]) {
                     w.settled = true;
                     break;
                 }

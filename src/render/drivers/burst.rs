@@ -10,8 +10,8 @@
 
 use serde::Serialize;
 
-use super::targets::FrameTargets;
-use super::RenderOutput;
+use crate::render::drivers::targets::FrameTargets;
+use crate::render::RenderOutput;
 use crate::scene::Camera;
 use crate::vk::{Context, FrameTiming, GpuProfiler};
 

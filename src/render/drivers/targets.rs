@@ -11,12 +11,12 @@
 
 use ash::vk;
 
-use super::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
-use super::gbuffer::{Draw, GbufferPass};
-use super::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
-use super::raytraced::{RaytracedPass, COUNTER_SLOTS};
-use super::tonemap::TonemapPass;
-use super::{merge_scopes, sampling, Aov, RayCounts, RenderOutput, Renderer};
+use crate::render::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
+use crate::render::passes::gbuffer::{Draw, GbufferPass};
+use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
+use crate::render::passes::raytraced::{RaytracedPass, COUNTER_SLOTS};
+use crate::render::passes::tonemap::TonemapPass;
+use crate::render::{merge_scopes, sampling, Aov, RayCounts, RenderOutput, Renderer};
 use crate::scene::Camera;
 use crate::vk::{
     host_read_barrier, memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkError,

@@ -3,8 +3,8 @@
 
 use serde::Serialize;
 
-use super::super::{RayCounts, RenderOutput};
 use crate::interface::reproject::*;
+use crate::render::{RayCounts, RenderOutput};
 
 /// Rejection: |dot(cached − new position, new normal)| / view depth above this (ReBLUR, Bevy
 /// Solari's `pixel_dissimilar`).

@@ -5,8 +5,8 @@ use super::FrameSummary;
 /// A chart of a sequence: rays per frame relative to a full render (and the shares of
 /// traced and interpolated pixels) in the upper panel, mean FLIP against the full render in
 /// the lower one. Frames without a reference plot the traced share only.
-pub fn plot(frames: &[FrameSummary], title: &str) -> crate::render::label::Canvas {
-    use crate::render::label::Canvas;
+pub fn plot(frames: &[FrameSummary], title: &str) -> crate::render::image::label::Canvas {
+    use crate::render::image::label::Canvas;
     let (w, panel_h, margin) = (720u32, 220u32, 48u32);
     let h = 2 * panel_h + 3 * margin;
     let mut c = Canvas::new(w, h, [250, 250, 250]);
@@ -130,14 +130,14 @@ pub fn plot(frames: &[FrameSummary], title: &str) -> crate::render::label::Canva
     c
 }
 
-fn set(c: &mut crate::render::label::Canvas, x: i64, y: i64, color: [u8; 3]) {
+fn set(c: &mut crate::render::image::label::Canvas, x: i64, y: i64, color: [u8; 3]) {
     if x >= 0 && y >= 0 && (x as u32) < c.width && (y as u32) < c.height {
         let o = (y as usize * c.width as usize + x as usize) * 3;
         c.rgb[o..o + 3].copy_from_slice(&color);
     }
 }
 
-fn line(c: &mut crate::render::label::Canvas, a: (f32, f32), b: (f32, f32), color: [u8; 3]) {
+fn line(c: &mut crate::render::image::label::Canvas, a: (f32, f32), b: (f32, f32), color: [u8; 3]) {
     let steps = (b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil().max(1.0) as i64;
     for s in 0..=steps {
         let t = s as f32 / steps as f32;

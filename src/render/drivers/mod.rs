@@ -1,0 +1,7 @@
+//! What runs frames: the per-frame resources of a single frame and the host-visible ring frames
+//! copy into ([`targets`]), burst timing ([`burst`]) and camera sequences with or without reuse
+//! between frames ([`sequence`]).
+
+pub mod burst;
+pub mod sequence;
+pub mod targets;
