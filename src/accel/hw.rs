@@ -120,7 +120,11 @@ pub(super) fn align_up(v: u64, a: u64) -> u64 {
     v.div_ceil(a.max(1)) * a.max(1)
 }
 
-pub(super) fn scratch_buffer(ctx: &Context, size: u64, align: u64) -> VkResult<(Buffer, vk::DeviceAddress)> {
+pub(super) fn scratch_buffer(
+    ctx: &Context,
+    size: u64,
+    align: u64,
+) -> VkResult<(Buffer, vk::DeviceAddress)> {
     let buffer = Buffer::new(
         ctx,
         "AS scratch",

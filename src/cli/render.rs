@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
+use rqr::render::animated::AnimatedFrames;
 use rqr::render::reproject::{
     PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
 };
@@ -16,7 +17,6 @@ use rqr::render::sequence::{
     SequenceSummary,
 };
 use rqr::render::targets::RingContents;
-use rqr::render::animated::AnimatedFrames;
 use rqr::render::RenderPath;
 use rqr::render::{gbuffer, output, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
@@ -463,7 +463,8 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
                 let (posed, update_ms) = if start == range.start {
                     (&scene, Vec::new())
                 } else {
-                    updated = anim.update_with(&ctx, start as f32 / seq.fps, seq.animation_update)?;
+                    updated =
+                        anim.update_with(&ctx, start as f32 / seq.fps, seq.animation_update)?;
                     (&updated.0, updated.1.clone())
                 };
                 let base = match posed.cameras.is_empty() {

@@ -137,7 +137,10 @@ pub fn frame_renderer(
 /// milliseconds).
 pub fn build_scopes(backend: &RayBackend) -> Vec<(String, f64)> {
     let (blas, tlas) = match backend {
-        RayBackend::Hw(a) => (a.stats.blas_build_ms + a.stats.compact_ms, a.stats.tlas_build_ms),
+        RayBackend::Hw(a) => (
+            a.stats.blas_build_ms + a.stats.compact_ms,
+            a.stats.tlas_build_ms,
+        ),
         RayBackend::HwAnimated(_) => (0.0, 0.0),
         RayBackend::Bvh(b) => {
             let s = b.stats();
@@ -176,7 +179,8 @@ impl AnimatedFrames {
             SCATTER_PUSH_BYTES,
         )?;
         // `Scene::posed` deforms only scenes whose rig covers every instance.
-        let poses = !rest.rig.nodes.is_empty() && rest.rig.instance_local.len() == rest.instances.len();
+        let poses =
+            !rest.rig.nodes.is_empty() && rest.rig.instance_local.len() == rest.instances.len();
         let mut deformers = Vec::new();
         let mut deformed = vec![false; posed.geometries.len()];
         for (k, inst) in rest.instances.iter().enumerate().filter(|_| poses) {
@@ -184,7 +188,9 @@ impl AnimatedFrames {
             if !g.is_deformable() {
                 continue;
             }
-            let skin = rest.rig.nodes[inst.node].skin.filter(|_| !g.joints.is_empty());
+            let skin = rest.rig.nodes[inst.node]
+                .skin
+                .filter(|_| !g.joints.is_empty());
             let joint_count = skin.map_or(0, |s| rest.rig.skins[s].joints.len());
             let pass = SkinningPass::new(ctx, g, joint_count)?;
             let target = posed.instances[k].geometry as usize;
@@ -203,13 +209,15 @@ impl AnimatedFrames {
                 scatter_set,
                 first_vertex: record.first_vertex,
                 count: record.vertex_count,
-                has_tangents: u32::from(g.tangents.len() == g.positions.len() && !g.tangents.is_empty()),
+                has_tangents: u32::from(
+                    g.tangents.len() == g.positions.len() && !g.tangents.is_empty(),
+                ),
             });
         }
         let ray_backend = match backend {
-            Backend::Hw => {
-                RayBackend::HwAnimated(Box::new(HwAnimatedAccel::build(ctx, &posed, &gpu, &deformed)?))
-            }
+            Backend::Hw => RayBackend::HwAnimated(Box::new(HwAnimatedAccel::build(
+                ctx, &posed, &gpu, &deformed,
+            )?)),
             Backend::Bvh => RayBackend::build(ctx, &posed, &gpu, backend, bvh_build)?,
         };
         let renderer = Renderer {
@@ -267,7 +275,11 @@ impl AnimatedFrames {
     /// pass: [`skinning::PASS_NAME`], [`hw_update::BLAS_PASS_NAME`] and
     /// [`hw_update::TLAS_PASS_NAME`] (`bvh`: the refit's and the top-level build's GPU
     /// times; a full rebuild reports `blas build`/`tlas build` instead).
-    pub fn update(&mut self, ctx: &Context, time: f32) -> crate::Result<(Scene, Vec<(String, f64)>)> {
+    pub fn update(
+        &mut self,
+        ctx: &Context,
+        time: f32,
+    ) -> crate::Result<(Scene, Vec<(String, f64)>)> {
         let posed = self.rest.posed(&self.animations, time);
         let pose = self.rest.rig.pose(&self.animations, time);
         for d in &mut self.deformers {
@@ -324,7 +336,10 @@ impl AnimatedFrames {
             0.0
         };
         self.counters.bvh_max_sah_growth_seen = self.counters.bvh_max_sah_growth_seen.max(growth);
-        let mut scopes = vec![(hw_update::BLAS_PASS_NAME.to_string(), report.gpu_ms.unwrap_or(0.0))];
+        let mut scopes = vec![(
+            hw_update::BLAS_PASS_NAME.to_string(),
+            report.gpu_ms.unwrap_or(0.0),
+        )];
         let rebuild = growth > self.policy.bvh_max_sah_growth;
         if !rebuild {
             match bvh.rebuild_tlas(ctx, posed, &BvhBuildOptions::default()) {
@@ -335,7 +350,9 @@ impl AnimatedFrames {
                     scopes.push((hw_update::TLAS_PASS_NAME.to_string(), ms));
                     return Ok(scopes);
                 }
-                Err(e) => log::warn!("bvh top level not rebuilt in place ({e}); building the BVH again"),
+                Err(e) => {
+                    log::warn!("bvh top level not rebuilt in place ({e}); building the BVH again")
+                }
             }
         } else {
             log::info!(
@@ -406,7 +423,12 @@ fn record_skinning(
             .iter()
             .flat_map(|v| v.to_le_bytes())
             .collect();
-        scatter.dispatch(cmd, Some(&d.scatter_set), &push, [d.count.div_ceil(64), 1, 1]);
+        scatter.dispatch(
+            cmd,
+            Some(&d.scatter_set),
+            &push,
+            [d.count.div_ceil(64), 1, 1],
+        );
     }
     if let Some(p) = profiler {
         p.end(cmd);

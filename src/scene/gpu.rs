@@ -133,33 +133,33 @@ pub fn gpu_instance(transform: Mat4, geometry: u32) -> GpuInstance {
 /// Converts the scene's lights to their GPU records.
 pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
     scene
-            .lights
-            .iter()
-            .map(|l| {
-                let (kind, inner_cos, outer_cos) = match l.kind {
-                    LightKind::Directional => (LIGHT_DIRECTIONAL, 1.0, 1.0),
-                    LightKind::Point => (LIGHT_POINT, -1.0, -1.0),
-                    LightKind::Spot {
-                        inner_cone,
-                        outer_cone,
-                    } => (LIGHT_SPOT, inner_cone.cos(), outer_cone.cos()),
-                };
-                GpuLight {
-                    position: l.position.to_array(),
-                    kind,
-                    direction: l.direction.normalize_or_zero().to_array(),
-                    range: if l.range.is_finite() && l.range > 0.0 {
-                        l.range
-                    } else {
-                        BIG
-                    },
-                    radiance: (l.color * l.intensity).to_array(),
-                    inner_cos,
-                    outer_cos,
-                    pad: [0.0; 3],
-                }
-            })
-            .collect()
+        .lights
+        .iter()
+        .map(|l| {
+            let (kind, inner_cos, outer_cos) = match l.kind {
+                LightKind::Directional => (LIGHT_DIRECTIONAL, 1.0, 1.0),
+                LightKind::Point => (LIGHT_POINT, -1.0, -1.0),
+                LightKind::Spot {
+                    inner_cone,
+                    outer_cone,
+                } => (LIGHT_SPOT, inner_cone.cos(), outer_cone.cos()),
+            };
+            GpuLight {
+                position: l.position.to_array(),
+                kind,
+                direction: l.direction.normalize_or_zero().to_array(),
+                range: if l.range.is_finite() && l.range > 0.0 {
+                    l.range
+                } else {
+                    BIG
+                },
+                radiance: (l.color * l.intensity).to_array(),
+                inner_cos,
+                outer_cos,
+                pad: [0.0; 3],
+            }
+        })
+        .collect()
 }
 
 impl GpuScene {
@@ -322,7 +322,8 @@ impl GpuScene {
             )));
         }
         if !instances.is_empty() {
-            self.instances.upload(ctx, bytemuck::cast_slice(&instances))?;
+            self.instances
+                .upload(ctx, bytemuck::cast_slice(&instances))?;
         }
         if !lights.is_empty() {
             self.lights.upload(ctx, bytemuck::cast_slice(&lights))?;
@@ -332,8 +333,7 @@ impl GpuScene {
             self.refs_data.bounds_max = scene.bounds.max.to_array();
             self.refs_data.scene_scale = scene.bounds.diagonal().max(1e-3);
         }
-        self.refs
-            .upload(ctx, bytemuck::bytes_of(&self.refs_data))
+        self.refs.upload(ctx, bytemuck::bytes_of(&self.refs_data))
     }
 
     /// Writes set-0 binding 0 (`SceneRefs`) of a pass's descriptor set.
