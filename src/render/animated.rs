@@ -362,7 +362,7 @@ impl AnimatedFrames {
             );
         }
         let new = GpuBvh::build_with(ctx, posed, &BvhBuildOptions::default(), self.bvh_build)?;
-        *bvh = Box::new(new);
+        **bvh = new;
         self.bvh_built_sah = None;
         self.counters.bvh_full_rebuilds += 1;
         scopes.extend(build_scopes(&self.renderer.backend));
