@@ -40,24 +40,24 @@ pub struct HwStats {
 /// `VkAccelerationStructureInstanceKHR` as plain data.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct TlasInstance {
-    transform: [f32; 12],
-    custom_index_and_mask: u32,
-    sbt_offset_and_flags: u32,
-    blas_address: u64,
+pub(super) struct TlasInstance {
+    pub(super) transform: [f32; 12],
+    pub(super) custom_index_and_mask: u32,
+    pub(super) sbt_offset_and_flags: u32,
+    pub(super) blas_address: u64,
 }
 
 /// An acceleration structure and the buffer holding it.
-struct AccelStructure {
+pub(super) struct AccelStructure {
     shared: Arc<Shared>,
     api: khr::acceleration_structure::Device,
-    handle: vk::AccelerationStructureKHR,
-    buffer: Buffer,
-    address: vk::DeviceAddress,
+    pub(super) handle: vk::AccelerationStructureKHR,
+    pub(super) buffer: Buffer,
+    pub(super) address: vk::DeviceAddress,
 }
 
 impl AccelStructure {
-    fn new(
+    pub(super) fn new(
         ctx: &Context,
         name: &str,
         ty: vk::AccelerationStructureTypeKHR,
@@ -117,11 +117,15 @@ pub struct HwAccel {
     pub stats: HwStats,
 }
 
-fn align_up(v: u64, a: u64) -> u64 {
+pub(super) fn align_up(v: u64, a: u64) -> u64 {
     v.div_ceil(a.max(1)) * a.max(1)
 }
 
-fn scratch_buffer(ctx: &Context, size: u64, align: u64) -> VkResult<(Buffer, vk::DeviceAddress)> {
+pub(super) fn scratch_buffer(
+    ctx: &Context,
+    size: u64,
+    align: u64,
+) -> VkResult<(Buffer, vk::DeviceAddress)> {
     let buffer = Buffer::new(
         ctx,
         "AS scratch",

@@ -2,6 +2,7 @@
 //! traversed in compute shaders. Both sit behind the same GLSL `trace_closest()/trace_any()`.
 
 pub mod hw;
+pub mod hw_update;
 
 use crate::vk::DeviceInfo;
 
@@ -90,6 +91,8 @@ impl BackendChoice {
 pub enum RayBackend {
     /// BLAS/TLAS for ray queries.
     Hw(Box<hw::HwAccel>),
+    /// BLAS/TLAS of an animated scene, updated per frame (ray queries as [`Self::Hw`]).
+    HwAnimated(Box<hw_update::HwAnimatedAccel>),
     /// rqr's two-level BVH for compute traversal.
     Bvh(Box<bvh::GpuBvh>),
 }
@@ -118,7 +121,7 @@ impl RayBackend {
     /// Which backend this is.
     pub fn kind(&self) -> Backend {
         match self {
-            Self::Hw(_) => Backend::Hw,
+            Self::Hw(_) | Self::HwAnimated(_) => Backend::Hw,
             Self::Bvh(_) => Backend::Bvh,
         }
     }
@@ -126,7 +129,7 @@ impl RayBackend {
     /// The descriptor type of binding 2 for this backend.
     pub fn binding(&self) -> crate::vk::Binding {
         match self {
-            Self::Hw(_) => crate::vk::Binding::AccelerationStructure,
+            Self::Hw(_) | Self::HwAnimated(_) => crate::vk::Binding::AccelerationStructure,
             Self::Bvh(_) => crate::vk::Binding::UniformBuffer,
         }
     }
@@ -137,6 +140,9 @@ impl RayBackend {
             Self::Hw(a) => {
                 set.acceleration_structure(crate::interface::BINDING_RAY_BACKEND, a.tlas());
             }
+            Self::HwAnimated(a) => {
+                set.acceleration_structure(crate::interface::BINDING_RAY_BACKEND, a.tlas());
+            }
             Self::Bvh(b) => b.bind(set),
         }
     }
@@ -145,6 +151,9 @@ impl RayBackend {
     pub fn stats_json(&self) -> serde_json::Value {
         match self {
             Self::Hw(a) => serde_json::to_value(&a.stats).unwrap_or_default(),
+            Self::HwAnimated(a) => serde_json::json!({
+                "updates": a.counters, "rebuild_every": a.rebuild_every, "bytes": a.device_bytes(),
+            }),
             Self::Bvh(b) => {
                 let s = b.stats();
                 serde_json::json!({

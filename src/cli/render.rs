@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
+use rqr::render::drivers::animated::AnimatedFrames;
 use rqr::render::drivers::sequence::SequenceFrame;
 use rqr::render::drivers::sequence::{
     self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
@@ -72,6 +73,13 @@ pub struct SequenceArgs {
     /// Frames per second of --camera-path gltf: frame k samples the animation at k/fps s.
     #[arg(long, default_value_t = 24.0)]
     fps: f32,
+    /// How the frames of an animated sequence are updated: refit (GPU skinning into the
+    /// scene's vertex buffers, refit of the deformed geometry's BLASes, TLAS built again;
+    /// static geometry is never rebuilt) or rebuild (upload the posed scene and build every
+    /// acceleration structure again per frame, for comparisons). Frames' `gpu_ms` list the
+    /// update's passes (skin, blas refit / blas build, tlas build).
+    #[arg(long, value_enum, default_value = "refit")]
+    animation_update: rqr::render::drivers::animated::AnimationUpdate,
     /// Reproject the previous frame's samples; trace only disoccluded, rejected,
     /// view-dependent (mirror, metal, glass) and expired pixels.
     #[arg(long)]
@@ -375,9 +383,28 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let ctx = args.device.open()?;
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
-    let renderer = {
+    // An animated scene keeps one renderer whose vertices and acceleration structures are
+    // updated per frame; any other sequence renders every frame from one upload.
+    let bvh_build = args.device.bvh_build(&ctx);
+    let (renderer, mut animated_frames) = {
         let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
-        Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?
+        match animated {
+            true => (
+                None,
+                Some(AnimatedFrames::new(
+                    &ctx,
+                    &rest,
+                    &animations,
+                    range.start as f32 / seq.fps,
+                    backend,
+                    bvh_build,
+                )?),
+            ),
+            false => (
+                Some(Renderer::with_bvh_build(&ctx, &scene, backend, bvh_build)?),
+                None,
+            ),
+        }
     };
     let render_path = args.mode;
     let options = SequenceOptions {
@@ -385,73 +412,85 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         reuse,
         reference: seq.reference,
     };
-    let mut sequence = Sequence::new(
-        &ctx,
-        &renderer,
-        &scene,
-        &settings,
-        base,
-        path.clone(),
-        options,
-    )?;
+    let mut sequence = match &renderer {
+        Some(renderer) => Some(Sequence::new(
+            &ctx,
+            renderer,
+            &scene,
+            &settings,
+            base,
+            path.clone(),
+            options,
+        )?),
+        None => None,
+    };
     let bar = indicatif::ProgressBar::new(u64::from(range.end - range.start));
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {elapsed} {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     // Frames per submission: one (and every frame read back before the next) without
-    // --benchmark; bursts after a warm-up with it.
-    let (burst, warm_up) = if seq.benchmark {
-        let contents = RingContents {
-            rgba8: true,
-            color: ext == "exr",
-            aov: false,
-            states: seq.sources,
-        };
-        let burst = sequence.prepare_bursts(&ctx, seq.burst, contents, 1 << 30)?;
-        bar.set_message("warming up");
-        let warm = sequence.warm_up(&ctx, range.start, burst.min(4))?;
-        if !warm.settled {
-            log::warn!(
-                "GPU times did not settle within {} warm-up bursts ({:?} ms per frame)",
-                warm.bursts,
-                warm.burst_mean_ms
-            );
+    // --benchmark; bursts after a warm-up with it (refused for animated scenes).
+    let (burst, warm_up) = match (&mut sequence, seq.benchmark) {
+        (Some(sequence), true) => {
+            let contents = RingContents {
+                rgba8: true,
+                color: ext == "exr",
+                aov: false,
+                states: seq.sources,
+            };
+            let burst = sequence.prepare_bursts(&ctx, seq.burst, contents, 1 << 30)?;
+            bar.set_message("warming up");
+            let warm = sequence.warm_up(&ctx, range.start, burst.min(4))?;
+            if !warm.settled {
+                log::warn!(
+                    "GPU times did not settle within {} warm-up bursts ({:?} ms per frame)",
+                    warm.bursts,
+                    warm.burst_mean_ms
+                );
+            }
+            (burst, Some(warm))
         }
-        (burst, Some(warm))
-    } else {
-        (1, None)
+        _ => (1, None),
     };
     let mut summaries: Vec<FrameSummary> = Vec::new();
     let mut start = range.start;
     while start < range.end {
         let end = range.end.min(start.saturating_add(burst));
-        let frames = if animated && start != range.start {
-            // Every frame of an animated scene gets its own pose and acceleration
-            // structures (see `check_animated_sequence`).
-            let posed = pose_at(start);
-            let base = match posed.cameras.is_empty() {
-                true => base,
-                false => args.camera.resolve(&posed, aspect)?,
-            };
-            let renderer = rqr::render::animated::frame_renderer(
-                &ctx,
-                &posed,
-                backend,
-                args.device.bvh_build(&ctx),
-            )?;
-            let mut frame_sequence = Sequence::new(
-                &ctx,
-                &renderer,
-                &posed,
-                &settings,
-                base,
-                path.clone(),
-                options,
-            )?;
-            frame_sequence.render_burst(&ctx, start..end)?
-        } else {
-            sequence.render_burst(&ctx, start..end)?
+        let frames = match (&mut animated_frames, &mut sequence) {
+            (Some(anim), _) => {
+                // Frame k shows the animation at k / --fps s; the first frame is the pose
+                // the renderer was built with.
+                let updated;
+                let (posed, update_ms) = if start == range.start {
+                    (&scene, Vec::new())
+                } else {
+                    updated =
+                        anim.update_with(&ctx, start as f32 / seq.fps, seq.animation_update)?;
+                    (&updated.0, updated.1.clone())
+                };
+                let base = match posed.cameras.is_empty() {
+                    true => base,
+                    false => args.camera.resolve(posed, aspect)?,
+                };
+                let mut frame_sequence = Sequence::new(
+                    &ctx,
+                    anim.renderer(),
+                    posed,
+                    &settings,
+                    base,
+                    path.clone(),
+                    options,
+                )?;
+                let mut frames = frame_sequence.render_burst(&ctx, start..end)?;
+                for frame in &mut frames {
+                    frame.frame_gpu_ms += update_ms.iter().map(|p| p.1).sum::<f64>();
+                    frame.output.gpu_ms.splice(0..0, update_ms.iter().cloned());
+                }
+                frames
+            }
+            (None, Some(sequence)) => sequence.render_burst(&ctx, start..end)?,
+            (None, None) => bail!("internal error: a sequence without animation has no renderer"),
         };
         start = end;
         for frame in frames {

@@ -8,7 +8,6 @@
 //! - [`image`]: host image utilities (PNG/EXR output, labels and charts, FLIP/PSNR);
 //! - [`reference`]: CPU references of shader code, used only by tests.
 
-pub mod animated;
 pub mod drivers;
 pub mod frame;
 pub mod image;

@@ -130,6 +130,38 @@ pub fn gpu_instance(transform: Mat4, geometry: u32) -> GpuInstance {
     }
 }
 
+/// Converts the scene's lights to their GPU records.
+pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
+    scene
+        .lights
+        .iter()
+        .map(|l| {
+            let (kind, inner_cos, outer_cos) = match l.kind {
+                LightKind::Directional => (LIGHT_DIRECTIONAL, 1.0, 1.0),
+                LightKind::Point => (LIGHT_POINT, -1.0, -1.0),
+                LightKind::Spot {
+                    inner_cone,
+                    outer_cone,
+                } => (LIGHT_SPOT, inner_cone.cos(), outer_cone.cos()),
+            };
+            GpuLight {
+                position: l.position.to_array(),
+                kind,
+                direction: l.direction.normalize_or_zero().to_array(),
+                range: if l.range.is_finite() && l.range > 0.0 {
+                    l.range
+                } else {
+                    BIG
+                },
+                radiance: (l.color * l.intensity).to_array(),
+                inner_cos,
+                outer_cos,
+                pad: [0.0; 3],
+            }
+        })
+        .collect()
+}
+
 impl GpuScene {
     /// Uploads every record of `scene`. `bound_textures` is how many of its textures the
     /// passes bind (shaders ignore texture indices at or beyond it).
@@ -185,34 +217,7 @@ impl GpuScene {
         if materials.is_empty() {
             materials.push(gpu_material(&Material::default()));
         }
-        let lights: Vec<GpuLight> = scene
-            .lights
-            .iter()
-            .map(|l| {
-                let (kind, inner_cos, outer_cos) = match l.kind {
-                    LightKind::Directional => (LIGHT_DIRECTIONAL, 1.0, 1.0),
-                    LightKind::Point => (LIGHT_POINT, -1.0, -1.0),
-                    LightKind::Spot {
-                        inner_cone,
-                        outer_cone,
-                    } => (LIGHT_SPOT, inner_cone.cos(), outer_cone.cos()),
-                };
-                GpuLight {
-                    position: l.position.to_array(),
-                    kind,
-                    direction: l.direction.normalize_or_zero().to_array(),
-                    range: if l.range.is_finite() && l.range > 0.0 {
-                        l.range
-                    } else {
-                        BIG
-                    },
-                    radiance: (l.color * l.intensity).to_array(),
-                    inner_cos,
-                    outer_cos,
-                    pad: [0.0; 3],
-                }
-            })
-            .collect();
+        let lights = gpu_lights(scene);
 
         let as_input = if ctx.features().acceleration_structure {
             vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
@@ -292,6 +297,43 @@ impl GpuScene {
             refs_data,
             bytes,
         })
+    }
+
+    /// Uploads what moves between frames of an animation (instance transforms, lights, the
+    /// scene bounds and scale) from `scene`, a posed version of the uploaded scene (same
+    /// geometries, instances and lights; vertices are written by the skinning pass). Waits.
+    pub fn update_frame(&mut self, ctx: &Context, scene: &Scene) -> VkResult<()> {
+        let instances: Vec<GpuInstance> = scene
+            .instances
+            .iter()
+            .map(|i| gpu_instance(i.transform, i.geometry))
+            .collect();
+        let lights = gpu_lights(scene);
+        if instances.len() != self.refs_data.instance_count as usize
+            || lights.len() != self.refs_data.light_count as usize
+        {
+            return Err(VkError::Limit(format!(
+                "{}: animated frame has {} instances and {} lights, the upload had {} and {}",
+                scene.source,
+                instances.len(),
+                lights.len(),
+                self.refs_data.instance_count,
+                self.refs_data.light_count
+            )));
+        }
+        if !instances.is_empty() {
+            self.instances
+                .upload(ctx, bytemuck::cast_slice(&instances))?;
+        }
+        if !lights.is_empty() {
+            self.lights.upload(ctx, bytemuck::cast_slice(&lights))?;
+        }
+        if !scene.bounds.is_empty() {
+            self.refs_data.bounds_min = scene.bounds.min.to_array();
+            self.refs_data.bounds_max = scene.bounds.max.to_array();
+            self.refs_data.scene_scale = scene.bounds.diagonal().max(1e-3);
+        }
+        self.refs.upload(ctx, bytemuck::bytes_of(&self.refs_data))
     }
 
     /// Writes set-0 binding 0 (`SceneRefs`) of a pass's descriptor set.

@@ -198,3 +198,40 @@ fn fuzzer_regressions_fail_cleanly() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Every animation, skin and morph case of the corpus is also a fuzz seed
+/// (`fuzz/seeds/<case>.<ext>`, byte for byte), so the fuzzer starts from each of these
+/// failure modes. `RQR_WRITE_SEEDS=1` (re)writes the seeds after the corpus changed.
+#[test]
+fn animation_cases_are_fuzz_seeds() {
+    let seeds = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds");
+    let write = std::env::var_os("RQR_WRITE_SEEDS").is_some();
+    let mut cases = Vec::new();
+    animation::cases(&mut cases);
+    assert!(cases.len() >= 9, "{} animation cases", cases.len());
+    let mut missing = Vec::new();
+    for case in &cases {
+        assert_eq!(
+            case.files.len(),
+            1,
+            "{}: a seed is one self-contained file",
+            case.name
+        );
+        let (rel, data) = &case.files[0];
+        let ext = Path::new(rel)
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("gltf");
+        let seed = seeds.join(format!("{}.{ext}", case.name));
+        if write {
+            std::fs::write(&seed, data).unwrap();
+        }
+        if std::fs::read(&seed).ok().as_ref() != Some(data) {
+            missing.push(seed.display().to_string());
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "fuzz seeds missing or stale (RQR_WRITE_SEEDS=1 rewrites them): {missing:?}"
+    );
+}
