@@ -9,7 +9,8 @@ mod common;
 use rqr::accel::bvh::BvhBuild;
 use rqr::accel::Backend;
 use rqr::render::drivers::animated::{frame_renderer, AnimatedFrames};
-use rqr::render::{gbuffer, RenderOutput, RenderSettings, Renderer};
+use rqr::render::passes::gbuffer;
+use rqr::render::{RenderOutput, RenderSettings, Renderer};
 use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene};
 
 const SIZE: u32 = 64;
