@@ -235,13 +235,16 @@ fn edited_draco(edit: impl Fn(&mut Value, &mut Vec<u8>)) -> Result<Scene, String
     r
 }
 
+/// An edit of `CesiumMan_Draco`'s JSON and buffer.
+type Edit = dyn Fn(&mut Value, &mut Vec<u8>);
+
 #[test]
 fn broken_draco_primitives_name_the_primitive() {
     let ext = "/meshes/0/primitives/0/extensions/KHR_draco_mesh_compression";
     let set = |pointer: String, v: Value| {
         move |d: &mut Value, _: &mut Vec<u8>| *d.pointer_mut(&pointer).unwrap() = v.clone()
     };
-    let cases: Vec<(Box<dyn Fn(&mut Value, &mut Vec<u8>)>, &str)> = vec![
+    let cases: Vec<(Box<Edit>, &str)> = vec![
         (
             // The stream cut after 1000 of its 48166 bytes.
             Box::new(set("/bufferViews/4/byteLength".into(), json!(1000))),

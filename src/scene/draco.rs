@@ -177,7 +177,7 @@ fn decode_primitive(
     let mut indices = prim
         .indices
         .and_then(|i| root.accessors.get(i.value()).cloned())
-        .unwrap_or_else(|| scalar_accessor());
+        .unwrap_or_else(scalar_accessor);
     indices.component_type = Checked::Valid(GenericComponentType(ComponentType::U32));
     indices.type_ = Checked::Valid(gj::accessor::Type::Scalar);
     indices.normalized = false;
