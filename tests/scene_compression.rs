@@ -139,3 +139,162 @@ fn broken_meshopt_views_name_the_view() {
         );
     }
 }
+
+#[test]
+fn draco_cesium_man_matches_its_source() {
+    let a = load("CesiumMan/CesiumMan.glb");
+    let b = load("CesiumMan_Draco/CesiumMan.gltf");
+    assert!(b.extensions_unsupported.is_empty());
+    assert_eq!(a.triangle_count(), b.triangle_count());
+    // The Draco copy (gltf-pipeline) quantizes positions to 11 bits of the largest extent
+    // and reorders vertices: every source triangle has a Draco one within half a step per
+    // axis (√3/2 steps < 2^-11 of the extent) at each corner (in the bind pose: both files
+    // have the same nodes, skins and animation).
+    let step = (a.bounds.max - a.bounds.min).max_element() / (1 << 11) as f32;
+    let draco_tris = world_corners(&b);
+    let mut worst = 0f32;
+    for t in world_corners(&a) {
+        let best = draco_tris
+            .iter()
+            .flat_map(|p| {
+                (0..3).map(move |r| {
+                    (0..3)
+                        .map(|k| p[(k + r) % 3].distance(t[k]))
+                        .fold(0f32, f32::max)
+                })
+            })
+            .fold(f32::INFINITY, f32::min);
+        worst = worst.max(best);
+        assert!(best <= step, "no Draco triangle near {t:?} (step {step})");
+    }
+    eprintln!("CesiumMan vs CesiumMan_Draco: worst corner distance {worst} (step {step})");
+}
+
+#[test]
+fn draco_renders_like_its_source() {
+    let ctx = common::gpu();
+    let a = load("CesiumMan/CesiumMan.glb");
+    let b = load("CesiumMan_Draco/CesiumMan.gltf");
+    let camera = scene::auto_camera(&a.bounds, 1.0);
+    let settings = RenderSettings {
+        width: 96,
+        height: 96,
+        ..Default::default()
+    };
+    let mut backends = vec![Backend::Bvh];
+    if ctx.features().ray_query {
+        backends.insert(0, Backend::Hw);
+    }
+    for backend in backends {
+        let render = |s: &Scene| {
+            Renderer::new(&ctx, s, backend)
+                .unwrap()
+                .render_rt(&ctx, &settings, &camera, false)
+                .unwrap()
+                .rgba8
+        };
+        let d = compare::compare(96, 96, &render(&a), &render(&b));
+        eprintln!(
+            "CesiumMan vs CesiumMan_Draco, {}: FLIP mean {:.5}",
+            backend.as_str(),
+            d.flip_mean
+        );
+        assert!(
+            d.flip_mean < 0.01,
+            "{}: FLIP {} between CesiumMan and its Draco copy",
+            backend.as_str(),
+            d.flip_mean
+        );
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+/// `CesiumMan_Draco` loaded from its JSON after `edit`, with its buffer beside it.
+fn edited_draco(edit: impl Fn(&mut Value, &mut Vec<u8>)) -> Result<Scene, String> {
+    let dir = std::env::temp_dir().join(format!(
+        "rqr-draco-{}-{}",
+        std::process::id(),
+        std::thread::current()
+            .name()
+            .unwrap_or("t")
+            .replace("::", "-")
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let src = asset("CesiumMan_Draco/CesiumMan.gltf");
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&src).unwrap()).unwrap();
+    let mut bin = std::fs::read(src.with_file_name("CesiumMan_data.bin")).unwrap();
+    // No texture: only the geometry is under test.
+    doc.as_object_mut().unwrap().remove("images");
+    doc.as_object_mut().unwrap().remove("textures");
+    doc["materials"] = json!([{}]);
+    edit(&mut doc, &mut bin);
+    std::fs::write(dir.join("CesiumMan_data.bin"), &bin).unwrap();
+    let path = dir.join("man.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let r = scene::load(&path, &LoadOptions::default()).map_err(|e| e.to_string());
+    std::fs::remove_dir_all(&dir).ok();
+    r
+}
+
+/// An edit of `CesiumMan_Draco`'s JSON and buffer.
+type Edit = dyn Fn(&mut Value, &mut Vec<u8>);
+
+#[test]
+fn broken_draco_primitives_name_the_primitive() {
+    let ext = "/meshes/0/primitives/0/extensions/KHR_draco_mesh_compression";
+    let set = |pointer: String, v: Value| {
+        move |d: &mut Value, _: &mut Vec<u8>| *d.pointer_mut(&pointer).unwrap() = v.clone()
+    };
+    let cases: Vec<(Box<Edit>, &str)> = vec![
+        (
+            // The stream cut after 1000 of its 48166 bytes.
+            Box::new(set("/bufferViews/4/byteLength".into(), json!(1000))),
+            "mesh 0 primitive 0: KHR_draco_mesh_compression: the Draco stream in buffer view 4 cannot be decoded",
+        ),
+        (
+            Box::new(set("/bufferViews/4/byteLength".into(), json!(9))),
+            "mesh 0 primitive 0: KHR_draco_mesh_compression: the buffer view does not hold a Draco stream (9 bytes",
+        ),
+        (
+            Box::new(set(format!("{ext}/attributes/POSITION"), json!(9))),
+            "mesh 0 primitive 0: KHR_draco_mesh_compression: attribute POSITION names Draco attribute id 9, which the stream does not have (ids: 0, 2, 3, 4, 1)",
+        ),
+        (
+            Box::new(|d: &mut Value, _: &mut Vec<u8>| {
+                d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]
+                    ["attributes"]["TEXCOORD_1"] = json!(3)
+            }),
+            "mesh 0 primitive 0: KHR_draco_mesh_compression: attribute TEXCOORD_1 (Draco id 3) is not among the primitive's attributes",
+        ),
+        (
+            Box::new(set(format!("{ext}/bufferView"), json!(40))),
+            "mesh 0 primitive 0: KHR_draco_mesh_compression: buffer view 40 does not exist",
+        ),
+        (
+            // Edgebreaker header: 2^40 faces declared (the varints from byte 12 of the
+            // stream are the encoded vertex count, then the face count).
+            Box::new(|_: &mut Value, bin: &mut Vec<u8>| {
+                let s = 41344;
+                let mut r = 12;
+                while bin[s + r] & 0x80 != 0 {
+                    r += 1;
+                }
+                r += 1; // past the encoded vertex count: the face count follows
+                let mut faces_len = 1;
+                while bin[s + r + faces_len - 1] & 0x80 != 0 {
+                    faces_len += 1;
+                }
+                let huge = [0x80, 0x80, 0x80, 0x80, 0x80, 0x20];
+                bin.splice(s + r..s + r + faces_len, huge);
+            }),
+            "mesh 0 primitive 0: KHR_draco_mesh_compression: the stream declares 1099511627776 faces, more than rqr's limit",
+        ),
+    ];
+    for (edit, want) in cases {
+        let e = edited_draco(edit).expect_err(want);
+        assert!(
+            e.contains("man.gltf: ") && e.contains(want),
+            "want '{want}' in '{e}'"
+        );
+    }
+}

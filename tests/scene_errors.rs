@@ -486,18 +486,21 @@ fn invalid_values() {
 fn required_and_optional_extensions() {
     let (b, mut doc) = quad();
     doc["extensionsUsed"] = json!([
-        "KHR_draco_mesh_compression",
+        "KHR_materials_diffuse_transmission",
         "KHR_materials_iridescence",
         "KHR_texture_transform"
     ]);
-    doc["extensionsRequired"] = json!(["KHR_draco_mesh_compression", "KHR_texture_transform"]);
+    doc["extensionsRequired"] = json!([
+        "KHR_materials_diffuse_transmission",
+        "KHR_texture_transform"
+    ]);
     let e = load_doc(&b.document(doc.clone())).unwrap_err();
     assert!(
-        matches!(&e, SceneError::UnsupportedExtensions { extensions, .. } if extensions == &["KHR_draco_mesh_compression"])
+        matches!(&e, SceneError::UnsupportedExtensions { extensions, .. } if extensions == &["KHR_materials_diffuse_transmission"])
     );
     assert_eq!(
         e.to_string(),
-        "bad.gltf: requires glTF extension(s) rqr does not support: KHR_draco_mesh_compression"
+        "bad.gltf: requires glTF extension(s) rqr does not support: KHR_materials_diffuse_transmission"
     );
     // Optional unsupported extensions load, and are reported.
     doc["extensionsRequired"] = json!([
@@ -508,7 +511,10 @@ fn required_and_optional_extensions() {
     let s = load_doc(&b.document(doc)).unwrap();
     assert_eq!(
         s.extensions_unsupported,
-        vec!["KHR_draco_mesh_compression", "KHR_materials_iridescence"]
+        vec![
+            "KHR_materials_diffuse_transmission",
+            "KHR_materials_iridescence"
+        ]
     );
     assert_eq!(s.extensions_used.len(), 3);
 }

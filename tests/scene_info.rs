@@ -147,8 +147,8 @@ fn info_json_lists_each_extension_with_its_status() {
             {"name": "KHR_texture_transform", "status": "supported"},
         ])
     );
-    doc["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-    doc["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    doc["extensionsUsed"] = serde_json::json!(["KHR_materials_diffuse_transmission"]);
+    doc["extensionsRequired"] = serde_json::json!(["KHR_materials_diffuse_transmission"]);
     let required = dir.join("required.gltf");
     std::fs::write(&required, scene_util::bytes(&b.document(doc))).unwrap();
     let out = rqr(&["info", "--json", required.to_str().unwrap()]);
@@ -156,8 +156,8 @@ fn info_json_lists_each_extension_with_its_status() {
     let v: Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     assert_eq!(
         v["extensions"],
-        serde_json::json!([{"name": "KHR_draco_mesh_compression", "status": "unsupported-required"}])
+        serde_json::json!([{"name": "KHR_materials_diffuse_transmission", "status": "unsupported-required"}])
     );
-    assert!(String::from_utf8_lossy(&out.stderr).contains("KHR_draco_mesh_compression"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("KHR_materials_diffuse_transmission"));
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -18,6 +18,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
     "KHR_texture_basisu",
     "EXT_texture_webp",
     "KHR_materials_variants",
@@ -143,10 +144,10 @@ mod tests {
         let all = classify(
             &s(&[
                 "KHR_materials_clearcoat",
-                "KHR_draco_mesh_compression",
+                "KHR_materials_diffuse_transmission",
                 "KHR_xmp",
             ]),
-            &s(&["KHR_draco_mesh_compression"]),
+            &s(&["KHR_materials_diffuse_transmission"]),
         );
         let got: Vec<(&str, &str)> = all
             .iter()
@@ -156,7 +157,7 @@ mod tests {
             got,
             [
                 ("KHR_materials_clearcoat", "supported"),
-                ("KHR_draco_mesh_compression", "unsupported-required"),
+                ("KHR_materials_diffuse_transmission", "unsupported-required"),
                 ("KHR_xmp", "ignored"),
             ]
         );

@@ -15,6 +15,7 @@ use super::accessor::{self, Buffers, Elements};
 use super::animation;
 use super::camera::{camera_pose, default_lights};
 use super::compression;
+use super::draco;
 use super::error::SceneError;
 use super::extensions::{self, ExtensionSupport};
 use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topology};
@@ -280,7 +281,8 @@ impl Loader<'_> {
             data.push(bytes);
         }
         self.buffers = Buffers { data };
-        compression::decode_views(&self.file, &mut self.root, &mut self.buffers)
+        compression::decode_views(&self.file, &mut self.root, &mut self.buffers)?;
+        draco::decode_primitives(&self.file, &mut self.root, &mut self.buffers)
     }
 
     fn load_scene(&mut self) -> Result<(), SceneError> {

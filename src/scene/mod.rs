@@ -9,6 +9,7 @@ pub mod animation;
 pub mod camera;
 mod compression;
 mod default_scene;
+mod draco;
 mod error;
 pub mod extensions;
 pub mod geometry;

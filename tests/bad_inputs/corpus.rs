@@ -718,12 +718,14 @@ fn image_cases(out: &mut Vec<Case>) {
     ));
 
     let mut d = quad_gltf();
-    d["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
-    d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+    d["extensionsUsed"] = json!(["KHR_materials_diffuse_transmission"]);
+    d["extensionsRequired"] = json!(["KHR_materials_diffuse_transmission"]);
     out.push(gltf(
         "extension_required_unsupported",
         &d,
-        fails(&["requires glTF extension(s) rqr does not support: KHR_draco_mesh_compression"]),
+        fails(&[
+            "requires glTF extension(s) rqr does not support: KHR_materials_diffuse_transmission",
+        ]),
     ));
     let mut d = quad_gltf();
     d["extensionsUsed"] = json!(["KHR_materials_iridescence"]);

@@ -42,6 +42,31 @@ fn meshopt_case(
     }
 }
 
+/// `CesiumMan_Draco` (KHR_draco_mesh_compression), without its texture, with `edit`
+/// applied to its JSON and its buffer.
+fn draco_case(
+    name: &str,
+    edit: impl Fn(&mut serde_json::Value, &mut Vec<u8>),
+    needles: &[&'static str],
+) -> Case {
+    let dir = asset("CesiumMan_Draco");
+    let mut doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("CesiumMan.gltf")).unwrap()).unwrap();
+    let mut bin = std::fs::read(dir.join("CesiumMan_data.bin")).unwrap();
+    doc.as_object_mut().unwrap().remove("images");
+    doc.as_object_mut().unwrap().remove("textures");
+    doc["materials"] = json!([{}]);
+    edit(&mut doc, &mut bin);
+    Case {
+        name: name.to_string(),
+        files: vec![
+            ("scene.gltf".into(), bytes(&doc)),
+            ("CesiumMan_data.bin".into(), bin),
+        ],
+        expect: Expect::Fails(needles.to_vec()),
+    }
+}
+
 /// A quad whose base colour is `tex.ktx2` (KHR_texture_basisu, required): StainedGlassLamp's
 /// ETC1S hardware texture with `edit` applied.
 fn ktx2_case(name: &str, edit: impl Fn(&mut Vec<u8>), expect: Expect) -> Case {
@@ -70,7 +95,8 @@ fn ktx2_case(name: &str, edit: impl Fn(&mut Vec<u8>), expect: Expect) -> Case {
 }
 
 /// Out-of-range factors, wrong JSON types and dangling textures in extensions; broken
-/// EXT_meshopt_compression views; broken KTX2 files.
+/// EXT_meshopt_compression views; broken KHR_draco_mesh_compression streams; broken KTX2
+/// files.
 pub fn cases(out: &mut Vec<Case>) {
     let put32 =
         |k: &mut Vec<u8>, at: usize, v: u32| k[at..at + 4].copy_from_slice(&v.to_le_bytes());
@@ -135,6 +161,38 @@ pub fn cases(out: &mut Vec<Case>) {
         "count",
         json!(1u64 << 40),
         &["buffer view 2: EXT_meshopt_compression", "decoded bytes"],
+    ));
+    out.push(draco_case(
+        "draco_truncated",
+        |d, _| d["bufferViews"][4]["byteLength"] = json!(1000),
+        &["mesh 0 primitive 0: KHR_draco_mesh_compression: the Draco stream in buffer view 4 cannot be decoded"],
+    ));
+    out.push(draco_case(
+        "draco_buffer_cut",
+        |_, bin| bin.truncate(41344 + 2000),
+        &["buffer 0 (CesiumMan_data.bin): byteLength is 89512 but only 43344 bytes are available"],
+    ));
+    out.push(draco_case(
+        "draco_attribute_id_missing",
+        |d, _| {
+            d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]
+                ["attributes"]["NORMAL"] = json!(17)
+        },
+        &["mesh 0 primitive 0: KHR_draco_mesh_compression: attribute NORMAL names Draco attribute id 17, which the stream does not have"],
+    ));
+    out.push(draco_case(
+        "draco_garbage_stream",
+        |_, bin| {
+            // Keep the header, scramble the connectivity and attributes.
+            let mut x = 0x9e37_79b9u32;
+            for b in &mut bin[41344 + 24..] {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                *b = x as u8;
+            }
+        },
+        &["mesh 0 primitive 0: KHR_draco_mesh_compression: the Draco stream in buffer view 4 cannot be decoded"],
     ));
     out.push(material_case(
         "specular_factor_out_of_range",
