@@ -347,17 +347,19 @@ fn sequence_options(reproject: bool) -> SequenceOptions {
 fn reprojection_cache_is_checked_with_the_full_render() {
     let ctx = gpu();
     let mut info = lavapipe_storage_range(&ctx);
-    // The sample caches hold 64 bytes per pixel: 1500² needs 138 MiB per cache, while the
+    // The sample caches hold 36 bytes per pixel: 2000² needs 138 MiB per cache, while the
     // full render's largest buffer (16 bytes per pixel) fits.
-    let s = settings(1500, 1500, 1);
-    assert_eq!(Reprojector::largest_buffer_bytes(&s), 1500 * 1500 * 64);
+    let entry = std::mem::size_of::<rqr::interface::reproject::CacheEntry>() as u64;
+    assert_eq!(entry, 36);
+    let s = settings(2000, 2000, 1);
+    assert_eq!(Reprojector::largest_buffer_bytes(&s), 2000 * 2000 * entry);
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
         s.check_device(&info, path, false, 0).unwrap();
         let err = Reprojector::check_device(&s, &info, path, 0)
             .expect_err("a 138 MiB cache in a 128 MiB storage range")
             .to_string();
         for needle in [
-            "resolution 1500x1500 with reuse between frames needs a 138 MiB sample cache",
+            "resolution 2000x2000 with reuse between frames needs a 138 MiB sample cache",
             "(maxStorageBufferRange)",
             "--reproject",
         ] {
@@ -366,12 +368,12 @@ fn reprojection_cache_is_checked_with_the_full_render() {
         Reprojector::check_device(&settings(1024, 1024, 1), &info, path, 0).unwrap();
     }
 
-    // The heap: the cache and its per-pixel buffers (two 64-byte caches and more per pixel)
+    // The heap: the cache and its per-pixel buffers (two 36-byte caches and more per pixel)
     // come on top of the full render.
     let s = settings(512, 512, 1);
     let full = s.estimate_bytes(RenderPath::RayTraced, false);
     let cache = Reprojector::estimate_bytes(&s);
-    assert!(cache >= 512 * 512 * 2 * 64, "{cache}");
+    assert!(cache >= 512 * 512 * 2 * entry, "{cache}");
     for heap in &mut info.memory_heaps {
         heap.size_bytes = full + cache - 1;
     }
@@ -409,9 +411,13 @@ fn sequences_check_the_reprojection_cache_before_allocating() {
         .map(|_| ())
     };
 
-    // A side whose sample cache exceeds the device's maxStorageBufferRange (lavapipe: 1450).
+    // A side whose sample cache exceeds the device's maxStorageBufferRange (lavapipe: 1933).
     let info = ctx.info();
-    let side = ((u64::from(info.max_storage_buffer_range) / 64) as f64).sqrt() as u32 + 2;
+    let side = ((u64::from(info.max_storage_buffer_range)
+        / std::mem::size_of::<rqr::interface::reproject::CacheEntry>() as u64)
+        as f64)
+        .sqrt() as u32
+        + 2;
     if side <= info.max_image_dimension_2d
         && settings(side, side, 1)
             .check_device(info, RenderPath::RayTraced, false, ctx.allocated_bytes())

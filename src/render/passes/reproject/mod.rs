@@ -414,11 +414,16 @@ impl<'r> Reprojector<'r> {
                 _ => 16,
             })
             .sum();
-        pixels.saturating_mul(2 * CACHE_ENTRY_BYTES + SHOWN_BYTES + 4 * 4 + 16 + 4 + gbuffer)
+        // Per pixel: two caches, the shown records, winner + depth key, state, colour, one
+        // word per job list, the visibility images.
+        let per_pixel =
+            2 * CACHE_ENTRY_BYTES + SHOWN_BYTES + 8 + 4 + 16 + 4 * u64::from(JOB_LISTS) + gbuffer;
+        pixels.saturating_mul(per_pixel)
     }
 
     /// The largest buffer the reprojection binds as one storage buffer (either sample cache:
-    /// 64 bytes per pixel), to compare with `maxStorageBufferRange`.
+    /// `size_of::<CacheEntry>()`, 36 bytes per pixel), to compare with
+    /// `maxStorageBufferRange`.
     pub fn largest_buffer_bytes(settings: &RenderSettings) -> u64 {
         settings.pixels().saturating_mul(CACHE_ENTRY_BYTES)
     }
