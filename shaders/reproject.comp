@@ -43,7 +43,7 @@ Neighbours load_neighbours(ivec2 pix) {
         ivec2 n = pix + EDGE_NEIGHBOURS[k];
         bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
         nb.pixel[k] = inside ? uint(n.y) * frame.width + uint(n.x) : NO_SAMPLE;
-        nb.shown[k] = Shown(vec3(0.0), 0u);
+        nb.shown[k] = Shown(0.0, 0u);
         if (inside) {
             nb.shown[k] = shown[nb.pixel[k]];
         }
@@ -58,10 +58,15 @@ Neighbours load_neighbours(ivec2 pix) {
 // so the pixels there get a primary ray. (A hidden surface coming out from behind an edge
 // faster than a pixel per frame can show the farther surface for a few frames beyond that
 // band: the price of the mode; --rt-visibility full and the hybrid path check every pixel.)
+//
+// The plane distance is measured from the neighbour's tangent plane (Shown keeps two words per
+// pixel: the plane's offset and the normal); where the normals pass the normal test, the two
+// samples' planes nearly agree, so which one is used hardly matters.
 bool near_edge(CacheEntry e, Neighbours nb) {
     bool miss = cache_miss(e);
     float z = miss ? 1.0 : max(view_depth(e.position), 1e-6);
     vec3 en = unpack_normal(e.normal);
+    vec3 from_camera = e.position - frame.camera_pos;
     for (uint k = 0u; k < 4u; ++k) {
         Shown o = nb.shown[k];
         if ((o.normal & SHOWN_SAMPLE) == 0u) {
@@ -74,9 +79,11 @@ bool near_edge(CacheEntry e, Neighbours nb) {
         if (other_miss != miss) {
             return true;
         }
-        if (!miss && (abs(dot(o.position - e.position, en)) / z > params.edge_threshold
-                || dot(unpack_normal(o.normal), en) < params.normal_threshold)) {
-            return true;
+        if (!miss) {
+            vec3 on = unpack_normal(o.normal);
+            if (abs(dot(from_camera, on) - o.plane) / z > params.edge_threshold || dot(on, en) < params.normal_threshold) {
+                return true;
+            }
         }
     }
     return false;
@@ -102,15 +109,17 @@ uint fill(ivec2 pix, Neighbours nb) {
         if ((o.normal & (SHOWN_SAMPLE | SHOWN_COPYABLE)) != (SHOWN_SAMPLE | SHOWN_COPYABLE)) {
             continue;
         }
+        // Only empty pixels fill, so gathering the candidates' positions here costs less than
+        // keeping them in Shown for every pixel.
+        uint w = WINNER(nb.pixel[k]);
         CacheEntry e;
-        e.position = o.position;
+        e.position = cache_prev[w].position;
         e.meta = CACHE_VALID | ((o.normal & SHOWN_MISS) != 0u ? CACHE_MISS : 0u);
         uint target, key;
         vec2 film;
         if (!project_sample(e, target, key, film)) {
             continue;
         }
-        uint w = WINNER(nb.pixel[k]);
         float d = distance(film, centre);
         if (d < best_d || (d == best_d && w < best)) {
             best_d = d;
@@ -129,14 +138,17 @@ void record_shown(uint q) {
     } else {
         CacheEntry e = cache_prev[w];
         uint bits = SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u) | (cache_hops(e) < params.max_hops ? SHOWN_COPYABLE : 0u);
-        shown[q] = Shown(e.position, e.normal | bits);
+        float plane = cache_miss(e) ? 0.0 : dot(e.position - frame.camera_pos, unpack_normal(e.normal));
+        shown[q] = Shown(plane, e.normal | bits);
     }
 }
 
 float refresh_rank(uvec2 pix);
 uint refresh_bin(uint age, float rank);
 
-void classify(uint q) {
+// Decides pixel q; when `settling` (the stage that settles pixels), also commits it with the
+// entry it has read anyway. Returns the state.
+uint classify(uint q, bool settling) {
     ivec2 pix = ivec2(pixel_of(q));
     uint w = WINNER(q);
     bool reuse = (params.flags & RP_REUSE) != 0u;
@@ -158,12 +170,13 @@ void classify(uint q) {
     }
     uint st;
     uint age = 0u;
+    CacheEntry e;
     if (!reuse) {
         st = PX_TRACE;
     } else if (w == NO_SAMPLE) {
         st = PX_TRACE | PX_HOLE;
     } else {
-        CacheEntry e = cache_prev[w];
+        e = cache_prev[w];
         age = cache_age(e.meta);
         if ((e.meta & CACHE_VIEW_DEPENDENT) != 0u) {
             st = PX_TRACE | PX_VIEW_DEPENDENT;
@@ -181,6 +194,9 @@ void classify(uint q) {
         st |= PX_FILLED;
     }
     state[q] = st;
+    if (settling && (st & PX_KIND_MASK) != PX_VERIFY) {
+        commit_entry(q, st, e);
+    }
     uint kind = st & PX_KIND_MASK;
     if ((params.flags & RP_FRAMELESS) != 0u) {
         bool candidate = kind == PX_REUSE || kind == PX_VERIFY;
@@ -191,6 +207,7 @@ void classify(uint q) {
         COUNTER_ADD(counters[C_CANDIDATES], candidate ? 1u : 0u);
         COUNTER_ADD(counters[C_FORCED], candidate ? 0u : 1u);
     }
+    return st;
 }
 
 // Frameless refresh order: oldest first, and among samples of one age by a fixed
@@ -232,20 +249,22 @@ void threshold() {
     counters[C_THRESHOLD_FRACTION] = floatBitsToUint(fraction);
 }
 
-void select_frameless(uint q) {
+uint select_frameless(uint q) {
     uint st = state[q];
     uint kind = st & PX_KIND_MASK;
     uint limit = counters[C_THRESHOLD_BIN];
     if ((kind != PX_REUSE && kind != PX_VERIFY) || limit == NO_SAMPLE) {
-        return;
+        return st;
     }
     float rank = refresh_rank(pixel_of(q));
     uint bin = refresh_bin(cache_age(cache_prev[resolved_winner(q)].meta), rank);
     // Within the last bin, the rank's finer digits decide.
     float within = fract(rank * float(RANK_LEVELS));
     if (bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]))) {
-        state[q] = PX_TRACE | PX_FRAMELESS;
+        st = PX_TRACE | PX_FRAMELESS;
+        state[q] = st;
     }
+    return st;
 }
 
 // Compared as displayed, roughly (Reinhard, gamma 2.2): a linear difference that is
@@ -296,7 +315,7 @@ bool interpolate(uint q, out bool uncached) {
     vec3 bil = mix(mix(c00, c10, uv.x), mix(c01, c11, uv.x), uv.y);
     vec3 c = bil + (cc - bil_c) * tent(uv.x, uvc.x) * tent(uv.y, uvc.y);
     c = max(c, vec3(0.0));
-    color[q] = vec4(c, 1.0);
+    store_color(q, c);
     state[q] = (st & ~PX_KIND_MASK) | PX_INTERP;
     uncached = (params.flags & RP_GBUFFER) == 0u && (st & PX_VERIFIED) == 0u;
     if (!uncached) {
@@ -331,12 +350,13 @@ bool interpolate(uint q, out bool uncached) {
 // pixel is committed now, every other pixel starts the next cache empty (the tracing passes
 // fill the ones they trace). Candidates wait for the visibility pass, which does the same for
 // them. Returns the state to count, 0 while the pixel is undecided.
-uint settle(uint q) {
-    uint st = state[q];
+uint settle(uint q, uint st) {
     if ((st & PX_KIND_MASK) == PX_VERIFY) {
         return 0u;
     }
-    commit(q, st);
+    if (STAGE != STAGE_CLASSIFY) {
+        commit(q, st);
+    }
     return st;
 }
 
@@ -367,6 +387,7 @@ void main() {
     bool frameless = (params.flags & RP_FRAMELESS) != 0u;
     bool settling = (STAGE == STAGE_CLASSIFY && !frameless) || STAGE == STAGE_SELECT;
     uint settled = 0u;
+    uint st = 0u;
     bool interpolated = false;
     bool uncached = false;
     if (inside) {
@@ -389,13 +410,13 @@ void main() {
             break;
         }
         case STAGE_SHOWN: record_shown(q); break;
-        case STAGE_CLASSIFY: classify(q); break;
-        case STAGE_SELECT: select_frameless(q); break;
+        case STAGE_CLASSIFY: st = classify(q, settling); break;
+        case STAGE_SELECT: st = select_frameless(q); break;
         case STAGE_INTERPOLATE: interpolated = interpolate(q, uncached); break;
         default: break;
         }
         if (settling) {
-            settled = settle(q);
+            settled = settle(q, st);
         }
     }
     uint subgroups = gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumSubgroups;
@@ -403,7 +424,6 @@ void main() {
         // Settled pixels are counted, and the pixels left for rays are listed: those the
         // visibility pass looks at first, and the others to trace at the first level.
         count_settled(settled);
-        uint st = inside ? state[q] : 0u;
         bool look = inside && wants_visibility(st);
         list_append(LIST_VERIFY, look, q);
         list_append(LIST_TRACE, inside && !look && traced_at(st, pix, pc.gather), q);

@@ -74,23 +74,39 @@ void main() {
         // Pixels already bound for tracing (adaptive sub-sampling on the rt path) only record
         // their hit; candidates are judged.
         bool candidate = (st & PX_KIND_MASK) == PX_VERIFY;
+        bool hit = hit_found(h);
+        Surface s;
         uint verdict;
-        if (hit_found(h)) {
-            Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
-            imageStore(g_position, pix, vec4(s.position, h.t));
-            imageStore(g_normal, pix, vec4(s.n, s.roughness));
-            imageStore(g_geometric, pix, vec4(s.ng_front, s.metallic));
-            imageStore(g_base, pix, vec4(s.base_color, s.alpha));
-            imageStore(g_emissive, pix, vec4(s.emissive, s.occlusion));
-            imageStore(g_ids, pix, uvec4(uint(h.instance), uint(h.primitive), s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission)));
-            imageStore(g_bary, pix, vec4(h.barycentrics, 0.0, 0.0));
+        if (hit) {
+            s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
             verdict = judge_primary(e, true, s.position, s.ng_front, s.material, s.metallic, s.roughness, s.transmission, s.alpha);
         } else {
-            imageStore(g_ids, pix, uvec4(0xFFFFFFFFu));
             verdict = judge_primary(e, false, vec3(0.0), vec3(0.0), 0u, 0.0, 1.0, 0.0, 1.0);
         }
         st = candidate ? verdict | PX_VERIFIED | (st & PX_FILLED) : st | PX_VERIFIED;
         state[q] = st;
+        // The hit goes to the G-buffer images for the passes that read it: all of it for a
+        // pixel that will be shaded (the tracing pass, the interpolation), only where it is
+        // for a reused fill (commit). Most candidates are reused as they are and write
+        // nothing: seven image stores cost more than the primary ray on a CPU device.
+        bool reused = (st & PX_KIND_MASK) == PX_REUSE;
+        if (!reused || (st & PX_FILLED) != 0u) {
+            if (hit) {
+                imageStore(g_position, pix, vec4(s.position, h.t));
+                imageStore(g_geometric, pix, vec4(s.ng_front, s.metallic));
+            }
+            if (!reused) {
+                if (hit) {
+                    imageStore(g_normal, pix, vec4(s.n, s.roughness));
+                    imageStore(g_base, pix, vec4(s.base_color, s.alpha));
+                    imageStore(g_emissive, pix, vec4(s.emissive, s.occlusion));
+                    imageStore(g_ids, pix, uvec4(uint(h.instance), uint(h.primitive), s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission)));
+                    imageStore(g_bary, pix, vec4(h.barycentrics, 0.0, 0.0));
+                } else {
+                    imageStore(g_ids, pix, uvec4(0xFFFFFFFFu));
+                }
+            }
+        }
         if (candidate) {
             // The stage before settled every other pixel; this pass settles the candidates
             // (commit reads this invocation's own G-buffer writes at the pixel).

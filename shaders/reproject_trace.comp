@@ -67,7 +67,7 @@ void main() {
         at.t = t;
         c = whitted(camera, known ? PRIMARY_SURFACE : PRIMARY_TRACE, s, at, info);
     }
-    color[q] = vec4(c, 1.0);
+    store_color(q, c);
     state[q] = (st & ~PX_KIND_MASK) | PX_TRACED;
 
     CacheEntry e;

@@ -264,7 +264,7 @@ fn reprojection_params_match_reproject_glsl_layout() {
         &ctx,
         rqr::shaders::REPROJECT_PARAMS_LAYOUT_COMP,
         &[(BINDING_RP_PARAMS, Binding::UniformBuffer, &buf)],
-        22,
+        31,
         expected.len(),
     );
     assert_parts(&got, &[("GpuParams", expected)]);

@@ -8,14 +8,15 @@
 #include "reproject.glsl"
 
 layout(local_size_x = 1) in;
-layout(set = 0, binding = 22, std430) writeonly buffer Out { uint words[]; };
+layout(set = 0, binding = 31, std430) writeonly buffer Out { uint words[]; };
 uint n = 0u;
 void put(uint v) { words[n++] = v; }
 void putf(float v) { put(floatBitsToUint(v)); }
 
 void main() {
     put(params.flags); put(params.max_age); putf(params.frameless_fraction);
-    putf(params.subsample_threshold); put(params.pad0); putf(params.plane_threshold);
+    putf(params.subsample_threshold); put(params.tonemap_op); putf(params.plane_threshold);
     putf(params.normal_threshold); putf(params.edge_threshold); putf(params.specular_metallic);
     putf(params.specular_roughness); putf(params.fill_radius); put(params.max_hops);
+    putf(params.tonemap_scale);
 }

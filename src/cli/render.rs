@@ -166,6 +166,7 @@ impl SequenceArgs {
             subsample_threshold: self.subsample_threshold,
             max_age: self.max_age,
             rt_visibility: self.rt_visibility,
+            linear_color: true,
         }
     }
 }
@@ -317,7 +318,9 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let seq = &args.sequence;
     let settings = args.image.settings()?;
     let range = seq.range()?;
-    let reuse = seq.reuse();
+    let mut reuse = seq.reuse();
+    // Only EXR frames read the linear colour.
+    reuse.linear_color = ext == "exr";
     reuse.validate().map_err(anyhow::Error::msg)?;
     if !args.aov.is_empty() {
         bail!("--aov is for single images; sequences write colour only");

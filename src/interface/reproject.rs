@@ -26,6 +26,8 @@ pub const BINDING_RP_GBUFFER: u32 = 13;
 pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
 /// The sample each pixel shows (without its colour).
 pub const BINDING_RP_SHOWN: u32 = 21;
+/// The frame's display pixels (RGBA8, one word each), written with the colour.
+pub const BINDING_RP_RGBA8: u32 = 22;
 
 /// Params flag: reproject the previous frame's cache.
 pub const RP_REUSE: u32 = 1;
@@ -37,6 +39,8 @@ pub const RP_VERIFY_ALL: u32 = 4;
 pub const RP_FRAMELESS: u32 = 8;
 /// Params flag: adaptive sub-sampling of the pixels that need new colour.
 pub const RP_ADAPTIVE: u32 = 16;
+/// Params flag: the passes write each pixel's linear colour, not only its display value.
+pub const RP_LINEAR_COLOR: u32 = 32;
 
 /// reproject.comp stage (its specialization constant 0): scatter the previous cache.
 pub const STAGE_SCATTER: u32 = 0;
@@ -190,13 +194,15 @@ pub struct CacheEntry {
     pub material: u32,
 }
 
-/// What the stages that look at a pixel's neighbours need of the sample it shows after the
-/// scatter and the fill, in pixel order: four words.
+/// What the edge test of a pixel's neighbours needs of the sample a pixel shows after the
+/// scatter, in pixel order: two words (the fewer, the cheaper the stage that reads four of
+/// them per pixel).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Shown {
-    /// As [`CacheEntry::position`].
-    pub position: [f32; 3],
+    /// The sample's tangent plane, as its offset from this frame's camera along its normal:
+    /// `dot(position - camera, normal)` (unused for misses).
+    pub plane: f32,
     /// [`CacheEntry::normal`] with the `SHOWN_*` bits in bits 0-2; 0 where no sample landed.
     pub normal: u32,
 }
@@ -242,8 +248,8 @@ pub struct GpuParams {
     pub frameless_fraction: f32,
     /// Adaptive sub-sampling: largest channel difference to interpolate.
     pub subsample_threshold: f32,
-    /// Padding.
-    pub pad0: u32,
+    /// Tonemap operator of the display pixels (`TONEMAP_*`).
+    pub tonemap_op: u32,
     /// Plane distance / view depth.
     pub plane_threshold: f32,
     /// Smallest dot of the two geometric normals.
@@ -258,4 +264,6 @@ pub struct GpuParams {
     pub fill_radius: f32,
     /// Fills copy samples fewer hops than this from their origin.
     pub max_hops: u32,
+    /// Exposure scale of the display pixels (2^exposure).
+    pub tonemap_scale: f32,
 }

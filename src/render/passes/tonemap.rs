@@ -10,6 +10,15 @@ use crate::vk::{
     Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, MemoryLocation, VkResult,
 };
 
+/// The shaders' `TONEMAP_*` code of `op` (`shaders/common/tonemap.glsl`).
+pub fn operator_code(op: Tonemap) -> u32 {
+    match op {
+        Tonemap::None => io::TONEMAP_NONE,
+        Tonemap::Aces => io::TONEMAP_ACES,
+        Tonemap::KhronosNeutral => io::TONEMAP_KHRONOS_NEUTRAL,
+    }
+}
+
 /// Pipeline and output buffer of the tonemap pass.
 pub struct TonemapPass {
     pipeline: Arc<ComputePipeline>,
@@ -60,11 +69,7 @@ impl TonemapPass {
     ) {
         let push = TonemapPush {
             count: self.count,
-            op: match op {
-                Tonemap::None => io::TONEMAP_NONE,
-                Tonemap::Aces => io::TONEMAP_ACES,
-                Tonemap::KhronosNeutral => io::TONEMAP_KHRONOS_NEUTRAL,
-            },
+            op: operator_code(op),
             scale: exposure.exp2(),
         };
         let mut profiler = profiler;

@@ -156,7 +156,8 @@ impl<'r> Sequence<'r> {
             1,
             RingContents {
                 rgba8: true,
-                color: true,
+                // Reprojected frames hold linear colour only when asked to.
+                color: !options.reuse.any() || options.reuse.linear_color,
                 aov: false,
                 states: true,
             },

@@ -60,7 +60,6 @@ use crate::render::drivers::targets::{FrameRing, RingContents, RingSources};
 pub use crate::render::frame::RenderPath;
 use crate::render::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind, SettingsError};
 use crate::render::passes::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
-use crate::render::passes::tonemap::TonemapPass;
 use crate::render::{merge_scopes, RenderOutput, Renderer};
 use crate::scene::Camera;
 use crate::vk::{
@@ -147,7 +146,9 @@ pub struct Reprojector<'r> {
     /// Indirect dispatch of the tracing passes, sized by their job lists.
     args: Buffer,
     visibility: Visibility,
-    tonemap: TonemapPass,
+    /// The frame's display pixels (RGBA8), written with the colour (tonemapping fused into
+    /// the passes that write colour).
+    display: Buffer,
     /// One slot: what [`Self::render`] reads back (taken while recording into it).
     readback: Option<FrameRing>,
     /// Timestamps of [`Self::render`]'s single frames.
@@ -210,6 +211,7 @@ impl<'r> Reprojector<'r> {
         let key_winner = storage("reproject winners and depth keys", pixels * 8)?;
         let state = storage("reproject states", pixels * 4)?;
         let color = storage("reproject colour", pixels * 16)?;
+        let display = storage("reproject display pixels", pixels * 4)?;
         let shown = storage("reproject shown samples", pixels * SHOWN_BYTES)?;
         let jobs = storage("reproject job lists", u64::from(JOB_LISTS) * pixels * 4)?;
         let counters = storage("reproject counters", u64::from(RP_COUNTER_SLOTS) * 4)?;
@@ -269,6 +271,7 @@ impl<'r> Reprojector<'r> {
                 (BINDING_RP_COUNTERS, storage),
                 (BINDING_RP_DISPATCH_ARGS, storage),
                 (BINDING_RP_SHOWN, storage),
+                (BINDING_RP_RGBA8, storage),
             ];
             b.extend(
                 (0..GBUFFER_FORMATS.len() as u32)
@@ -341,7 +344,8 @@ impl<'r> Reprojector<'r> {
                     .buffer(BINDING_RP_JOBS, &jobs, storage)
                     .buffer(BINDING_RP_COUNTERS, &counters, storage)
                     .buffer(BINDING_RP_DISPATCH_ARGS, &args, storage)
-                    .buffer(BINDING_RP_SHOWN, &shown, storage);
+                    .buffer(BINDING_RP_SHOWN, &shown, storage)
+                    .buffer(BINDING_RP_RGBA8, &display, storage);
                 for (i, image) in visibility.images().iter().enumerate() {
                     set.storage_image(BINDING_RP_GBUFFER + i as u32, image.view());
                 }
@@ -356,7 +360,6 @@ impl<'r> Reprojector<'r> {
                 scatter64_sets.push(make(p, false)?);
             }
         }
-        let tonemap = TonemapPass::new(ctx, &color, pixels as u32)?;
         let readback = FrameRing::new(
             ctx,
             "reproject readback",
@@ -364,7 +367,7 @@ impl<'r> Reprojector<'r> {
             pixels,
             RingContents {
                 rgba8: true,
-                color: true,
+                color: options.linear_color,
                 aov: false,
                 states: true,
             },
@@ -392,7 +395,7 @@ impl<'r> Reprojector<'r> {
             counters,
             args,
             visibility,
-            tonemap,
+            display,
             readback,
             profiler,
             parity: 0,
@@ -414,10 +417,16 @@ impl<'r> Reprojector<'r> {
                 _ => 16,
             })
             .sum();
-        // Per pixel: two caches, the shown records, winner + depth key, state, colour, one
-        // word per job list, the visibility images.
-        let per_pixel =
-            2 * CACHE_ENTRY_BYTES + SHOWN_BYTES + 8 + 4 + 16 + 4 * u64::from(JOB_LISTS) + gbuffer;
+        // Per pixel: two caches, the shown records, winner + depth key, state, colour, display
+        // pixel, one word per job list, the visibility images.
+        let per_pixel = 2 * CACHE_ENTRY_BYTES
+            + SHOWN_BYTES
+            + 8
+            + 4
+            + 16
+            + 4
+            + 4 * u64::from(JOB_LISTS)
+            + gbuffer;
         pixels.saturating_mul(per_pixel)
     }
 

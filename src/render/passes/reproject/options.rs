@@ -62,6 +62,10 @@ pub struct ReuseOptions {
     pub max_age: Option<u32>,
     /// Primary rays of the rt path's visibility check.
     pub rt_visibility: RtVisibility,
+    /// Keep each frame's linear colour (EXR output) besides its display pixels. Off, the
+    /// passes write only the display pixels: one word per pixel instead of five (adaptive
+    /// sub-sampling keeps the colours it interpolates between either way).
+    pub linear_color: bool,
 }
 
 impl Default for ReuseOptions {
@@ -73,6 +77,7 @@ impl Default for ReuseOptions {
             subsample_threshold: DEFAULT_SUBSAMPLE_THRESHOLD,
             max_age: None,
             rt_visibility: RtVisibility::Edges,
+            linear_color: true,
         }
     }
 }

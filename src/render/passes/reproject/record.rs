@@ -44,12 +44,15 @@ impl Reprojector<'_> {
         if o.adaptive_subsample {
             flags |= RP_ADAPTIVE;
         }
+        if o.linear_color || o.adaptive_subsample {
+            flags |= RP_LINEAR_COLOR;
+        }
         let params = GpuParams {
             flags,
             max_age: o.max_age.unwrap_or(u32::MAX),
             frameless_fraction: o.frameless_percent.unwrap_or(0.0) / 100.0,
             subsample_threshold: o.subsample_threshold,
-            pad0: 0,
+            tonemap_op: crate::render::passes::tonemap::operator_code(s.tonemap),
             plane_threshold: PLANE_DISTANCE_THRESHOLD,
             normal_threshold: NORMAL_DOT_THRESHOLD,
             edge_threshold: EDGE_PLANE_THRESHOLD,
@@ -57,6 +60,7 @@ impl Reprojector<'_> {
             specular_roughness: SPECULAR_ROUGHNESS,
             fill_radius: FILL_RADIUS,
             max_hops: MAX_FILL_HOPS,
+            tonemap_scale: s.exposure.exp2(),
         };
         let tiles = [s.width.div_ceil(TILE), s.height.div_ceil(TILE), 1];
         let [stages_set, primary_set, trace_set] = &self.sets[self.parity];
@@ -219,10 +223,9 @@ impl Reprojector<'_> {
                 profiler.as_deref_mut(),
             );
         }
-        if let Some(p) = profiler.as_deref_mut() {
+        if let Some(p) = profiler {
             p.end(cmd);
         }
-        self.tonemap.record(cmd, profiler, s.tonemap, s.exposure);
         if let Some((ring, slot)) = out {
             memory_barrier(device, cmd);
             ring.record_copy(
@@ -231,7 +234,7 @@ impl Reprojector<'_> {
                 slot,
                 &RingSources {
                     counters: &self.counters,
-                    rgba8: &self.tonemap.output,
+                    rgba8: &self.display,
                     color: &self.color,
                     aov: None,
                     states: Some(&self.state),
