@@ -88,7 +88,8 @@ void main() {
         // The hit goes to the G-buffer images for the passes that read it: all of it for a
         // pixel that will be shaded (the tracing pass, the interpolation), only where it is
         // for a reused fill (commit). Most candidates are reused as they are and write
-        // nothing: seven image stores cost more than the primary ray on a CPU device.
+        // nothing (on lavapipe this pass took 2.0 ms instead of 1.3-1.5 ms per 256x256
+        // CornellBox_kajiya frame when every candidate stored all seven texels).
         bool reused = (st & PX_KIND_MASK) == PX_REUSE;
         if (!reused || (st & PX_FILLED) != 0u) {
             if (hit) {
