@@ -25,7 +25,10 @@ layout(constant_id = 0) const uint STAGE = 0u;
 // whose pixels to trace the stage lists (GATHER_NONE: it lists none).
 layout(push_constant) uniform Push { ReprojectPush pc; };
 
-vec3 color_at(uint x, uint y) { return color[y * frame.width + x].rgb; }
+// The colour of a pixel settled earlier this frame: every pixel that has one (reused, traced,
+// interpolated) has it in its next cache entry, so adaptive sub-sampling needs no separate
+// colour buffer.
+vec3 color_at(uint x, uint y) { return cache_next[y * frame.width + x].color; }
 
 // A pixel's 4 edge-sharing neighbours, in pixel order: the records of the samples they show
 // (Shown, written by the previous stage), and their pixel indices (NO_SAMPLE outside the
@@ -249,15 +252,21 @@ void threshold() {
     counters[C_THRESHOLD_FRACTION] = floatBitsToUint(fraction);
 }
 
-uint select_frameless(uint q) {
+// Returns the pixel's state after the selection, and in `e` the sample it shows where it
+// shows one (for the commit that follows, so the entry is gathered once).
+uint select_frameless(uint q, out CacheEntry e) {
     uint st = state[q];
     uint kind = st & PX_KIND_MASK;
+    if (kind != PX_REUSE && kind != PX_VERIFY) {
+        return st;
+    }
+    e = cache_prev[resolved_winner(q)];
     uint limit = counters[C_THRESHOLD_BIN];
-    if ((kind != PX_REUSE && kind != PX_VERIFY) || limit == NO_SAMPLE) {
+    if (limit == NO_SAMPLE) {
         return st;
     }
     float rank = refresh_rank(pixel_of(q));
-    uint bin = refresh_bin(cache_age(cache_prev[resolved_winner(q)].meta), rank);
+    uint bin = refresh_bin(cache_age(e.meta), rank);
     // Within the last bin, the rank's finer digits decide.
     float within = fract(rank * float(RANK_LEVELS));
     if (bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]))) {
@@ -318,7 +327,10 @@ bool interpolate(uint q, out bool uncached) {
     store_color(q, c);
     state[q] = (st & ~PX_KIND_MASK) | PX_INTERP;
     uncached = (params.flags & RP_GBUFFER) == 0u && (st & PX_VERIFIED) == 0u;
-    if (!uncached) {
+    if (uncached) {
+        // For the next level's interpolation and the caching pass, which completes the entry.
+        cache_next[q].color = c;
+    } else {
         // Cached at the pixel's primary hit, flagged so that fills do not copy it (the rt
         // path's pixels without a look at their hit go to the caching pass instead).
         ivec2 ip = ivec2(pix);
@@ -350,12 +362,13 @@ bool interpolate(uint q, out bool uncached) {
 // pixel is committed now, every other pixel starts the next cache empty (the tracing passes
 // fill the ones they trace). Candidates wait for the visibility pass, which does the same for
 // them. Returns the state to count, 0 while the pixel is undecided.
-uint settle(uint q, uint st) {
+// `e`: the sample the pixel shows, read by the stage (classify commits by itself).
+uint settle(uint q, uint st, CacheEntry e) {
     if ((st & PX_KIND_MASK) == PX_VERIFY) {
         return 0u;
     }
     if (STAGE != STAGE_CLASSIFY) {
-        commit(q, st);
+        commit_entry(q, st, e);
     }
     return st;
 }
@@ -388,6 +401,7 @@ void main() {
     bool settling = (STAGE == STAGE_CLASSIFY && !frameless) || STAGE == STAGE_SELECT;
     uint settled = 0u;
     uint st = 0u;
+    CacheEntry shown_entry;
     bool interpolated = false;
     bool uncached = false;
     if (inside) {
@@ -411,12 +425,12 @@ void main() {
         }
         case STAGE_SHOWN: record_shown(q); break;
         case STAGE_CLASSIFY: st = classify(q, settling); break;
-        case STAGE_SELECT: st = select_frameless(q); break;
+        case STAGE_SELECT: st = select_frameless(q, shown_entry); break;
         case STAGE_INTERPOLATE: interpolated = interpolate(q, uncached); break;
         default: break;
         }
         if (settling) {
-            settled = settle(q, st);
+            settled = settle(q, st, shown_entry);
         }
     }
     uint subgroups = gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumSubgroups;

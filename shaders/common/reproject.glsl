@@ -321,6 +321,8 @@ void commit_entry(uint q, uint st, CacheEntry e) {
     vec3 c = e.color;
     if (cache_miss(e)) {
         c = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
+        // The entry holds the colour the pixel shows (adaptive sub-sampling reads it).
+        e.color = c;
     }
     store_color(q, c);
     e.meta = aged(e.meta);

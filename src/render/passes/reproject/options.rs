@@ -63,8 +63,8 @@ pub struct ReuseOptions {
     /// Primary rays of the rt path's visibility check.
     pub rt_visibility: RtVisibility,
     /// Keep each frame's linear colour (EXR output) besides its display pixels. Off, the
-    /// passes write only the display pixels: one word per pixel instead of five (adaptive
-    /// sub-sampling keeps the colours it interpolates between either way).
+    /// passes write only the display pixels: one word per pixel instead of five (the
+    /// colours adaptive sub-sampling interpolates between are in the next cache anyway).
     pub linear_color: bool,
 }
 

@@ -44,7 +44,7 @@ impl Reprojector<'_> {
         if o.adaptive_subsample {
             flags |= RP_ADAPTIVE;
         }
-        if o.linear_color || o.adaptive_subsample {
+        if o.linear_color {
             flags |= RP_LINEAR_COLOR;
         }
         let params = GpuParams {
