@@ -132,10 +132,24 @@ uint fill(ivec2 pix, Neighbours nb) {
     return best;
 }
 
+float refresh_rank(uvec2 pix);
+uint refresh_bin(uint age, float rank);
+bool frameless_selects(uvec2 pix, uint age);
+
+// Frameless rendering: whether a pixel showing sample `e` may keep it this frame (the
+// refresh order decides), as opposed to pixels that must be traced anyway. The samples that
+// classify then rejects (G-buffer, visibility) are traced on top of the budget.
+bool frameless_candidate(CacheEntry e) {
+    return (params.flags & RP_FRAMELESS) != 0u && (e.meta & CACHE_VIEW_DEPENDENT) == 0u && cache_age(e.meta) < params.max_age;
+}
+
 // Records the sample pixel q shows (the scatter's winner) in pixel order, for the stage that
-// looks at neighbours.
+// looks at neighbours. With frameless rendering it also builds the histogram of the
+// candidates' refresh order, so that the threshold is known before classify, which then
+// selects the pixels to refresh itself (one pass over the image, not two).
 void record_shown(uint q) {
     uint w = WINNER(q);
+    bool candidate = false;
     if (w == NO_SAMPLE) {
         shown[q].normal = 0u;
     } else {
@@ -143,15 +157,19 @@ void record_shown(uint q) {
         uint bits = SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u) | (cache_hops(e) < params.max_hops ? SHOWN_COPYABLE : 0u);
         float plane = cache_miss(e) ? 0.0 : dot(e.position - frame.camera_pos, unpack_normal(e.normal));
         shown[q] = Shown(plane, e.normal | bits);
+        candidate = frameless_candidate(e);
+        if (candidate) {
+            atomicAdd(counters[C_HISTOGRAM + refresh_bin(cache_age(e.meta), refresh_rank(pixel_of(q)))], 1u);
+        }
+    }
+    if ((params.flags & RP_FRAMELESS) != 0u) {
+        COUNTER_ADD(counters[C_CANDIDATES], candidate ? 1u : 0u);
     }
 }
 
-float refresh_rank(uvec2 pix);
-uint refresh_bin(uint age, float rank);
-
-// Decides pixel q; when `settling` (the stage that settles pixels), also commits it with the
+// Decides pixel q and, unless it is a candidate for the visibility pass, commits it with the
 // entry it has read anyway. Returns the state.
-uint classify(uint q, bool settling) {
+uint classify(uint q) {
     ivec2 pix = ivec2(pixel_of(q));
     uint w = WINNER(q);
     bool reuse = (params.flags & RP_REUSE) != 0u;
@@ -162,7 +180,10 @@ uint classify(uint q, bool settling) {
         nb = load_neighbours(pix);
     }
     bool filled = false;
-    if (reuse && w == NO_SAMPLE) {
+    bool frameless = (params.flags & RP_FRAMELESS) != 0u;
+    // Frameless rendering traces empty pixels instead of filling them: the histogram counted
+    // them as pixels that must be traced, so the budget holds.
+    if (reuse && w == NO_SAMPLE && !frameless) {
         w = fill(pix, nb);
         if (w != NO_SAMPLE) {
             // Later stages read the choice through resolved_winner(): the depth key is free
@@ -196,19 +217,14 @@ uint classify(uint q, bool settling) {
     if (filled) {
         st |= PX_FILLED;
     }
-    state[q] = st;
-    if (settling && (st & PX_KIND_MASK) != PX_VERIFY) {
-        commit_entry(q, st, e);
-    }
     uint kind = st & PX_KIND_MASK;
-    if ((params.flags & RP_FRAMELESS) != 0u) {
-        bool candidate = kind == PX_REUSE || kind == PX_VERIFY;
-        if (candidate) {
-            atomicAdd(counters[C_HISTOGRAM + refresh_bin(age, refresh_rank(pixel_of(q)))], 1u);
-        }
-        // Summed per subgroup (the histogram's bins differ from pixel to pixel).
-        COUNTER_ADD(counters[C_CANDIDATES], candidate ? 1u : 0u);
-        COUNTER_ADD(counters[C_FORCED], candidate ? 0u : 1u);
+    if (frameless && (kind == PX_REUSE || kind == PX_VERIFY) && frameless_selects(pixel_of(q), age)) {
+        st = PX_TRACE | PX_FRAMELESS;
+        kind = PX_TRACE;
+    }
+    state[q] = st;
+    if (kind != PX_VERIFY) {
+        commit_entry(q, st, e);
     }
     return st;
 }
@@ -231,7 +247,8 @@ uint refresh_bin(uint age, float rank) {
 // the bin where the budget runs out and the share of that bin to take.
 void threshold() {
     uint budget = uint(ceil(params.frameless_fraction * float(pixel_count())));
-    uint forced = counters[C_FORCED];
+    uint forced = pixel_count() - counters[C_CANDIDATES];
+    counters[C_FORCED] = forced;
     uint extra = budget > forced ? budget - forced : 0u;
     uint bin = NO_SAMPLE;
     float fraction = 0.0;
@@ -252,28 +269,17 @@ void threshold() {
     counters[C_THRESHOLD_FRACTION] = floatBitsToUint(fraction);
 }
 
-// Returns the pixel's state after the selection, and in `e` the sample it shows where it
-// shows one (for the commit that follows, so the entry is gathered once).
-uint select_frameless(uint q, out CacheEntry e) {
-    uint st = state[q];
-    uint kind = st & PX_KIND_MASK;
-    if (kind != PX_REUSE && kind != PX_VERIFY) {
-        return st;
-    }
-    e = cache_prev[resolved_winner(q)];
+// Whether the frameless budget refreshes a candidate pixel whose sample is `age` frames old:
+// below the threshold bin, or in it, by the rank's finer digits.
+bool frameless_selects(uvec2 pix, uint age) {
     uint limit = counters[C_THRESHOLD_BIN];
     if (limit == NO_SAMPLE) {
-        return st;
+        return false;
     }
-    float rank = refresh_rank(pixel_of(q));
-    uint bin = refresh_bin(cache_age(e.meta), rank);
-    // Within the last bin, the rank's finer digits decide.
+    float rank = refresh_rank(pix);
+    uint bin = refresh_bin(age, rank);
     float within = fract(rank * float(RANK_LEVELS));
-    if (bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]))) {
-        st = PX_TRACE | PX_FRAMELESS;
-        state[q] = st;
-    }
-    return st;
+    return bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]));
 }
 
 // Compared as displayed, roughly (Reinhard, gamma 2.2): a linear difference that is
@@ -358,19 +364,10 @@ bool interpolate(uint q, out bool uncached) {
     return true;
 }
 
-// The stage that settles pixel q (classify, or with frameless the selection after it): a reused
-// pixel is committed now, every other pixel starts the next cache empty (the tracing passes
-// fill the ones they trace). Candidates wait for the visibility pass, which does the same for
-// them. Returns the state to count, 0 while the pixel is undecided.
-// `e`: the sample the pixel shows, read by the stage (classify commits by itself).
-uint settle(uint q, uint st, CacheEntry e) {
-    if ((st & PX_KIND_MASK) == PX_VERIFY) {
-        return 0u;
-    }
-    if (STAGE != STAGE_CLASSIFY) {
-        commit_entry(q, st, e);
-    }
-    return st;
+// The state classify counts for pixel q: 0 while the pixel is undecided (a candidate for the
+// visibility pass, which settles it).
+uint settled_state(uint st) {
+    return (st & PX_KIND_MASK) == PX_VERIFY ? 0u : st;
 }
 
 // Whether the visibility pass (rt path) looks at pixel q: the candidates. (Pixels that need new
@@ -397,11 +394,9 @@ void main() {
         q = inside ? job_at(LIST_PENDING, i) : 0u;
         pix = pixel_of(q);
     }
-    bool frameless = (params.flags & RP_FRAMELESS) != 0u;
-    bool settling = (STAGE == STAGE_CLASSIFY && !frameless) || STAGE == STAGE_SELECT;
+    bool settling = STAGE == STAGE_CLASSIFY;
     uint settled = 0u;
     uint st = 0u;
-    CacheEntry shown_entry;
     bool interpolated = false;
     bool uncached = false;
     if (inside) {
@@ -424,13 +419,12 @@ void main() {
             break;
         }
         case STAGE_SHOWN: record_shown(q); break;
-        case STAGE_CLASSIFY: st = classify(q, settling); break;
-        case STAGE_SELECT: st = select_frameless(q, shown_entry); break;
+        case STAGE_CLASSIFY: st = classify(q); break;
         case STAGE_INTERPOLATE: interpolated = interpolate(q, uncached); break;
         default: break;
         }
         if (settling) {
-            settled = settle(q, st, shown_entry);
+            settled = settled_state(st);
         }
     }
     uint subgroups = gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumSubgroups;

@@ -48,10 +48,9 @@ pub const STAGE_SCATTER: u32 = 0;
 pub const STAGE_RESOLVE: u32 = 1;
 /// reproject.comp stage: classify pixels (and, without frameless, settle and list them).
 pub const STAGE_CLASSIFY: u32 = 2;
-/// reproject.comp stage: frameless threshold.
+/// reproject.comp stage: frameless threshold (after the shown stage's histogram, before
+/// classify, which selects the pixels to refresh).
 pub const STAGE_THRESHOLD: u32 = 3;
-/// reproject.comp stage: frameless selection (then settle and list the pixels).
-pub const STAGE_SELECT: u32 = 4;
 /// reproject.comp stage: adaptive interpolation.
 pub const STAGE_INTERPOLATE: u32 = 7;
 /// reproject.comp stage: record the sample each pixel shows, in pixel order (`Shown`).

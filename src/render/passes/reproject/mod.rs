@@ -72,12 +72,11 @@ const CACHE_ENTRY_BYTES: u64 = std::mem::size_of::<io::CacheEntry>() as u64;
 const SHOWN_BYTES: u64 = std::mem::size_of::<io::Shown>() as u64;
 
 /// The stages of `reproject.comp`, each its own pipeline.
-const STAGES: [u32; 7] = [
+const STAGES: [u32; 6] = [
     STAGE_CLASSIFY,
     STAGE_SCATTER,
     STAGE_RESOLVE,
     STAGE_THRESHOLD,
-    STAGE_SELECT,
     STAGE_INTERPOLATE,
     STAGE_SHOWN,
 ];

@@ -158,12 +158,10 @@ impl Reprojector<'_> {
         // the pixels left for rays: for the visibility pass (rt path) and for the first trace.
         scope(&mut profiler, "classify");
         if frameless {
-            stage(cmd, STAGE_CLASSIFY, 0, GATHER_NONE);
+            // From the shown stage's histogram of the candidates' refresh order.
             stage(cmd, STAGE_THRESHOLD, 0, GATHER_NONE);
-            stage(cmd, STAGE_SELECT, 0, levels[0]);
-        } else {
-            stage(cmd, STAGE_CLASSIFY, 0, levels[0]);
         }
+        stage(cmd, STAGE_CLASSIFY, 0, levels[0]);
         if rt_verify {
             // Settles the candidates and lists the rejected ones for the first trace.
             traced(
