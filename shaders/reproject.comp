@@ -181,10 +181,9 @@ uint classify(uint q) {
     }
     bool filled = false;
     bool frameless = (params.flags & RP_FRAMELESS) != 0u;
-    // (Frameless rendering's histogram counted an empty pixel as one to trace; filled, it is
-    // kept or refreshed like the candidates, so on a moving camera the refreshed share can
-    // fall short of the budget by the few filled pixels that are kept.)
-    if (reuse && w == NO_SAMPLE) {
+    // Frameless rendering traces empty pixels instead of filling them: the histogram counted
+    // them as pixels that must be traced, so the budget holds.
+    if (reuse && w == NO_SAMPLE && !frameless) {
         w = fill(pix, nb);
         if (w != NO_SAMPLE) {
             // Later stages read the choice through resolved_winner(): the depth key is free
@@ -279,7 +278,6 @@ bool frameless_selects(uvec2 pix, uint age) {
     }
     float rank = refresh_rank(pix);
     uint bin = refresh_bin(age, rank);
-    // Within the last bin, the rank's finer digits decide.
     float within = fract(rank * float(RANK_LEVELS));
     return bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]));
 }

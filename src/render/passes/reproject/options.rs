@@ -50,8 +50,7 @@ pub enum RtVisibility {
 pub struct ReuseOptions {
     /// Reproject the previous frame's samples (`--reproject`).
     pub reproject: bool,
-    /// Re-trace at least this share of the pixels per frame, in percent (`--frameless`; on a
-    /// moving camera, less the few empty pixels filled from a neighbour and kept);
+    /// Re-trace at least this share of the pixels per frame, in percent (`--frameless`);
     /// implies `reproject`.
     pub frameless_percent: Option<f32>,
     /// Adaptive sub-sampling of the pixels that need new colour (`--adaptive-subsample`).
