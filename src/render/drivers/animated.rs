@@ -3,6 +3,9 @@
 //!
 //! [`AnimatedFrames::new`] uploads the scene posed at the first frame and builds its ray
 //! backend once. [`AnimatedFrames::update`] then moves it to a later time:
+//! 0. **previous frame**: the instances and the deformed geometry's vertex ranges are copied
+//!    into the scene's previous-frame buffers ([`GpuScene::keep_previous_frame`]), from which
+//!    the G-buffer's motion vectors take each point's previous position;
 //! 1. **skin**: the GPU skinning/morphing pass ([`crate::render::passes::skinning`]) of every deformed
 //!    (skinned or morphed) instance writes its vertices into the scene's vertex buffers
 //!    (`skin_scatter.comp`); node-only animation does no vertex work;
@@ -17,7 +20,10 @@
 //!    are built again ([`GpuBvh::rebuild_bottom_levels`]).
 //!
 //! Static geometry is never rebuilt nor refitted on either backend ([`AnimationCounters`]
-//! counts the builds). [`AnimatedFrames::update_by_rebuild`] keeps the former path (upload
+//! counts the builds). The scene is still posed on the CPU per frame ([`Scene::posed`],
+//! vertices included): the returned scene gives the frame's bounds, cameras and lights, and
+//! the rare `bvh` bottom-level rebuild builds from its positions; neither the refits nor the
+//! top-level builds read its deformed vertices. [`AnimatedFrames::update_by_rebuild`] keeps the former path (upload
 //! and build everything per frame) for comparisons.
 
 use std::sync::Arc;
