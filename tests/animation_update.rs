@@ -447,3 +447,49 @@ fn gbuffer_motion_vectors_follow_moving_objects() {
     }
     common::assert_validation_clean(&ctx);
 }
+
+/// `GpuBvh::refit_device` reads the skinned vertices on the GPU: positions it did not move
+/// keep the built tree's SAH cost, and a non-finite vertex written there is refused with an
+/// error instead of a tree with NaN boxes.
+#[test]
+fn device_refit_reads_gpu_vertices_and_refuses_non_finite_ones() {
+    use rqr::accel::bvh::refit::DeviceVertices;
+    use rqr::accel::bvh::{BvhBuildOptions, GpuBvh};
+    let ctx = common::gpu();
+    let (rest, anims) = load("RiggedSimple/RiggedSimple.glb");
+    let posed = rest.posed(&anims, 0.5);
+    let gpu = rqr::scene::gpu::GpuScene::upload(&ctx, &posed, 0).unwrap();
+    let opts = BvhBuildOptions::default();
+    let mut bvh = GpuBvh::build_with(&ctx, &posed, &opts, BvhBuild::Gpu).unwrap();
+    let vertices = DeviceVertices {
+        positions: &gpu.positions,
+        first_vertex: gpu
+            .geometry_records
+            .iter()
+            .map(|r| r.first_vertex)
+            .collect(),
+        geometries: vec![0],
+    };
+    let report = bvh.refit_device(&ctx, &posed, &vertices).unwrap();
+    let growth = report.blas_sah_after / report.blas_sah_before - 1.0;
+    assert!(
+        growth.abs() < 1e-3,
+        "unmoved vertices changed the SAH by {growth}"
+    );
+    bvh.rebuild_tlas_deformed(&ctx, &posed, &opts).unwrap();
+
+    let g = &posed.geometries[0];
+    let mut bad: Vec<[f32; 3]> = g.positions.iter().map(|p| p.to_array()).collect();
+    bad[g.indices[0] as usize] = [f32::NAN, 0.0, 0.0];
+    let first = gpu.geometry_records[0].first_vertex as usize;
+    assert_eq!(first, 0, "one geometry: its vertices start the buffer");
+    gpu.positions
+        .upload(&ctx, bytemuck::cast_slice(&bad))
+        .unwrap();
+    let err = bvh
+        .refit_device(&ctx, &posed, &vertices)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("not finite"), "{err}");
+    common::assert_validation_clean(&ctx);
+}
