@@ -461,15 +461,7 @@ fn device_refit_reads_gpu_vertices_and_refuses_non_finite_ones() {
     let gpu = rqr::scene::gpu::GpuScene::upload(&ctx, &posed, 0).unwrap();
     let opts = BvhBuildOptions::default();
     let mut bvh = GpuBvh::build_with(&ctx, &posed, &opts, BvhBuild::Gpu).unwrap();
-    let vertices = DeviceVertices {
-        positions: &gpu.positions,
-        first_vertex: gpu
-            .geometry_records
-            .iter()
-            .map(|r| r.first_vertex)
-            .collect(),
-        geometries: vec![0],
-    };
+    let vertices = DeviceVertices::of_scene(&gpu, vec![0]);
     let report = bvh.refit_device(&ctx, &posed, &vertices).unwrap();
     let growth = report.blas_sah_after / report.blas_sah_before - 1.0;
     assert!(

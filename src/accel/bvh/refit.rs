@@ -72,6 +72,22 @@ pub struct DeviceVertices<'a> {
     pub geometries: Vec<usize>,
 }
 
+impl<'a> DeviceVertices<'a> {
+    /// The vertex buffer of an uploaded scene (where the skinning pass writes), for the bottom
+    /// levels of `geometries`.
+    pub fn of_scene(gpu: &'a crate::scene::gpu::GpuScene, geometries: Vec<usize>) -> Self {
+        Self {
+            positions: &gpu.positions,
+            first_vertex: gpu
+                .geometry_records
+                .iter()
+                .map(|r| r.first_vertex)
+                .collect(),
+            geometries,
+        }
+    }
+}
+
 /// One refitted geometry: where its positions start in the position array.
 struct RefitGeometry {
     geometry: usize,

@@ -376,15 +376,7 @@ impl AnimatedFrames {
         let opts = BvhBuildOptions::default();
         let mut scopes = Vec::new();
         if !self.deformed_geometries.is_empty() {
-            let vertices = DeviceVertices {
-                positions: &gpu.positions,
-                first_vertex: gpu
-                    .geometry_records
-                    .iter()
-                    .map(|r| r.first_vertex)
-                    .collect(),
-                geometries: self.deformed_geometries.clone(),
-            };
+            let vertices = DeviceVertices::of_scene(gpu, self.deformed_geometries.clone());
             let report = bvh.refit_device(ctx, posed, &vertices)?;
             self.counters.bvh_refits += 1;
             let built = *self.bvh_built_sah.get_or_insert(report.blas_sah_before);
