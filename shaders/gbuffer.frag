@@ -43,7 +43,19 @@ void main() {
     g_base = vec4(s.base_color, s.alpha);
     g_emissive = vec4(s.emissive, s.occlusion);
     g_ids = uvec4(pc.instance, in_prim, s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission));
-    vec4 prev = frame.prev_view_proj * vec4(s.position, 1.0);
+    // Motion: where this object-space point was in the previous frame, through the previous
+    // instance transform and (skinned, morphed) vertices; the same arithmetic as
+    // surface_at's position, so a point that did not move gives exactly s.position.
+    vec3 prev_world = s.position;
+    if (scene.prev_positions != scene.positions || scene.prev_instances != scene.instances) {
+        GpuInstance pinst = scene_prev_instance(pc.instance);
+        uvec3 tri = scene_triangle(scene_geometry(pinst.geometry), in_prim);
+        vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+        vec3 p = w.x * scene_prev_position(tri.x) + w.y * scene_prev_position(tri.y) +
+                 w.z * scene_prev_position(tri.z);
+        prev_world = (pinst.object_to_world * vec4(p, 1.0)).xyz;
+    }
+    vec4 prev = frame.prev_view_proj * vec4(prev_world, 1.0);
     vec2 prev_px = (prev.xy / prev.w * 0.5 + 0.5) * vec2(frame.width, frame.height);
     g_bary = vec4(bary, prev_px - (gl_FragCoord.xy + frame.jitter));
 }

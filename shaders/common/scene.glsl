@@ -142,6 +142,10 @@ layout(set = 0, binding = BINDING_SCENE, scalar) uniform SceneRefs {
     float scene_scale;
     vec3 bounds_max;
     uint pad;
+    // The previous frame of an animation (motion vectors): positions and instances, or the
+    // same addresses as `positions` and `instances` when nothing moved.
+    uint64_t prev_positions;
+    uint64_t prev_instances;
 } scene;
 
 layout(set = 0, binding = BINDING_TEXTURES) uniform sampler2D textures[];
@@ -151,6 +155,8 @@ GpuGeometry scene_geometry(uint i) { return GeometryBuf(scene.geometries).v[i]; 
 GpuMaterial scene_material(uint i) { return MaterialBuf(scene.materials).v[i]; }
 GpuLight scene_light(uint i) { return LightBuf(scene.lights).v[i]; }
 vec3 scene_position(uint vertex) { return PositionBuf(scene.positions).v[vertex]; }
+GpuInstance scene_prev_instance(uint i) { return InstanceBuf(scene.prev_instances).v[i]; }
+vec3 scene_prev_position(uint vertex) { return PositionBuf(scene.prev_positions).v[vertex]; }
 GpuVertex scene_vertex(uint vertex) { return VertexBuf(scene.attributes).v[vertex]; }
 
 // Absolute vertex indices of triangle `prim` of geometry `g`.

@@ -23,6 +23,7 @@ pub mod gpu_build;
 pub mod layout;
 pub mod locality;
 pub mod refit;
+mod relink;
 pub mod sah;
 pub mod testing;
 #[cfg(test)]
@@ -299,6 +300,9 @@ pub struct GpuBvh {
     stats: BvhStats,
     /// Made by the first [`Self::refit`].
     refit_plan: Option<Box<refit::RefitPlan>>,
+    /// Made by the first [`Self::refit_device`] (bottom levels only, so top-level rebuilds
+    /// keep it; [`Self::rebuild_bottom_levels`] drops it).
+    device_refit: Option<Box<refit::RefitPlan>>,
     /// Per geometry of the scene built from: (positions, indices), which a refit must keep.
     built_shape: Option<Vec<(usize, usize)>>,
 }
@@ -405,6 +409,7 @@ impl GpuBvh {
             refs_data,
             stats,
             refit_plan: None,
+            device_refit: None,
             built_shape: None,
         })
     }

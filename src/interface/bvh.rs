@@ -164,14 +164,26 @@ pub struct BvhRefitRefs {
     pub object_to_world: u64,
     /// 3 floats per vertex of every refitted geometry.
     pub positions: u64,
-    /// 3 per leaf-order triangle: vertex index into `positions`.
+    /// 3 per refitted triangle: vertex index into `positions`.
     pub vertex_ids: u64,
-    /// Word 0: set when a node could not be quantized.
+    /// Word 0: bit 1 set when a node could not be quantized, bit 2 when a vertex read from
+    /// `positions` was not finite.
     pub status: u64,
+    /// Per refitted triangle: its index in the leaf-order triangle array.
+    pub triangle_ids: u64,
+    /// Per refitted triangle: its bottom level's index into `scales` (read only when
+    /// `gpu_scales` is set).
+    pub triangle_slots: u64,
     /// Nodes below this index belong to the top level.
     pub tlas_nodes: u32,
     /// Triangles to refit.
     pub triangle_count: u32,
+    /// 1: the triangle pass computes the bottom levels' padding scales (`atomicMax` of the
+    /// vertices' largest absolute coordinate into zeroed `scales`), for positions that only
+    /// the GPU has; 0: the host wrote them.
+    pub gpu_scales: u32,
+    /// Padding.
+    pub pad: u32,
 }
 
 /// Words of the GPU build's state buffer.

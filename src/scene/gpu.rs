@@ -33,6 +33,15 @@ pub struct GpuScene {
     pub refs_data: GpuSceneRefs,
     /// Bytes uploaded.
     pub bytes: u64,
+    /// The previous frame's positions and instances of an animation (motion vectors), once
+    /// [`Self::keep_previous_frame`] made them.
+    previous: Option<PreviousFrame>,
+}
+
+/// Copies of the positions and instances as they were in the previous frame.
+struct PreviousFrame {
+    positions: Buffer,
+    instances: Buffer,
 }
 
 fn texture_slot(material: &Material, r: Option<TextureRef>) -> GpuTextureSlot {
@@ -264,6 +273,9 @@ impl GpuScene {
             scene_scale: bounds.diagonal().max(1e-3),
             bounds_max: bounds.max.to_array(),
             pad: 0,
+            // No previous frame: nothing moved.
+            prev_positions: positions_buf.address(),
+            prev_instances: instances_buf.address(),
         };
         let refs = Buffer::from_slice(
             ctx,
@@ -294,6 +306,7 @@ impl GpuScene {
             lights: lights_buf,
             refs,
             geometry_records: geometries,
+            previous: None,
             refs_data,
             bytes,
         })
@@ -334,6 +347,89 @@ impl GpuScene {
             self.refs_data.scene_scale = scene.bounds.diagonal().max(1e-3);
         }
         self.refs.upload(ctx, bytemuck::bytes_of(&self.refs_data))
+    }
+
+    /// Makes `SceneRefs`' `prev_positions` and `prev_instances` point at copies of the
+    /// positions and instances (equal to them until [`Self::record_previous_frame`] runs),
+    /// so that the G-buffer's motion vectors follow moving objects. Waits.
+    pub fn keep_previous_frame(&mut self, ctx: &Context) -> VkResult<()> {
+        let copy = |name: &str, of: &Buffer| {
+            Buffer::new(
+                ctx,
+                name,
+                of.size(),
+                vk::BufferUsageFlags::empty(),
+                crate::vk::MemoryLocation::GpuOnly,
+            )
+        };
+        let previous = PreviousFrame {
+            positions: copy("scene previous positions", &self.positions)?,
+            instances: copy("scene previous instances", &self.instances)?,
+        };
+        ctx.run("previous frame", |cmd| {
+            for (src, dst) in [
+                (&self.positions, &previous.positions),
+                (&self.instances, &previous.instances),
+            ] {
+                let region = vk::BufferCopy::default().size(src.size());
+                // SAFETY: both buffers are alive and `dst` was made with `src`'s size.
+                unsafe {
+                    ctx.device()
+                        .cmd_copy_buffer(cmd, src.raw(), dst.raw(), &[region])
+                };
+            }
+            Ok(())
+        })?;
+        self.refs_data.prev_positions = previous.positions.address();
+        self.refs_data.prev_instances = previous.instances.address();
+        self.previous = Some(previous);
+        self.refs.upload(ctx, bytemuck::bytes_of(&self.refs_data))
+    }
+
+    /// Records the copy of this frame's instances and of the vertex ranges `moving`
+    /// (`(first vertex, count)`: the geometry about to be skinned) into the previous-frame
+    /// buffers of [`Self::keep_previous_frame`] (nothing without them). Static vertices are
+    /// never copied again: their previous positions are their positions.
+    pub fn record_previous_frame(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        moving: &[(u32, u32)],
+    ) {
+        let Some(previous) = &self.previous else {
+            return;
+        };
+        let vertex = std::mem::size_of::<[f32; 3]>() as u64;
+        let regions: Vec<vk::BufferCopy> = moving
+            .iter()
+            .filter(|r| r.1 > 0)
+            .map(|&(first, count)| {
+                vk::BufferCopy::default()
+                    .src_offset(first as u64 * vertex)
+                    .dst_offset(first as u64 * vertex)
+                    .size(count as u64 * vertex)
+            })
+            .collect();
+        let instances = vk::BufferCopy::default().size(self.instances.size());
+        // SAFETY: the buffers are alive, the previous ones have the sizes of the current ones,
+        // and the vertex ranges lie inside the geometry records' ranges.
+        unsafe {
+            let device = ctx.device();
+            if !regions.is_empty() {
+                device.cmd_copy_buffer(
+                    cmd,
+                    self.positions.raw(),
+                    previous.positions.raw(),
+                    &regions,
+                );
+            }
+            device.cmd_copy_buffer(
+                cmd,
+                self.instances.raw(),
+                previous.instances.raw(),
+                &[instances],
+            );
+        }
     }
 
     /// Writes set-0 binding 0 (`SceneRefs`) of a pass's descriptor set.

@@ -231,4 +231,10 @@ pub struct GpuSceneRefs {
     pub bounds_max: [f32; 3],
     /// Padding.
     pub pad: u32,
+    /// `vec3[]` positions of the previous frame of an animation (motion vectors); equal to
+    /// `positions` when nothing moved.
+    pub prev_positions: u64,
+    /// `GpuInstance[]` of the previous frame of an animation; equal to `instances` when
+    /// nothing moved.
+    pub prev_instances: u64,
 }

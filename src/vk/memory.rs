@@ -415,6 +415,55 @@ impl Image {
         self.view
     }
 
+    /// Reads mip 0 of a 16-byte-texel image (`R32G32B32A32_SFLOAT`) back, the image being in
+    /// `layout` (which it stays in) and made with `TRANSFER_SRC`. Waits.
+    pub fn read_rgba32f(&self, ctx: &Context, layout: vk::ImageLayout) -> VkResult<Vec<[f32; 4]>> {
+        if self.format != vk::Format::R32G32B32A32_SFLOAT {
+            return Err(VkError::Limit(format!(
+                "read_rgba32f of a {:?} image",
+                self.format
+            )));
+        }
+        let texels = self.extent.width as usize * self.extent.height as usize;
+        let staging = Buffer::new(
+            ctx,
+            "image readback",
+            (texels * 16) as u64,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::GpuToCpu,
+        )?;
+        ctx.run("image readback", |cmd| {
+            crate::vk::memory_barrier(ctx.device(), cmd);
+            let region = vk::BufferImageCopy::default()
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                })
+                .image_extent(vk::Extent3D {
+                    width: self.extent.width,
+                    height: self.extent.height,
+                    depth: 1,
+                });
+            // SAFETY: the image is alive in `layout` with TRANSFER_SRC usage (the caller's
+            // contract) and the staging buffer holds all of mip 0.
+            unsafe {
+                ctx.device().cmd_copy_image_to_buffer(
+                    cmd,
+                    self.raw,
+                    layout,
+                    staging.raw(),
+                    &[region],
+                )
+            };
+            Ok(())
+        })?;
+        staging
+            .mapped_read(0, texels)
+            .ok_or_else(|| VkError::Limit("image readback buffer is not host-visible".into()))
+    }
+
     /// Records a full layout transition of every mip level, ordering all prior memory
     /// accesses before all later ones (simple and always correct; passes are few and large).
     pub fn transition(&self, cmd: vk::CommandBuffer, old: vk::ImageLayout, new: vk::ImageLayout) {

@@ -60,7 +60,35 @@ impl RefitReport {
     }
 }
 
-/// One refitted geometry: where its positions go in the concatenated array.
+/// Vertex positions that only the GPU has (the skinning pass's output in the scene's vertex
+/// buffer), for [`GpuBvh::refit_device`].
+pub struct DeviceVertices<'a> {
+    /// Tightly packed `vec3` positions of every geometry (`GpuScene::positions`).
+    pub positions: &'a Buffer,
+    /// Per scene geometry: its first vertex in `positions`.
+    pub first_vertex: Vec<u32>,
+    /// Geometries whose bottom levels are refitted (the deformed ones); the others, and the
+    /// top level, are not touched.
+    pub geometries: Vec<usize>,
+}
+
+impl<'a> DeviceVertices<'a> {
+    /// The vertex buffer of an uploaded scene (where the skinning pass writes), for the bottom
+    /// levels of `geometries`.
+    pub fn of_scene(gpu: &'a crate::scene::gpu::GpuScene, geometries: Vec<usize>) -> Self {
+        Self {
+            positions: &gpu.positions,
+            first_vertex: gpu
+                .geometry_records
+                .iter()
+                .map(|r| r.first_vertex)
+                .collect(),
+            geometries,
+        }
+    }
+}
+
+/// One refitted geometry: where its positions start in the position array.
 struct RefitGeometry {
     geometry: usize,
     first_vertex: u32,
@@ -79,11 +107,24 @@ pub(super) struct RefitPlan {
     /// `(first, count)` ranges of `order`, bottom level first.
     levels: Vec<(u32, u32)>,
     node_count: usize,
+    /// Root node of each refitted bottom level, in `geometries` order.
+    roots: Vec<u32>,
+    /// The geometries a device plan was asked for (`DeviceVertices::geometries`).
+    planned_for: Vec<usize>,
+    /// Positions read from a device buffer ([`DeviceVertices`]): only the listed bottom
+    /// levels are refitted and their padding scales computed on the GPU.
+    device: bool,
+    /// Refitted triangles (entries of `triangle_ids`).
+    triangle_count: u32,
+    /// Exact object box of each refitted bottom level after the last refit, in `geometries`
+    /// order (device refits only: the top-level rebuild needs them).
+    pub(super) root_bounds: Vec<(usize, obvhs::aabb::Aabb)>,
     blas_sah: f64,
     tlas_sah: f64,
     nodes_pass: std::sync::Arc<ComputePipeline>,
     triangles_pass: std::sync::Arc<ComputePipeline>,
-    positions: Buffer,
+    /// Host-written positions (`None` when they come from a device buffer).
+    positions: Option<Buffer>,
     object_to_world: Buffer,
     scales: Buffer,
     status: Buffer,
@@ -91,8 +132,10 @@ pub(super) struct RefitPlan {
     // Read by the shaders through `refs` only; kept alive here.
     _order: Buffer,
     _owner: Buffer,
-    _bounds: Buffer,
+    bounds: Buffer,
     _vertex_ids: Buffer,
+    _triangle_ids: Buffer,
+    _triangle_slots: Buffer,
 }
 
 fn refit_error(what: String) -> BvhError {
@@ -134,6 +177,11 @@ fn check_shape(
     )))
 }
 
+/// Summed SAH cost of the bottom levels rooted at `roots`.
+fn roots_cost(nodes: &[BvhNode], roots: &[u32]) -> f64 {
+    roots.iter().map(|&r| sah::subtree_cost(nodes, r)).sum()
+}
+
 /// SAH costs of the bottom levels and the top level of `nodes`.
 fn costs(nodes: &[BvhNode], instances: &[BvhInstance], tlas_nodes: usize) -> (f64, f64) {
     let mut roots: Vec<u32> = instances
@@ -148,7 +196,15 @@ fn costs(nodes: &[BvhNode], instances: &[BvhInstance], tlas_nodes: usize) -> (f6
 }
 
 impl RefitPlan {
-    fn new(ctx: &Context, bvh: &GpuBvh, scene: &Scene) -> Result<Self, BvhError> {
+    /// Plans a refit of every bottom level in the top level and of the top level, from the
+    /// scene's positions (`device: None`), or of the bottom levels of `device.geometries` only,
+    /// from positions on the device.
+    fn new(
+        ctx: &Context,
+        bvh: &GpuBvh,
+        scene: &Scene,
+        device: Option<&DeviceVertices>,
+    ) -> Result<Self, BvhError> {
         check_scene_shape(bvh, scene)?;
         let data = bvh.read_back(ctx)?;
         let nodes = &data.nodes;
@@ -187,7 +243,14 @@ impl RefitPlan {
         let mut roots: Vec<(usize, u32)> = Vec::new();
         for (i, rec) in data.instances.iter().enumerate() {
             let g = rec.geometry as usize;
-            if in_tlas[i] && slot_of_geometry[g].is_none() {
+            let selected = match device {
+                None => in_tlas[i],
+                Some(d) => {
+                    d.geometries.contains(&g)
+                        && (tlas_nodes..nodes.len()).contains(&(rec.blas_root as usize))
+                }
+            };
+            if selected && slot_of_geometry[g].is_none() {
                 slot_of_geometry[g] = Some(roots.len() as u32);
                 roots.push((g, rec.blas_root));
             }
@@ -201,9 +264,25 @@ impl RefitPlan {
         let mut first_vertex = 0u32;
         for &(g, _) in &roots {
             let geom = &scene.geometries[g];
+            let first = match device {
+                None => first_vertex,
+                Some(d) => {
+                    let first = *d.first_vertex.get(g).ok_or_else(|| {
+                        refit_error(format!("geometry {g} has no first vertex on the device"))
+                    })?;
+                    let end = (first as u64 + geom.positions.len() as u64) * 12;
+                    if end > d.positions.size() {
+                        return Err(refit_error(format!(
+                            "geometry {g}'s vertices end at byte {end} of a {}-byte position buffer",
+                            d.positions.size()
+                        )));
+                    }
+                    first
+                }
+            };
             geometries.push(RefitGeometry {
                 geometry: g,
-                first_vertex,
+                first_vertex: first,
                 vertices: geom.positions.len(),
                 indices: geom.indices.len(),
             });
@@ -213,7 +292,10 @@ impl RefitPlan {
         // Owner slots and vertex indices from a walk of every bottom level.
         let mut owner = vec![tlas_slot; nodes.len()];
         let mut used = vec![false; nodes.len()];
-        let mut vertex_ids = vec![0u32; 3 * data.triangles.len()];
+        // Per refitted triangle: leaf-order index, bottom-level slot, three vertex indices.
+        let mut triangle_ids = Vec::new();
+        let mut triangle_slots = Vec::new();
+        let mut vertex_ids = Vec::new();
         let mut max_blas_height = 0;
         for (slot, &(g, root)) in roots.iter().enumerate() {
             let geom = &scene.geometries[g];
@@ -228,6 +310,8 @@ impl RefitPlan {
                         Ok(child) => stack.push(child),
                         Err((first, count)) => {
                             for t in first..first + count {
+                                triangle_ids.push(t);
+                                triangle_slots.push(slot as u32);
                                 let p = data.triangles[t as usize].primitive as usize;
                                 for k in 0..3 {
                                     let v = *geom.indices.get(3 * p + k).ok_or_else(|| {
@@ -241,7 +325,7 @@ impl RefitPlan {
                                             "geometry {g}, triangle {p}: index {v} is out of range"
                                         )));
                                     }
-                                    vertex_ids[3 * t as usize + k] = first_vertex + v;
+                                    vertex_ids.push(first_vertex + v);
                                 }
                             }
                         }
@@ -249,8 +333,12 @@ impl RefitPlan {
                 }
             }
         }
-        // Top-level nodes reachable from the root (a GPU-built top level leaves unused slots).
-        let mut stack = vec![TLAS_ROOT];
+        // Top-level nodes reachable from the root (a GPU-built top level leaves unused slots);
+        // a device refit leaves the top level to a rebuild.
+        let mut stack = match device {
+            None => vec![TLAS_ROOT],
+            Some(_) => Vec::new(),
+        };
         while let Some(n) = stack.pop() {
             let node = &nodes[n as usize];
             used[n as usize] = node.links[0] != LINK_EMPTY;
@@ -278,7 +366,11 @@ impl RefitPlan {
             levels.push((order.len() as u32, level.len() as u32));
             order.extend_from_slice(level);
         }
-        let (blas_sah, tlas_sah) = costs(nodes, &data.instances, tlas_nodes);
+        let root_nodes: Vec<u32> = roots.iter().map(|r| r.1).collect();
+        let (blas_sah, tlas_sah) = match device {
+            None => costs(nodes, &data.instances, tlas_nodes),
+            Some(_) => (roots_cost(nodes, &root_nodes), 0.0),
+        };
 
         let usage = vk::BufferUsageFlags::empty();
         let host = |name: &str, bytes: usize| {
@@ -287,6 +379,10 @@ impl RefitPlan {
         let order_buf = Buffer::from_slice(ctx, "bvh refit order", &order, usage)?;
         let owner_buf = Buffer::from_slice(ctx, "bvh refit owner", &owner, usage)?;
         let vertex_ids_buf = Buffer::from_slice(ctx, "bvh refit vertex ids", &vertex_ids, usage)?;
+        let triangle_ids_buf =
+            Buffer::from_slice(ctx, "bvh refit triangle ids", &triangle_ids, usage)?;
+        let triangle_slots_buf =
+            Buffer::from_slice(ctx, "bvh refit triangle slots", &triangle_slots, usage)?;
         let bounds = Buffer::new(
             ctx,
             "bvh refit bounds",
@@ -294,7 +390,10 @@ impl RefitPlan {
             usage,
             MemoryLocation::GpuOnly,
         )?;
-        let positions = host("bvh refit positions", 12 * first_vertex as usize)?;
+        let positions = match device {
+            None => Some(host("bvh refit positions", 12 * first_vertex as usize)?),
+            Some(_) => None,
+        };
         let object_to_world = host("bvh refit object-to-world", 48 * scene.instances.len())?;
         let scales = host("bvh refit scales", 4 * (roots.len() + 1))?;
         let status = host("bvh refit status", 4)?;
@@ -308,11 +407,19 @@ impl RefitPlan {
             scales: scales.address(),
             instances: bvh.instances.address(),
             object_to_world: object_to_world.address(),
-            positions: positions.address(),
+            positions: match (&positions, device) {
+                (Some(p), _) => p.address(),
+                (None, Some(d)) => d.positions.address(),
+                (None, None) => unreachable!("host refits upload their positions"),
+            },
             vertex_ids: vertex_ids_buf.address(),
             status: status.address(),
+            triangle_ids: triangle_ids_buf.address(),
+            triangle_slots: triangle_slots_buf.address(),
             tlas_nodes: tlas_nodes as u32,
-            triangle_count: data.triangles.len() as u32,
+            triangle_count: triangle_ids.len() as u32,
+            gpu_scales: u32::from(device.is_some()),
+            pad: 0,
         };
         refs.write(bytemuck::bytes_of(&refs_data))?;
         let push = std::mem::size_of::<Push>() as u32;
@@ -324,6 +431,11 @@ impl RefitPlan {
             instances: data.instances.clone(),
             levels,
             node_count: nodes.len(),
+            roots: root_nodes,
+            planned_for: device.map(|d| d.geometries.clone()).unwrap_or_default(),
+            device: device.is_some(),
+            triangle_count: triangle_ids.len() as u32,
+            root_bounds: Vec::new(),
             blas_sah,
             tlas_sah,
             nodes_pass: ComputePipeline::cached(
@@ -347,8 +459,10 @@ impl RefitPlan {
             refs,
             _order: order_buf,
             _owner: owner_buf,
-            _bounds: bounds,
+            bounds,
             _vertex_ids: vertex_ids_buf,
+            _triangle_ids: triangle_ids_buf,
+            _triangle_slots: triangle_slots_buf,
         })
     }
 
@@ -361,6 +475,21 @@ impl RefitPlan {
                 self.instance_geometry.len(),
                 scene.instances.len()
             )));
+        }
+        if self.device {
+            // Positions are on the device; the triangle pass takes the maxima into zeros.
+            for (i, inst) in scene.instances.iter().enumerate() {
+                if inst.geometry != self.instance_geometry[i] {
+                    return Err(refit_error(format!(
+                        "instance {i} now uses geometry {}, the BVH was built with {}",
+                        inst.geometry, self.instance_geometry[i]
+                    )));
+                }
+            }
+            self.scales
+                .write(&vec![0; 4 * (self.geometries.len() + 1)])?;
+            self.status.write(&[0; 4])?;
+            return Ok(());
         }
         let mut positions: Vec<f32> = Vec::new();
         let mut scales: Vec<f32> = Vec::with_capacity(self.geometries.len() + 1);
@@ -421,7 +550,9 @@ impl RefitPlan {
             ));
         }
         scales.push(world);
-        self.positions.write(bytemuck::cast_slice(&positions))?;
+        if let Some(buffer) = &mut self.positions {
+            buffer.write(bytemuck::cast_slice(&positions))?;
+        }
         self.object_to_world.write(bytemuck::cast_slice(&rows))?;
         self.scales.write(bytemuck::cast_slice(&scales))?;
         self.status.write(&[0; 4])?;
@@ -442,10 +573,34 @@ impl GpuBvh {
     pub fn refit(&mut self, ctx: &Context, scene: &Scene) -> Result<RefitReport, BvhError> {
         let mut plan = match self.refit_plan.take() {
             Some(plan) => plan,
-            None => Box::new(RefitPlan::new(ctx, self, scene)?),
+            None => Box::new(RefitPlan::new(ctx, self, scene, None)?),
         };
         let result = self.refit_with(ctx, scene, &mut plan);
         self.refit_plan = Some(plan);
+        result
+    }
+
+    /// Refits the bottom levels of `vertices.geometries` to positions the GPU wrote (the
+    /// skinning pass's output): the triangle copy reads them from `vertices.positions` and
+    /// takes the padding scales on the GPU, so the host never sees the moved vertices. Static
+    /// bottom levels and the top level are not touched: rebuild the top level afterwards
+    /// ([`GpuBvh::rebuild_tlas_deformed`], which uses the refitted bottom levels' boxes). The
+    /// report's SAH costs are those of the refitted bottom levels (top level: 0).
+    ///
+    /// `scene` gives the topology (index buffers, instance geometries), not the positions.
+    /// The plan is made once (one read-back of the BVH) and kept across top-level rebuilds.
+    pub fn refit_device(
+        &mut self,
+        ctx: &Context,
+        scene: &Scene,
+        vertices: &DeviceVertices,
+    ) -> Result<RefitReport, BvhError> {
+        let mut plan = match self.device_refit.take() {
+            Some(plan) if plan.planned_for == vertices.geometries => plan,
+            _ => Box::new(RefitPlan::new(ctx, self, scene, Some(vertices))?),
+        };
+        let result = self.refit_with(ctx, scene, &mut plan);
+        self.device_refit = Some(plan);
         result
     }
 
@@ -456,15 +611,17 @@ impl GpuBvh {
         plan: &mut RefitPlan,
     ) -> Result<RefitReport, BvhError> {
         plan.upload(scene)?;
-        self.instances
-            .upload(ctx, bytemuck::cast_slice(&plan.instances))?;
+        if !plan.device {
+            self.instances
+                .upload(ctx, bytemuck::cast_slice(&plan.instances))?;
+        }
         let mut profiler = if ctx.features().timestamps {
             Some(GpuProfiler::new(ctx, 4)?)
         } else {
             None
         };
         let refs = plan.refs.address();
-        let triangles = self.refs_data.triangle_count;
+        let triangles = plan.triangle_count;
         ctx.run("bvh refit", |cmd| {
             memory_barrier(ctx.device(), cmd);
             if let Some(p) = &mut profiler {
@@ -502,15 +659,38 @@ impl GpuBvh {
             Some(p) => Some(p.results()?.iter().map(|r| r.1).sum()),
             None => None,
         };
-        let status: Vec<u32> = plan.status.read(ctx)?;
-        if status.first().copied().unwrap_or(0) != 0 {
+        let status = plan.status.read::<u32>(ctx)?.first().copied().unwrap_or(0);
+        if status & 2 != 0 {
+            return Err(refit_error(
+                "a vertex written on the GPU (skinning output) is not finite".into(),
+            ));
+        }
+        if status != 0 {
             return Err(refit_error(
                 "moved bounds too large to quantize (beyond ~1e38)".into(),
             ));
         }
         let mut nodes: Vec<BvhNode> = self.nodes.read(ctx)?;
         nodes.truncate(plan.node_count);
-        let (blas, tlas) = costs(&nodes, &plan.instances, self.stats.tlas_nodes);
+        let (blas, tlas) = match plan.device {
+            false => costs(&nodes, &plan.instances, self.stats.tlas_nodes),
+            true => (roots_cost(&nodes, &plan.roots), 0.0),
+        };
+        if plan.device {
+            let bounds: Vec<[f32; 6]> = plan.bounds.read(ctx)?;
+            plan.root_bounds = plan
+                .geometries
+                .iter()
+                .zip(&plan.roots)
+                .map(|(g, &root)| {
+                    let b = bounds[root as usize];
+                    let mut aabb = obvhs::aabb::Aabb::empty();
+                    aabb.extend(Vec3::new(b[0], b[1], b[2]).into());
+                    aabb.extend(Vec3::new(b[3], b[4], b[5]).into());
+                    (g.geometry, aabb)
+                })
+                .collect();
+        }
         let report = RefitReport {
             blas_sah_before: plan.blas_sah,
             blas_sah_after: blas,

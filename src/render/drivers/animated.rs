@@ -3,26 +3,34 @@
 //!
 //! [`AnimatedFrames::new`] uploads the scene posed at the first frame and builds its ray
 //! backend once. [`AnimatedFrames::update`] then moves it to a later time:
+//! 0. **previous frame**: the instances and the deformed geometry's vertex ranges are copied
+//!    into the scene's previous-frame buffers ([`GpuScene::keep_previous_frame`]), from which
+//!    the G-buffer's motion vectors take each point's previous position;
 //! 1. **skin**: the GPU skinning/morphing pass ([`crate::render::passes::skinning`]) of every deformed
 //!    (skinned or morphed) instance writes its vertices into the scene's vertex buffers
 //!    (`skin_scatter.comp`); node-only animation does no vertex work;
 //! 2. instance transforms, lights and the scene bounds are uploaded;
 //! 3. **acceleration structures**: on `hw` the BLASes of deformed geometry are refitted
 //!    (mode `UPDATE`, built again every [`hw_update::DEFAULT_HW_REBUILD_EVERY`] refits) and
-//!    the TLAS is built again ([`hw_update::HwAnimatedAccel`]); on `bvh` the BVH is refitted
-//!    ([`GpuBvh::refit`]) and its top level rebuilt ([`GpuBvh::rebuild_tlas`]), the whole BVH
-//!    being built again once the refitted bottom levels' SAH cost grew past
-//!    [`UpdatePolicy::bvh_max_sah_growth`] over the built tree's.
+//!    the TLAS is built again ([`hw_update::HwAnimatedAccel`]); on `bvh` the bottom levels of
+//!    deformed geometry are refitted from the skinned vertices on the GPU
+//!    ([`GpuBvh::refit_device`]: the host never reads them) and the top level rebuilt
+//!    ([`GpuBvh::rebuild_tlas_deformed`]); once the refitted bottom levels' SAH cost grew past
+//!    [`UpdatePolicy::bvh_max_sah_growth`] over the built trees', those bottom levels alone
+//!    are built again ([`GpuBvh::rebuild_bottom_levels`]).
 //!
-//! Static geometry is never rebuilt on `hw`. The `bvh` backend has no per-geometry rebuild,
-//! so the SAH-triggered rebuild there builds every bottom level ([`AnimationCounters`]
-//! counts it). [`AnimatedFrames::update_by_rebuild`] keeps the former path (upload and build
-//! everything per frame) for comparisons.
+//! Static geometry is never rebuilt nor refitted on either backend ([`AnimationCounters`]
+//! counts the builds). The scene is still posed on the CPU per frame ([`Scene::posed`],
+//! vertices included): the returned scene gives the frame's bounds, cameras and lights, and
+//! the rare `bvh` bottom-level rebuild builds from its positions; neither the refits nor the
+//! top-level builds read its deformed vertices. [`AnimatedFrames::update_by_rebuild`] keeps the former path (upload
+//! and build everything per frame) for comparisons.
 
 use std::sync::Arc;
 
 use ash::vk;
 
+use crate::accel::bvh::refit::DeviceVertices;
 use crate::accel::bvh::{BvhBuild, BvhBuildOptions, GpuBvh};
 use crate::accel::hw_update::{self, HwAnimatedAccel, HwUpdateCounters};
 use crate::accel::{Backend, RayBackend};
@@ -81,12 +89,18 @@ pub struct AnimationCounters {
     pub skin_dispatches: u64,
     /// `hw` builds and refits.
     pub hw: HwUpdateCounters,
-    /// `bvh` refits.
+    /// `bvh` refits of the deformed bottom levels (one per frame with deformed geometry).
     pub bvh_refits: u64,
     /// `bvh` top-level rebuilds.
     pub bvh_tlas_rebuilds: u64,
-    /// `bvh` full builds after creation (SAH growth past the policy's threshold, or a top
-    /// level that no longer fit).
+    /// `bvh` builds of bottom levels of static geometry (one per static geometry at creation;
+    /// more only after a full build).
+    pub bvh_static_blas_builds: u64,
+    /// `bvh` builds of bottom levels of deformed geometry (at creation, and when the SAH
+    /// growth passed the policy's threshold).
+    pub bvh_deformed_blas_builds: u64,
+    /// `bvh` full builds after creation (only when a new top level no longer fit the room the
+    /// built BVH reserved for it).
     pub bvh_full_rebuilds: u64,
     /// Full uploads and builds (creation, and every [`AnimatedFrames::update_by_rebuild`]).
     pub full_builds: u64,
@@ -112,6 +126,8 @@ pub struct AnimatedFrames {
     backend: Backend,
     bvh_build: BvhBuild,
     deformers: Vec<Deformer>,
+    /// Geometries (of the uploaded, posed scene) the deformers write.
+    deformed_geometries: Vec<usize>,
     scatter: Arc<ComputePipeline>,
     /// SAH cost of the `bvh` bottom levels as built (set by the first refit after a build).
     bvh_built_sah: Option<f64>,
@@ -170,7 +186,8 @@ impl AnimatedFrames {
         let posed = rest.posed(animations, time);
         let gpu_textures = crate::scene::textures::GpuTextures::upload(ctx, &posed)?;
         let textures = gpu_textures.descriptors();
-        let gpu = GpuScene::upload(ctx, &posed, textures.len() as u32)?;
+        let mut gpu = GpuScene::upload(ctx, &posed, textures.len() as u32)?;
+        gpu.keep_previous_frame(ctx)?;
         let scatter = ComputePipeline::cached(
             ctx,
             "skin scatter",
@@ -220,6 +237,18 @@ impl AnimatedFrames {
             )?)),
             Backend::Bvh => RayBackend::build(ctx, &posed, &gpu, backend, bvh_build)?,
         };
+        let deformed_geometries: Vec<usize> =
+            (0..deformed.len()).filter(|&g| deformed[g]).collect();
+        let (static_blas, deformed_blas) = match &ray_backend {
+            RayBackend::Bvh(b) => {
+                let deformed = deformed_geometries.len() as u64;
+                (
+                    (b.stats().blas_count as u64).saturating_sub(deformed),
+                    deformed,
+                )
+            }
+            _ => (0, 0),
+        };
         let renderer = Renderer {
             scene_scale: gpu.refs_data.scene_scale,
             gpu,
@@ -239,11 +268,14 @@ impl AnimatedFrames {
             backend,
             bvh_build,
             deformers,
+            deformed_geometries,
             scatter,
             bvh_built_sah: None,
             policy: UpdatePolicy::default(),
             counters: AnimationCounters {
                 full_builds: 1,
+                bvh_static_blas_builds: static_blas,
+                bvh_deformed_blas_builds: deformed_blas,
                 ..Default::default()
             },
         })
@@ -282,6 +314,17 @@ impl AnimatedFrames {
     ) -> crate::Result<(Scene, Vec<(String, f64)>)> {
         let posed = self.rest.posed(&self.animations, time);
         let pose = self.rest.rig.pose(&self.animations, time);
+        // This frame becomes the previous one (motion vectors) before anything moves.
+        let moving: Vec<(u32, u32)> = self
+            .deformers
+            .iter()
+            .map(|d| (d.first_vertex, d.count))
+            .collect();
+        let gpu = &self.renderer.gpu;
+        ctx.run("previous frame", |cmd| {
+            gpu.record_previous_frame(ctx, cmd, &moving);
+            Ok(())
+        })?;
         for d in &mut self.deformers {
             let (joints, weights) = self.rest.instance_deformation(d.instance, &pose);
             d.pass.update(joints.as_deref(), weights)?;
@@ -321,47 +364,73 @@ impl AnimatedFrames {
         Ok((posed, timings))
     }
 
-    /// Refits the compute BVH to `posed` and rebuilds its top level, or builds it again when
-    /// the refit degraded it past the policy (or the new top level does not fit).
+    /// Refits the compute BVH's deformed bottom levels to the skinned vertices on the GPU
+    /// and rebuilds its top level; builds those bottom levels again when the refit degraded
+    /// them past the policy (static ones are kept), and the whole BVH only when the new top
+    /// level does not fit.
     fn update_bvh(&mut self, ctx: &Context, posed: &Scene) -> crate::Result<Vec<(String, f64)>> {
-        let RayBackend::Bvh(bvh) = &mut self.renderer.backend else {
+        let Renderer { gpu, backend, .. } = &mut self.renderer;
+        let RayBackend::Bvh(bvh) = backend else {
             return Ok(Vec::new());
         };
-        let report = bvh.refit(ctx, posed)?;
-        self.counters.bvh_refits += 1;
-        let built = *self.bvh_built_sah.get_or_insert(report.blas_sah_before);
-        let growth = if built > 0.0 {
-            report.blas_sah_after / built - 1.0
-        } else {
-            0.0
-        };
-        self.counters.bvh_max_sah_growth_seen = self.counters.bvh_max_sah_growth_seen.max(growth);
-        let mut scopes = vec![(
-            hw_update::BLAS_PASS_NAME.to_string(),
-            report.gpu_ms.unwrap_or(0.0),
-        )];
-        let rebuild = growth > self.policy.bvh_max_sah_growth;
-        if !rebuild {
-            match bvh.rebuild_tlas(ctx, posed, &BvhBuildOptions::default()) {
-                Ok(()) => {
-                    self.counters.bvh_tlas_rebuilds += 1;
-                    let s = bvh.stats();
-                    let ms = s.gpu_phases.as_ref().map_or(s.tlas_ms, |p| p.tlas_ms);
-                    scopes.push((hw_update::TLAS_PASS_NAME.to_string(), ms));
-                    return Ok(scopes);
-                }
-                Err(e) => {
-                    log::warn!("bvh top level not rebuilt in place ({e}); building the BVH again")
-                }
+        let opts = BvhBuildOptions::default();
+        let mut scopes = Vec::new();
+        if !self.deformed_geometries.is_empty() {
+            let vertices = DeviceVertices::of_scene(gpu, self.deformed_geometries.clone());
+            let report = bvh.refit_device(ctx, posed, &vertices)?;
+            self.counters.bvh_refits += 1;
+            let built = *self.bvh_built_sah.get_or_insert(report.blas_sah_before);
+            let growth = if built > 0.0 {
+                report.blas_sah_after / built - 1.0
+            } else {
+                0.0
+            };
+            self.counters.bvh_max_sah_growth_seen =
+                self.counters.bvh_max_sah_growth_seen.max(growth);
+            scopes.push((
+                hw_update::BLAS_PASS_NAME.to_string(),
+                report.gpu_ms.unwrap_or(0.0),
+            ));
+            if growth > self.policy.bvh_max_sah_growth {
+                log::info!(
+                    "bvh refit: deformed bottom levels {:.0} % costlier than built (threshold {:.0} %): building them again",
+                    growth * 100.0,
+                    self.policy.bvh_max_sah_growth * 100.0
+                );
+                let built = bvh.rebuild_bottom_levels(
+                    ctx,
+                    posed,
+                    &self.deformed_geometries,
+                    &opts,
+                    self.bvh_build,
+                )?;
+                self.bvh_built_sah = None;
+                self.counters.bvh_deformed_blas_builds += self.deformed_geometries.len() as u64;
+                self.counters.bvh_tlas_rebuilds += 1;
+                let blas_ms = match &built.gpu_phases {
+                    Some(p) => p.morton_ms + p.sort_ms + p.clustering_ms + p.collapse_ms,
+                    None => built.blas_ms,
+                };
+                scopes.push(("blas build".into(), blas_ms));
+                scopes.push((hw_update::TLAS_PASS_NAME.to_string(), tlas_ms(bvh)));
+                return Ok(scopes);
             }
-        } else {
-            log::info!(
-                "bvh refit: bottom levels {:.0} % costlier than built (threshold {:.0} %): building again",
-                growth * 100.0,
-                self.policy.bvh_max_sah_growth * 100.0
-            );
         }
-        let new = GpuBvh::build_with(ctx, posed, &BvhBuildOptions::default(), self.bvh_build)?;
+        match bvh.rebuild_tlas_deformed(ctx, posed, &opts) {
+            Ok(()) => {
+                self.counters.bvh_tlas_rebuilds += 1;
+                scopes.push((hw_update::TLAS_PASS_NAME.to_string(), tlas_ms(bvh)));
+                return Ok(scopes);
+            }
+            Err(e) => {
+                log::warn!("bvh top level not rebuilt in place ({e}); building the BVH again")
+            }
+        }
+        let new = GpuBvh::build_with(ctx, posed, &opts, self.bvh_build)?;
+        let deformed = self.deformed_geometries.len() as u64;
+        self.counters.bvh_static_blas_builds +=
+            (new.stats().blas_count as u64).saturating_sub(deformed);
+        self.counters.bvh_deformed_blas_builds += deformed;
         **bvh = new;
         self.bvh_built_sah = None;
         self.counters.bvh_full_rebuilds += 1;
@@ -397,6 +466,12 @@ impl AnimatedFrames {
         let scopes = build_scopes(&self.renderer.backend);
         Ok((posed, scopes))
     }
+}
+
+/// GPU milliseconds of the last top-level build (host milliseconds for a host-built BVH).
+fn tlas_ms(bvh: &GpuBvh) -> f64 {
+    let s = bvh.stats();
+    s.gpu_phases.as_ref().map_or(s.tlas_ms, |p| p.tlas_ms)
 }
 
 /// Records the skinning pass of every deformed instance, then the copies into the scene's

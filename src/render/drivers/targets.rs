@@ -572,6 +572,22 @@ impl FrameTargets {
         &self.readback
     }
 
+    /// The hybrid path's G-buffer image `image` (`GBUFFER_*`, a `R32G32B32A32_SFLOAT` one)
+    /// of the first sample, as the last frame left it: e.g. `GBUFFER_BARY`'s barycentrics and
+    /// motion vectors. `None` on the ray-traced path or without that image.
+    pub fn hybrid_gbuffer(&self, ctx: &Context, image: u32) -> VkResult<Option<Vec<[f32; 4]>>> {
+        let PathPasses::Hybrid { samples, .. } = &self.passes else {
+            return Ok(None);
+        };
+        let Some(image) = samples
+            .first()
+            .and_then(|s| s.gbuffer.images.get(image as usize))
+        else {
+            return Ok(None);
+        };
+        image.read_rgba32f(ctx, vk::ImageLayout::GENERAL).map(Some)
+    }
+
     /// [`Self::output`] of [`Self::readback_ring`].
     pub fn read(&self) -> VkResult<RenderOutput> {
         self.output(&self.readback, 0)

@@ -128,6 +128,36 @@ impl GpuBvh {
         scene: &Scene,
         opts: &BvhBuildOptions,
     ) -> Result<(), BvhError> {
+        self.rebuild_tlas_with(ctx, scene, opts, &[])
+    }
+
+    /// [`Self::rebuild_tlas`] after [`GpuBvh::refit_device`]: the bottom levels that refit
+    /// moved are bounded by their refitted root boxes (read back by the refit), since
+    /// `scene` does not hold the positions the GPU wrote; the other geometries by their
+    /// positions in `scene`.
+    pub fn rebuild_tlas_deformed(
+        &mut self,
+        ctx: &Context,
+        scene: &Scene,
+        opts: &BvhBuildOptions,
+    ) -> Result<(), BvhError> {
+        let known = self
+            .device_refit
+            .as_ref()
+            .map(|p| p.root_bounds.clone())
+            .unwrap_or_default();
+        self.rebuild_tlas_with(ctx, scene, opts, &known)
+    }
+
+    /// Rebuilds the top level with the object boxes `known` (geometry, box) and, for every
+    /// other geometry with a bottom level, the box of its positions in `scene`.
+    fn rebuild_tlas_with(
+        &mut self,
+        ctx: &Context,
+        scene: &Scene,
+        opts: &BvhBuildOptions,
+        known: &[(usize, ObAabb)],
+    ) -> Result<(), BvhError> {
         let t_start = Instant::now();
         crate::accel::bvh::refit::check_scene_shape(self, scene)?;
         let mut records: Vec<BvhInstance> = self.instances.read(ctx)?;
@@ -145,6 +175,11 @@ impl GpuBvh {
         // conservative superset of its usable triangles).
         let tlas_nodes = self.stats.tlas_nodes;
         let mut blas_bounds: Vec<Option<ObAabb>> = vec![None; scene.geometries.len()];
+        for &(g, b) in known {
+            if let Some(slot) = blas_bounds.get_mut(g) {
+                *slot = Some(b);
+            }
+        }
         for rec in &records {
             let g = rec.geometry as usize;
             if (rec.blas_root as usize) < tlas_nodes || blas_bounds[g].is_some() {
@@ -180,7 +215,8 @@ impl GpuBvh {
             phases.tlas_ms = built.phases.total_ms();
         }
         self.stats = stats;
-        // The top level's topology changed: the next refit plans again.
+        // The top level's topology changed: the next refit plans again (a device refit's
+        // plan covers bottom levels only and stays).
         self.refit_plan = None;
         Ok(())
     }
