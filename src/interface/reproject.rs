@@ -27,7 +27,7 @@ pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
 /// The sample each pixel shows (without its colour).
 pub const BINDING_RP_SHOWN: u32 = 21;
 /// The frame's display pixels (RGBA8, one word each), written with the colour.
-pub const BINDING_RP_RGBA8: u32 = 22;
+pub const BINDING_RP_RGBA8: u32 = 24;
 
 /// Params flag: reproject the previous frame's cache.
 pub const RP_REUSE: u32 = 1;
@@ -40,7 +40,7 @@ pub const RP_FRAMELESS: u32 = 8;
 /// Params flag: adaptive sub-sampling of the pixels that need new colour.
 pub const RP_ADAPTIVE: u32 = 16;
 /// Params flag: the passes write each pixel's linear colour, not only its display value.
-pub const RP_LINEAR_COLOR: u32 = 32;
+pub const RP_LINEAR_COLOR: u32 = 64;
 
 /// reproject.comp stage (its specialization constant 0): scatter the previous cache.
 pub const STAGE_SCATTER: u32 = 0;
