@@ -96,6 +96,7 @@ fn two_texel_scene() -> Scene {
             rgba8: black_white.clone(),
             mips: Vec::new(),
             srgb,
+            ktx2: None,
         });
     }
     s.textures.push(Texture {
@@ -190,6 +191,7 @@ fn images_beyond_the_device_limit_fail_clearly() {
         rgba8: Vec::new(),
         mips: Vec::new(),
         srgb: false,
+        ktx2: None,
     });
     let err = GpuTextures::upload(&ctx, &s).err().expect("must fail");
     assert!(matches!(err, VkError::Limit(_)));
@@ -205,6 +207,7 @@ fn images_beyond_the_device_limit_fail_clearly() {
         rgba8: vec![0; 12],
         mips: Vec::new(),
         srgb: false,
+        ktx2: None,
     };
     let msg = GpuTextures::upload(&ctx, &s)
         .err()
