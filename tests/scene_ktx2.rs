@@ -404,7 +404,10 @@ fn read_level(ctx: &Context, tex: &GpuTextures, index: usize, level: u32, bytes:
         // SAFETY: recording command buffer; the image was uploaded with TRANSFER_SRC usage and
         // the buffer holds the whole level.
         unsafe {
-            device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&to_src));
+            device.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
+            );
             device.cmd_copy_image_to_buffer(
                 cmd,
                 image.raw(),
@@ -412,7 +415,10 @@ fn read_level(ctx: &Context, tex: &GpuTextures, index: usize, level: u32, bytes:
                 buffer.raw(),
                 &[copy],
             );
-            device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&back));
+            device.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&back),
+            );
         }
         Ok(())
     })
@@ -465,17 +471,31 @@ fn ktx2_textures_upload_as_blocks_with_the_files_levels() {
                 .transcode(level, target, basisu::DecodeFlags::NONE)
                 .unwrap();
             let side = (SIZE >> level) as usize;
-            assert_eq!(blocks.len(), side.div_ceil(4).pow(2) * 16, "{name} level {level}");
+            assert_eq!(
+                blocks.len(),
+                side.div_ceil(4).pow(2) * 16,
+                "{name} level {level}"
+            );
             let uploaded = read_level(&ctx, &tex, 0, level, blocks.len());
-            assert!(uploaded == blocks, "{name}: level {level} differs from the transcoder's blocks");
+            assert!(
+                uploaded == blocks,
+                "{name}: level {level} differs from the transcoder's blocks"
+            );
         }
         // --texture-format rgba8: the RGBA8 decoded at load, with the file's levels.
         let s = load_rgba8(&doc);
-        assert!(s.images[0].ktx2.is_none(), "{name}: rgba8 keeps no KTX2 file");
+        assert!(
+            s.images[0].ktx2.is_none(),
+            "{name}: rgba8 keeps no KTX2 file"
+        );
         let tex = GpuTextures::upload(&ctx, &s).unwrap();
         assert_eq!(tex.images()[0].format, vk::Format::R8G8B8A8_SRGB, "{name}");
         assert_eq!(tex.images()[0].mip_levels, 7, "{name}");
-        assert_eq!(read_level(&ctx, &tex, 0, 6, 4), s.images[0].mips[5], "{name}: 1x1 level");
+        assert_eq!(
+            read_level(&ctx, &tex, 0, 6, 4),
+            s.images[0].mips[5],
+            "{name}: 1x1 level"
+        );
     }
     // A file with level 0 alone keeps RGBA8, whose chain the upload generates (block formats
     // cannot be blitted).
@@ -492,7 +512,10 @@ fn ktx2_textures_upload_as_blocks_with_the_files_levels() {
 /// files (ETC1S 512², UASTC 256²), the second as linear data.
 fn lamp_textures_quad() -> Vec<u8> {
     let file = |name: &str| {
-        std::fs::read(asset(&format!("StainedGlassLamp_KTX/StainedGlassLamp_{name}.ktx2"))).unwrap()
+        std::fs::read(asset(&format!(
+            "StainedGlassLamp_KTX/StainedGlassLamp_{name}.ktx2"
+        )))
+        .unwrap()
     };
     let mut b = Builder::default();
     let mut doc = quad_doc(&mut b, json!({"material": 0}));
@@ -523,7 +546,11 @@ fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
     let blocks = load(&doc).unwrap();
     let rgba8 = load_rgba8(&doc);
     let tex = GpuTextures::upload(&ctx, &blocks).unwrap();
-    let formats: Vec<_> = tex.images().iter().map(|i| (i.format, i.mip_levels)).collect();
+    let formats: Vec<_> = tex
+        .images()
+        .iter()
+        .map(|i| (i.format, i.mip_levels))
+        .collect();
     assert_eq!(formats, [(srgb_format, 10), (unorm_format, 9)]);
     drop(tex);
     let size = 128;
@@ -583,7 +610,9 @@ fn ktx2_that_fails_the_block_transcode_names_file_and_image() {
             .unwrap_or_else(|| panic!("{want}: uploaded"))
             .to_string();
         assert!(
-            e.starts_with("ktx.gltf: image 0: ") && e.contains(want) && e.contains("--texture-format rgba8"),
+            e.starts_with("ktx.gltf: image 0: ")
+                && e.contains(want)
+                && e.contains("--texture-format rgba8"),
             "want '{want}' in '{e}'"
         );
     }
@@ -670,7 +699,10 @@ fn mutated_ktx2_files_fail_cleanly() {
                     loaded += 1;
                     if let Err(e) = GpuTextures::upload(&ctx, &s) {
                         let e = e.to_string();
-                        assert!(e.starts_with("ktx.gltf: image 0: "), "{name} mutation {i}: {e}");
+                        assert!(
+                            e.starts_with("ktx.gltf: image 0: "),
+                            "{name} mutation {i}: {e}"
+                        );
                         assert!(!e.contains("panicked"), "{name} mutation {i}: {e}");
                         upload_failed += 1;
                     }

@@ -50,7 +50,7 @@ enum Texels<'a> {
     /// The scene's RGBA8 levels (level 0 alone: the upload generates the chain).
     Rgba8(Vec<&'a [u8]>),
     /// Levels transcoded from the image's KTX2 file to a block format.
-    Blocks(vk::Format, Vec<Vec<u8>>),
+    Blocks(vk::Format, BlockLevels),
 }
 
 impl Texels<'_> {
@@ -71,6 +71,9 @@ impl Texels<'_> {
     }
 }
 
+/// Levels 0.. of one image in 4x4 blocks.
+type BlockLevels = Vec<Vec<u8>>;
+
 /// Whether image `img` uploads as `target` blocks: it comes from a KTX2 file that stores its
 /// mip chain (block formats cannot be blitted, so a single-level file of a larger image keeps
 /// RGBA8 and a generated chain).
@@ -85,7 +88,7 @@ fn uses_blocks(img: &ImageData, target: Option<BlockTarget>) -> bool {
 fn transcode_images(
     scene: &Scene,
     target: Option<BlockTarget>,
-) -> VkResult<Vec<Option<(vk::Format, Vec<Vec<u8>>)>>> {
+) -> VkResult<Vec<Option<(vk::Format, BlockLevels)>>> {
     let Some(block) = target else {
         return Ok(scene.images.iter().map(|_| None).collect());
     };
@@ -97,7 +100,7 @@ fn transcode_images(
         .min(jobs.len())
         .max(1);
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<(usize, Result<Vec<Vec<u8>>, String>)> = std::thread::scope(|s| {
+    let results: Vec<(usize, Result<BlockLevels, String>)> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..threads)
             .map(|_| {
                 s.spawn(|| {
@@ -124,7 +127,7 @@ fn transcode_images(
             })
             .collect()
     });
-    let mut out: Vec<Option<(vk::Format, Vec<Vec<u8>>)>> =
+    let mut out: Vec<Option<(vk::Format, BlockLevels)>> =
         scene.images.iter().map(|_| None).collect();
     let mut first_error: Option<(usize, String)> = None;
     for (i, result) in results {
