@@ -590,6 +590,63 @@ fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
 }
 
 #[test]
+fn texture_format_flag_chooses_the_upload() {
+    let dir = std::env::temp_dir().join(format!("rqr-test-ktx2-flag-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let gltf = dir.join("lamp_quad.gltf");
+    std::fs::write(&gltf, lamp_textures_quad()).unwrap();
+    let render = |format: &str| {
+        let png = dir.join(format!("{format}.png"));
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
+            .env("RQR_VALIDATION", "1")
+            .env("RQR_NO_AUTOTUNE", "1")
+            .env("RUST_LOG", "rqr=info")
+            .args([
+                "render",
+                "--width",
+                "48",
+                "--height",
+                "48",
+                "--texture-format",
+                format,
+            ])
+            .arg(&gltf)
+            .arg("-o")
+            .arg(&png)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{format}: {stderr}");
+        assert!(!stderr.contains("VUID"), "{format}: validation: {stderr}");
+        (image::open(&png).unwrap().to_rgba8().into_raw(), stderr)
+    };
+    let (auto, auto_log) = render("auto");
+    let (rgba8, rgba8_log) = render("rgba8");
+    assert!(
+        auto_log.contains("2 of 2 images uploaded as BC7 blocks"),
+        "{auto_log}"
+    );
+    assert!(!rgba8_log.contains("uploaded as"), "{rgba8_log}");
+    let d = compare::compare(48, 48, &rgba8, &auto);
+    eprintln!(
+        "rqr render --texture-format rgba8 vs auto: FLIP mean {:.5}",
+        d.flip_mean
+    );
+    assert!(d.flip_mean < 0.02, "FLIP {}", d.flip_mean);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
+        .args(["render", "--texture-format", "bc9"])
+        .arg(&gltf)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("auto, rgba8"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn ktx2_that_fails_the_block_transcode_names_file_and_image() {
     let ctx = common::gpu();
     device_blocks(&ctx);
