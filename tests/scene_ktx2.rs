@@ -7,14 +7,17 @@
 mod common;
 #[path = "scene_util/ktx2.rs"]
 mod ktx2;
+#[path = "scene_util/readback.rs"]
+mod readback;
 mod scene_util;
 
+use readback::read_level;
 use rqr::accel::Backend;
 use rqr::render::image::compare;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::textures::GpuTextures;
 use rqr::scene::{self, LoadOptions, Scene, TextureFormat};
-use rqr::vk::{vk, Buffer, Context, MemoryLocation};
+use rqr::vk::{vk, Context};
 use scene_util::{asset, base64, png, quad_doc, Builder};
 use serde_json::{json, Value};
 
@@ -302,10 +305,17 @@ fn ktx2_texture_renders_like_its_png() {
     ))
     .unwrap();
     let from_ktx2 = load(&ktx2_quad(&ktx2::encode(&original, SIZE, SIZE, true, true))).unwrap();
-    let camera = scene::auto_camera(&from_png.bounds, 1.0);
+    assert_renders_alike(&ctx, &from_png, &from_ktx2, SIZE, "PNG vs UASTC KTX2 quad");
+    common::assert_validation_clean(&ctx);
+}
+
+/// Renders `a` and `b` (ray traced, from the camera that frames `a`) at `size`² on every
+/// backend the device has, and asserts a mean FLIP below 0.02 between them on each.
+fn assert_renders_alike(ctx: &Context, a: &Scene, b: &Scene, size: u32, label: &str) {
+    let camera = scene::auto_camera(&a.bounds, 1.0);
     let settings = RenderSettings {
-        width: SIZE,
-        height: SIZE,
+        width: size,
+        height: size,
         ..Default::default()
     };
     let mut backends = vec![Backend::Bvh];
@@ -314,116 +324,26 @@ fn ktx2_texture_renders_like_its_png() {
     }
     for backend in backends {
         let render = |s: &Scene| {
-            Renderer::new(&ctx, s, backend)
+            Renderer::new(ctx, s, backend)
                 .unwrap()
-                .render_rt(&ctx, &settings, &camera, false)
+                .render_rt(ctx, &settings, &camera, false)
                 .unwrap()
                 .rgba8
         };
-        let d = compare::compare(SIZE, SIZE, &render(&from_png), &render(&from_ktx2));
+        let d = compare::compare(size, size, &render(a), &render(b));
         eprintln!(
-            "PNG vs UASTC KTX2 quad, {}: FLIP mean {:.5}, PSNR {:.2} dB",
+            "{label}, {}: FLIP mean {:.5}, PSNR {:.2} dB",
             backend.as_str(),
             d.flip_mean,
             d.psnr_db
         );
         assert!(
             d.flip_mean < 0.02,
-            "{}: FLIP {}",
+            "{label}, {}: FLIP {}",
             backend.as_str(),
             d.flip_mean
         );
     }
-    common::assert_validation_clean(&ctx);
-}
-
-/// Copies mip `level` of uploaded image `index` back to the host: `bytes` of RGBA8 texels or
-/// 16-byte blocks, tightly packed.
-fn read_level(ctx: &Context, tex: &GpuTextures, index: usize, level: u32, bytes: usize) -> Vec<u8> {
-    let image = &tex.images()[index];
-    let buffer = Buffer::new(
-        ctx,
-        "level readback",
-        bytes as u64,
-        vk::BufferUsageFlags::empty(),
-        MemoryLocation::GpuToCpu,
-    )
-    .unwrap();
-    let range = vk::ImageSubresourceRange {
-        aspect_mask: vk::ImageAspectFlags::COLOR,
-        base_mip_level: level,
-        level_count: 1,
-        base_array_layer: 0,
-        layer_count: 1,
-    };
-    let transition = |old, new, src: (vk::PipelineStageFlags2, vk::AccessFlags2), dst: (_, _)| {
-        vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(src.0)
-            .src_access_mask(src.1)
-            .dst_stage_mask(dst.0)
-            .dst_access_mask(dst.1)
-            .old_layout(old)
-            .new_layout(new)
-            .image(image.raw())
-            .subresource_range(range)
-    };
-    let sampled = (
-        vk::PipelineStageFlags2::ALL_COMMANDS,
-        vk::AccessFlags2::SHADER_SAMPLED_READ,
-    );
-    let transfer = (
-        vk::PipelineStageFlags2::ALL_TRANSFER,
-        vk::AccessFlags2::TRANSFER_READ,
-    );
-    ctx.run("level readback", |cmd| {
-        let copy = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: level,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: (image.extent.width >> level).max(1),
-                height: (image.extent.height >> level).max(1),
-                depth: 1,
-            });
-        let to_src = [transition(
-            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            sampled,
-            transfer,
-        )];
-        let back = [transition(
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-            transfer,
-            sampled,
-        )];
-        let device = ctx.device();
-        // SAFETY: recording command buffer; the image was uploaded with TRANSFER_SRC usage and
-        // the buffer holds the whole level.
-        unsafe {
-            device.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
-            );
-            device.cmd_copy_image_to_buffer(
-                cmd,
-                image.raw(),
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                buffer.raw(),
-                &[copy],
-            );
-            device.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&back),
-            );
-        }
-        Ok(())
-    })
-    .unwrap();
-    buffer.read::<u8>(ctx).unwrap()
 }
 
 /// The block format this device uploads KTX2 textures as: BC7 on lavapipe and desktop GPUs.
@@ -553,39 +473,13 @@ fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
         .collect();
     assert_eq!(formats, [(srgb_format, 10), (unorm_format, 9)]);
     drop(tex);
-    let size = 128;
-    let camera = scene::auto_camera(&blocks.bounds, 1.0);
-    let settings = RenderSettings {
-        width: size,
-        height: size,
-        ..Default::default()
-    };
-    let mut backends = vec![Backend::Bvh];
-    if ctx.features().ray_query {
-        backends.insert(0, Backend::Hw);
-    }
-    for backend in backends {
-        let render = |s: &Scene| {
-            Renderer::new(&ctx, s, backend)
-                .unwrap()
-                .render_rt(&ctx, &settings, &camera, false)
-                .unwrap()
-                .rgba8
-        };
-        let d = compare::compare(size, size, &render(&rgba8), &render(&blocks));
-        eprintln!(
-            "StainedGlassLamp textures, RGBA8 vs block upload, {}: FLIP mean {:.5}, PSNR {:.2} dB",
-            backend.as_str(),
-            d.flip_mean,
-            d.psnr_db
-        );
-        assert!(
-            d.flip_mean < 0.02,
-            "{}: FLIP {}",
-            backend.as_str(),
-            d.flip_mean
-        );
-    }
+    assert_renders_alike(
+        &ctx,
+        &rgba8,
+        &blocks,
+        128,
+        "StainedGlassLamp textures, RGBA8 vs block upload",
+    );
     common::assert_validation_clean(&ctx);
 }
 
