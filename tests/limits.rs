@@ -122,6 +122,7 @@ fn memory_checks_refuse_work_before_allocating() {
         rgba8: vec![255; 2048 * 2048 * 4],
         mips: Vec::new(),
         srgb: true,
+        ktx2: None,
     });
     let err = GpuTextures::upload(&ctx, &textured)
         .err()

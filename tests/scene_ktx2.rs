@@ -1,17 +1,23 @@
 //! KHR_texture_basisu (KTX2 / Basis Universal) and EXT_texture_webp: textures the test also
 //! keeps uncompressed decode within the codec's tolerance, with the file's mip levels; real
 //! KTX2 files of StainedGlassLamp decode; broken KTX2 files fail naming the file and image;
-//! a KTX2 texture renders like the same texels from a PNG.
+//! a KTX2 texture renders like the same texels from a PNG; KTX2 textures upload as the BC7
+//! blocks the transcoder makes, with the file's levels, and render like their RGBA8 upload.
 
 mod common;
 #[path = "scene_util/ktx2.rs"]
 mod ktx2;
+#[path = "scene_util/readback.rs"]
+mod readback;
 mod scene_util;
 
+use readback::read_level;
 use rqr::accel::Backend;
 use rqr::render::image::compare;
 use rqr::render::{RenderSettings, Renderer};
-use rqr::scene::{self, LoadOptions, Scene};
+use rqr::scene::textures::GpuTextures;
+use rqr::scene::{self, LoadOptions, Scene, TextureFormat};
+use rqr::vk::{vk, Context};
 use scene_util::{asset, base64, png, quad_doc, Builder};
 use serde_json::{json, Value};
 
@@ -90,6 +96,15 @@ fn ktx2_quad(ktx: &[u8]) -> Vec<u8> {
 
 fn load(doc: &[u8]) -> Result<Scene, String> {
     scene::load_slice(doc, None, "ktx.gltf", &LoadOptions::default()).map_err(|e| e.to_string())
+}
+
+/// [`load`] with `--texture-format rgba8`.
+fn load_rgba8(doc: &[u8]) -> Scene {
+    let opts = LoadOptions {
+        texture_format: TextureFormat::Rgba8,
+        ..Default::default()
+    };
+    scene::load_slice(doc, None, "ktx.gltf", &opts).unwrap()
 }
 
 fn psnr(a: &[u8], b: &[u8]) -> f64 {
@@ -290,10 +305,17 @@ fn ktx2_texture_renders_like_its_png() {
     ))
     .unwrap();
     let from_ktx2 = load(&ktx2_quad(&ktx2::encode(&original, SIZE, SIZE, true, true))).unwrap();
-    let camera = scene::auto_camera(&from_png.bounds, 1.0);
+    assert_renders_alike(&ctx, &from_png, &from_ktx2, SIZE, "PNG vs UASTC KTX2 quad");
+    common::assert_validation_clean(&ctx);
+}
+
+/// Renders `a` and `b` (ray traced, from the camera that frames `a`) at `size`² on every
+/// backend the device has, and asserts a mean FLIP below 0.02 between them on each.
+fn assert_renders_alike(ctx: &Context, a: &Scene, b: &Scene, size: u32, label: &str) {
+    let camera = scene::auto_camera(&a.bounds, 1.0);
     let settings = RenderSettings {
-        width: SIZE,
-        height: SIZE,
+        width: size,
+        height: size,
         ..Default::default()
     };
     let mut backends = vec![Backend::Bvh];
@@ -302,24 +324,247 @@ fn ktx2_texture_renders_like_its_png() {
     }
     for backend in backends {
         let render = |s: &Scene| {
-            Renderer::new(&ctx, s, backend)
+            Renderer::new(ctx, s, backend)
                 .unwrap()
-                .render_rt(&ctx, &settings, &camera, false)
+                .render_rt(ctx, &settings, &camera, false)
                 .unwrap()
                 .rgba8
         };
-        let d = compare::compare(SIZE, SIZE, &render(&from_png), &render(&from_ktx2));
+        let d = compare::compare(size, size, &render(a), &render(b));
         eprintln!(
-            "PNG vs UASTC KTX2 quad, {}: FLIP mean {:.5}, PSNR {:.2} dB",
+            "{label}, {}: FLIP mean {:.5}, PSNR {:.2} dB",
             backend.as_str(),
             d.flip_mean,
             d.psnr_db
         );
         assert!(
             d.flip_mean < 0.02,
-            "{}: FLIP {}",
+            "{label}, {}: FLIP {}",
             backend.as_str(),
             d.flip_mean
+        );
+    }
+}
+
+/// The block format this device uploads KTX2 textures as: BC7 on lavapipe and desktop GPUs.
+/// A device with neither BC7 nor ASTC 4x4 fails the block tests (not skipped).
+fn device_blocks(ctx: &Context) -> (basisu::TargetFormat, vk::Format, vk::Format) {
+    let f = ctx.features();
+    if ctx.info().driver_name.contains("llvmpipe") {
+        assert!(f.bc7_textures, "lavapipe samples BC7");
+    }
+    if f.bc7_textures {
+        (
+            basisu::TargetFormat::Bc7Rgba,
+            vk::Format::BC7_SRGB_BLOCK,
+            vk::Format::BC7_UNORM_BLOCK,
+        )
+    } else if f.astc_4x4_textures {
+        (
+            basisu::TargetFormat::Astc4x4Rgba,
+            vk::Format::ASTC_4X4_SRGB_BLOCK,
+            vk::Format::ASTC_4X4_UNORM_BLOCK,
+        )
+    } else {
+        panic!("{} samples neither BC7 nor ASTC 4x4", ctx.info().name)
+    }
+}
+
+#[test]
+fn ktx2_textures_upload_as_blocks_with_the_files_levels() {
+    let ctx = common::gpu();
+    let (target, srgb_format, _) = device_blocks(&ctx);
+    let original = picture(SIZE, SIZE);
+    for (uastc, name) in [(true, "UASTC"), (false, "ETC1S")] {
+        let ktx = ktx2::encode(&original, SIZE, SIZE, uastc, true);
+        let doc = ktx2_quad(&ktx);
+        let s = load(&doc).unwrap();
+        let tex = GpuTextures::upload(&ctx, &s).unwrap();
+        let image = &tex.images()[0];
+        assert_eq!(image.format, srgb_format, "{name}");
+        assert_eq!(image.mip_levels, 7, "{name}: the file's 7 levels");
+        // Every uploaded level holds exactly the transcoder's blocks, down to the 2x2 and
+        // 1x1 levels that take one whole 4x4 block each.
+        let transcoder = basisu::Transcoder::new(&ktx).unwrap();
+        for level in [0, 3, 5, 6] {
+            let blocks = transcoder
+                .transcode(level, target, basisu::DecodeFlags::NONE)
+                .unwrap();
+            let side = (SIZE >> level) as usize;
+            assert_eq!(
+                blocks.len(),
+                side.div_ceil(4).pow(2) * 16,
+                "{name} level {level}"
+            );
+            let uploaded = read_level(&ctx, &tex, 0, level, blocks.len());
+            assert!(
+                uploaded == blocks,
+                "{name}: level {level} differs from the transcoder's blocks"
+            );
+        }
+        // --texture-format rgba8: the RGBA8 decoded at load, with the file's levels.
+        let s = load_rgba8(&doc);
+        assert!(
+            s.images[0].ktx2.is_none(),
+            "{name}: rgba8 keeps no KTX2 file"
+        );
+        let tex = GpuTextures::upload(&ctx, &s).unwrap();
+        assert_eq!(tex.images()[0].format, vk::Format::R8G8B8A8_SRGB, "{name}");
+        assert_eq!(tex.images()[0].mip_levels, 7, "{name}");
+        assert_eq!(
+            read_level(&ctx, &tex, 0, 6, 4),
+            s.images[0].mips[5],
+            "{name}: 1x1 level"
+        );
+    }
+    // A file with level 0 alone keeps RGBA8, whose chain the upload generates (block formats
+    // cannot be blitted).
+    let single = ktx2::encode_with(&original, SIZE, SIZE, true, true, false);
+    let s = load(&ktx2_quad(&single)).unwrap();
+    assert!(s.images[0].mips.is_empty() && s.images[0].ktx2.is_some());
+    let tex = GpuTextures::upload(&ctx, &s).unwrap();
+    assert_eq!(tex.images()[0].format, vk::Format::R8G8B8A8_SRGB);
+    assert_eq!(tex.images()[0].mip_levels, 7, "generated chain");
+    common::assert_validation_clean(&ctx);
+}
+
+/// A quad whose base colour and metallic-roughness come from StainedGlassLamp's two KTX2
+/// files (ETC1S 512², UASTC 256²), the second as linear data.
+fn lamp_textures_quad() -> Vec<u8> {
+    let file = |name: &str| {
+        std::fs::read(asset(&format!(
+            "StainedGlassLamp_KTX/StainedGlassLamp_{name}.ktx2"
+        )))
+        .unwrap()
+    };
+    let mut b = Builder::default();
+    let mut doc = quad_doc(&mut b, json!({"material": 0}));
+    let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
+    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {
+        "baseColorTexture": {"index": 0},
+        "metallicRoughnessTexture": {"index": 1},
+    }}]);
+    doc["images"] = json!([
+        data_uri("image/ktx2", &file("hardware_basecolor")),
+        data_uri("image/ktx2", &file("bulbs_occlusion-rough-metal")),
+    ]);
+    doc["textures"] = json!([
+        {"extensions": {"KHR_texture_basisu": {"source": 0}}},
+        {"extensions": {"KHR_texture_basisu": {"source": 1}}},
+    ]);
+    doc["extensionsUsed"] = json!(["KHR_texture_basisu"]);
+    doc["extensionsRequired"] = json!(["KHR_texture_basisu"]);
+    serde_json::to_vec(&b.document(doc)).unwrap()
+}
+
+#[test]
+fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
+    let ctx = common::gpu();
+    let (_, srgb_format, unorm_format) = device_blocks(&ctx);
+    let doc = lamp_textures_quad();
+    let blocks = load(&doc).unwrap();
+    let rgba8 = load_rgba8(&doc);
+    let tex = GpuTextures::upload(&ctx, &blocks).unwrap();
+    let formats: Vec<_> = tex
+        .images()
+        .iter()
+        .map(|i| (i.format, i.mip_levels))
+        .collect();
+    assert_eq!(formats, [(srgb_format, 10), (unorm_format, 9)]);
+    drop(tex);
+    assert_renders_alike(
+        &ctx,
+        &rgba8,
+        &blocks,
+        128,
+        "StainedGlassLamp textures, RGBA8 vs block upload",
+    );
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn texture_format_flag_chooses_the_upload() {
+    let dir = std::env::temp_dir().join(format!("rqr-test-ktx2-flag-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let gltf = dir.join("lamp_quad.gltf");
+    std::fs::write(&gltf, lamp_textures_quad()).unwrap();
+    let render = |format: &str| {
+        let png = dir.join(format!("{format}.png"));
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
+            .env("RQR_VALIDATION", "1")
+            .env("RQR_NO_AUTOTUNE", "1")
+            .env("RUST_LOG", "rqr=info")
+            .args([
+                "render",
+                "--width",
+                "48",
+                "--height",
+                "48",
+                "--texture-format",
+                format,
+            ])
+            .arg(&gltf)
+            .arg("-o")
+            .arg(&png)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{format}: {stderr}");
+        assert!(!stderr.contains("VUID"), "{format}: validation: {stderr}");
+        (image::open(&png).unwrap().to_rgba8().into_raw(), stderr)
+    };
+    let (auto, auto_log) = render("auto");
+    let (rgba8, rgba8_log) = render("rgba8");
+    assert!(
+        auto_log.contains("2 of 2 images uploaded as BC7 blocks"),
+        "{auto_log}"
+    );
+    assert!(!rgba8_log.contains("uploaded as"), "{rgba8_log}");
+    let d = compare::compare(48, 48, &rgba8, &auto);
+    eprintln!(
+        "rqr render --texture-format rgba8 vs auto: FLIP mean {:.5}",
+        d.flip_mean
+    );
+    assert!(d.flip_mean < 0.02, "FLIP {}", d.flip_mean);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
+        .args(["render", "--texture-format", "bc9"])
+        .arg(&gltf)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("auto, rgba8"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ktx2_that_fails_the_block_transcode_names_file_and_image() {
+    let ctx = common::gpu();
+    device_blocks(&ctx);
+    let ktx = ktx2::encode(&picture(SIZE, SIZE), SIZE, SIZE, true, true);
+    let loaded = load(&ktx2_quad(&ktx)).unwrap();
+    let cases: Vec<(Vec<u8>, &str)> = vec![
+        (ktx[..200].to_vec(), "KTX2 Basis Universal data"),
+        (
+            ktx2::encode(&picture(16, 16), 16, 16, true, true),
+            "KTX2 data is 16x16 with 5 levels, the loaded image 64x64 with 7",
+        ),
+    ];
+    for (bytes, want) in cases {
+        let mut s = loaded.clone();
+        s.images[0].ktx2 = Some(bytes.into());
+        let e = GpuTextures::upload(&ctx, &s)
+            .err()
+            .unwrap_or_else(|| panic!("{want}: uploaded"))
+            .to_string();
+        assert!(
+            e.starts_with("ktx.gltf: image 0: ")
+                && e.contains(want)
+                && e.contains("--texture-format rgba8"),
+            "want '{want}' in '{e}'"
         );
     }
     common::assert_validation_clean(&ctx);
@@ -381,7 +626,10 @@ fn mutated_ktx2_files_fail_cleanly() {
         rng ^= rng << 17;
         rng
     };
-    let (mut loaded, mut failed) = (0, 0);
+    // Each mutant that loads also uploads as blocks, or fails naming the file and image.
+    let ctx = common::gpu();
+    device_blocks(&ctx);
+    let (mut loaded, mut failed, mut upload_failed) = (0, 0, 0);
     for name in [
         "StainedGlassLamp_hardware_basecolor.ktx2",
         "StainedGlassLamp_bulbs_occlusion-rough-metal.ktx2",
@@ -398,7 +646,18 @@ fn mutated_ktx2_files_fail_cleanly() {
                 }
             }
             match load(&ktx2_quad(&ktx)) {
-                Ok(_) => loaded += 1,
+                Ok(s) => {
+                    loaded += 1;
+                    if let Err(e) = GpuTextures::upload(&ctx, &s) {
+                        let e = e.to_string();
+                        assert!(
+                            e.starts_with("ktx.gltf: image 0: "),
+                            "{name} mutation {i}: {e}"
+                        );
+                        assert!(!e.contains("panicked"), "{name} mutation {i}: {e}");
+                        upload_failed += 1;
+                    }
+                }
                 Err(e) => {
                     assert!(
                         e.starts_with("ktx.gltf: image 0"),
@@ -410,5 +669,8 @@ fn mutated_ktx2_files_fail_cleanly() {
             }
         }
     }
-    eprintln!("mutated KTX2 files: {loaded} loaded, {failed} refused");
+    eprintln!(
+        "mutated KTX2 files: {loaded} loaded ({upload_failed} of them refused by the block upload), {failed} refused"
+    );
+    common::assert_validation_clean(&ctx);
 }

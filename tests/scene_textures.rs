@@ -2,87 +2,21 @@
 //! state, validation clean; oversized images fail clearly.
 
 mod common;
+#[path = "scene_util/readback.rs"]
+mod readback;
 mod scene_util;
 
 use common::{assert_validation_clean, gpu};
 use rqr::scene::textures::{mip_levels, GpuTextures};
 use rqr::scene::{self, ImageData, LoadOptions, Sampler, Scene, Texture};
-use rqr::vk::{vk, Buffer, Context, MemoryLocation, VkError};
+use rqr::vk::{vk, Context, VkError};
 
 /// Copies mip `level` of uploaded image `index` back to the host (RGBA8).
 fn read_mip(ctx: &Context, tex: &GpuTextures, index: usize, level: u32) -> Vec<u8> {
     let image = &tex.images()[index];
     let w = (image.extent.width >> level).max(1);
     let h = (image.extent.height >> level).max(1);
-    let buffer = Buffer::new(
-        ctx,
-        "mip readback",
-        u64::from(w * h * 4),
-        vk::BufferUsageFlags::empty(),
-        MemoryLocation::GpuToCpu,
-    )
-    .unwrap();
-    let range = vk::ImageSubresourceRange {
-        aspect_mask: vk::ImageAspectFlags::COLOR,
-        base_mip_level: level,
-        level_count: 1,
-        base_array_layer: 0,
-        layer_count: 1,
-    };
-    ctx.run("mip readback", |cmd| {
-        let to_src = [vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
-            .src_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
-            .dst_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
-            .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)
-            .old_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-            .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-            .image(image.raw())
-            .subresource_range(range)];
-        let copy = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: level,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: w,
-                height: h,
-                depth: 1,
-            });
-        let back = [vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_READ)
-            .dst_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
-            .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
-            .old_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-            .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-            .image(image.raw())
-            .subresource_range(range)];
-        // SAFETY: the image and buffer are alive; layouts match the barriers.
-        unsafe {
-            let d = ctx.device();
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
-            );
-            d.cmd_copy_image_to_buffer(
-                cmd,
-                image.raw(),
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                buffer.raw(),
-                &[copy],
-            );
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&back),
-            );
-        }
-        Ok(())
-    })
-    .unwrap();
-    buffer.read::<u8>(ctx).unwrap()
+    readback::read_level(ctx, tex, index, level, (w * h * 4) as usize)
 }
 
 fn two_texel_scene() -> Scene {
@@ -96,6 +30,7 @@ fn two_texel_scene() -> Scene {
             rgba8: black_white.clone(),
             mips: Vec::new(),
             srgb,
+            ktx2: None,
         });
     }
     s.textures.push(Texture {
@@ -190,6 +125,7 @@ fn images_beyond_the_device_limit_fail_clearly() {
         rgba8: Vec::new(),
         mips: Vec::new(),
         srgb: false,
+        ktx2: None,
     });
     let err = GpuTextures::upload(&ctx, &s).err().expect("must fail");
     assert!(matches!(err, VkError::Limit(_)));
@@ -205,6 +141,7 @@ fn images_beyond_the_device_limit_fail_clearly() {
         rgba8: vec![0; 12],
         mips: Vec::new(),
         srgb: false,
+        ktx2: None,
     };
     let msg = GpuTextures::upload(&ctx, &s)
         .err()

@@ -12,7 +12,7 @@ use rqr::accel::{Backend, BackendChoice};
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::passes::raster_compute::{RasterChoice, RasterMode};
 use rqr::render::{FilterKind, RenderSettings, SamplerKind, Tonemap};
-use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene};
+use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene, TextureFormat};
 use rqr::vk::{Context, ContextOptions, DeviceSelector};
 
 /// Largest image side accepted before a device is opened (the device limit is checked after).
@@ -37,6 +37,11 @@ pub struct SceneArgs {
     /// Pose animated scenes at T seconds (default 0; sequences sample frame k at k/--fps).
     #[arg(long, value_name = "T")]
     pub time: Option<f32>,
+    /// How KTX2 (KHR_texture_basisu) textures reach the GPU: `auto` transcodes them to BC7
+    /// (else ASTC 4x4) where the device samples it (`rqr probe` says), else RGBA8; `rgba8`
+    /// always uploads RGBA8 (four times the memory; to compare with).
+    #[arg(long, value_enum, default_value_t = TextureFormat::Auto)]
+    pub texture_format: TextureFormat,
 }
 
 impl SceneArgs {
@@ -79,6 +84,7 @@ impl SceneArgs {
                 &LoadOptions {
                     scene: self.scene_index,
                     variant: self.variant.clone(),
+                    texture_format: self.texture_format,
                     ..Default::default()
                 },
             )?),

@@ -112,6 +112,15 @@ fn print_device(d: &DeviceInfo, selected: bool) -> Result<(), StdoutError> {
             format!("{} ({})", d.raster, d.raster_reason),
         ),
         ("64-bit buffer atomics", yes(d.buffer_int64_atomics).into()),
+        (
+            "block-compressed textures",
+            match (d.bc7_textures, d.astc_4x4_textures) {
+                (true, true) => "BC7, ASTC 4x4 (KTX2 textures upload as BC7)".into(),
+                (true, false) => "BC7 (KTX2 textures upload as BC7)".into(),
+                (false, true) => "ASTC 4x4 (KTX2 textures upload as ASTC 4x4)".into(),
+                (false, false) => "none (KTX2 textures upload as RGBA8)".into(),
+            },
+        ),
         ("device UUID", d.device_uuid.clone()),
     ];
     for (k, v) in rows {

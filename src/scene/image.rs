@@ -16,6 +16,8 @@ pub(crate) struct Decoded {
     pub rgba8: Vec<u8>,
     /// Levels 1.. as the file stores them (KTX2); empty: rqr generates the chain.
     pub mips: Vec<Vec<u8>>,
+    /// The KTX2 file the levels were transcoded from (see [`super::ImageData::ktx2`]).
+    pub ktx2: Option<std::sync::Arc<[u8]>>,
 }
 
 /// Splits a `data:` URI into its media type and decoded payload. `None`: not a data URI.
@@ -120,7 +122,9 @@ pub(crate) fn decode(bytes: &[u8], mime: Option<&str>, max_size: u32) -> Result<
     if super::ktx2::is_ktx2(bytes) {
         // A full chain of the largest image, the same bound as 8-bit RGBA below.
         let budget = u64::from(max_size) * u64::from(max_size) * 8;
-        return super::ktx2::decode(bytes, max_size, budget);
+        let mut decoded = super::ktx2::decode(bytes, max_size, budget)?;
+        decoded.ktx2 = Some(bytes.into());
+        return Ok(decoded);
     }
     if mime == Some("image/ktx2") {
         return Err("KTX2 header: not a KTX2 file (wrong identifier)".into());
@@ -147,6 +151,7 @@ pub(crate) fn decode(bytes: &[u8], mime: Option<&str>, max_size: u32) -> Result<
         height: h,
         rgba8: img.to_rgba8().into_raw(),
         mips: Vec::new(),
+        ktx2: None,
     })
 }
 

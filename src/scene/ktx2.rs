@@ -4,7 +4,8 @@
 //! The container is checked first (the `ktx2` crate, plus the level index against the file
 //! size and rqr's budgets), so a broken file is refused with the reason before any
 //! transcoding allocates; the `basisu` crate (a pure-Rust port of the reference transcoder)
-//! then transcodes each level.
+//! then transcodes each level. [`transcode_blocks`] transcodes a file the loader accepted again,
+//! to BC7 or ASTC 4x4 blocks, when the device samples one of them (`textures.rs`).
 
 use super::image::Decoded;
 
@@ -191,5 +192,84 @@ pub(crate) fn decode(
         height,
         rgba8,
         mips: levels.collect(),
+        ktx2: None,
     })
+}
+
+/// A 4x4-block format with 16-byte blocks that Basis Universal transcodes to and GPUs sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum BlockTarget {
+    /// BC7 RGBA (desktop GPUs, lavapipe).
+    Bc7,
+    /// ASTC 4x4 LDR RGBA (mobile GPUs).
+    Astc4x4,
+}
+
+impl BlockTarget {
+    /// The format's name in messages.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Self::Bc7 => "BC7",
+            Self::Astc4x4 => "ASTC 4x4",
+        }
+    }
+
+    fn basisu(self) -> basisu::TargetFormat {
+        match self {
+            Self::Bc7 => basisu::TargetFormat::Bc7Rgba,
+            Self::Astc4x4 => basisu::TargetFormat::Astc4x4Rgba,
+        }
+    }
+}
+
+/// Bytes of one 4x4 block of a [`BlockTarget`].
+pub(crate) const BLOCK_BYTES: u64 = 16;
+
+/// Bytes of a `width` x `height` level in 4x4 blocks of 16 bytes (a level smaller than a
+/// block still takes a whole block).
+pub(crate) fn block_level_bytes(width: u32, height: u32) -> u64 {
+    u64::from(width.div_ceil(4)) * u64::from(height.div_ceil(4)) * BLOCK_BYTES
+}
+
+/// Transcodes every level of the KTX2 file `bytes` to `target` blocks: level `l` holds
+/// [`block_level_bytes`] of `max(1, width >> l)` x `max(1, height >> l)`. The file must
+/// be `width` x `height` with `levels` levels, as the loader recorded it.
+pub(crate) fn transcode_blocks(
+    bytes: &[u8],
+    target: BlockTarget,
+    (width, height): (u32, u32),
+    levels: u32,
+) -> Result<Vec<Vec<u8>>, String> {
+    let name = target.name();
+    let transcoder =
+        basisu::Transcoder::new(bytes).map_err(|e| format!("KTX2 Basis Universal data: {e:?}"))?;
+    if transcoder.base_dimensions() != (width, height) || transcoder.level_count() != levels {
+        let (w, h) = transcoder.base_dimensions();
+        return Err(format!(
+            "KTX2 data is {w}x{h} with {} levels, the loaded image {width}x{height} with {levels}",
+            transcoder.level_count()
+        ));
+    }
+    if !transcoder.supports(target.basisu()) {
+        return Err(format!(
+            "KTX2 {:?} data cannot be transcoded to {name}",
+            transcoder.source_format()
+        ));
+    }
+    (0..levels)
+        .map(|level| {
+            let blocks = transcoder
+                .transcode(level, target.basisu(), basisu::DecodeFlags::NONE)
+                .map_err(|e| format!("KTX2 level {level}: cannot transcode to {name}: {e:?}"))?;
+            let (w, h) = ((width >> level).max(1), (height >> level).max(1));
+            let expected = block_level_bytes(w, h);
+            if blocks.len() as u64 != expected {
+                return Err(format!(
+                    "KTX2 level {level}: transcoded {} bytes of {name} for {w}x{h} (expected {expected})",
+                    blocks.len()
+                ));
+            }
+            Ok(blocks)
+        })
+        .collect()
 }

@@ -22,6 +22,7 @@ use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topol
 use super::image::{self as img, MAX_IMAGE_SIZE};
 use super::pose::{self, Rig};
 use super::skin;
+use super::textures::TextureFormat;
 use super::types::*;
 use super::variants;
 
@@ -68,6 +69,9 @@ pub struct LoadOptions {
     /// KHR_materials_variants variant to render (`--variant NAME`); `None`: the default
     /// materials. A name the file does not define fails the load.
     pub variant: Option<String>,
+    /// How KTX2 textures reach the GPU (`--texture-format`): `Auto` keeps each KTX2 file in
+    /// [`ImageData::ktx2`] so the upload can choose a block format the device samples.
+    pub texture_format: TextureFormat,
 }
 
 impl Default for LoadOptions {
@@ -76,6 +80,7 @@ impl Default for LoadOptions {
             scene: None,
             max_image_size: MAX_IMAGE_SIZE,
             variant: None,
+            texture_format: TextureFormat::Auto,
         }
     }
 }

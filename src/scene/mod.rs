@@ -36,4 +36,5 @@ pub use loader::{
     load, load_slice, texture_transform_matrix, LoadOptions, MAX_COORDINATE, MAX_INSTANCES,
     MAX_READ_BYTES, MAX_SCENE_TEXELS, MAX_SCENE_TRIANGLES, MAX_SCENE_VERTICES,
 };
+pub use textures::TextureFormat;
 pub use types::*;

@@ -1,12 +1,157 @@
 //! Uploads a scene's images as sampled Vulkan images with full mip chains, and creates one
 //! sampler per distinct glTF sampler state, for a bindless `sampler2D textures[]` array.
+//! Images loaded from KTX2 files upload as BC7 (or ASTC 4x4) blocks with the file's levels
+//! where the device samples that format, else as RGBA8.
 
 use std::collections::HashMap;
 
 use ash::vk;
 
-use super::types::{Sampler as SamplerState, Scene, Wrap};
+use super::ktx2::{self, BlockTarget};
+use super::types::{ImageData, Sampler as SamplerState, Scene, Wrap};
 use crate::vk::{Buffer, Context, Image, MemoryLocation, Sampler, VkError, VkResult};
+
+/// How KTX2 (KHR_texture_basisu) textures reach the GPU (`--texture-format`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum TextureFormat {
+    /// Transcoded to a block format the device samples (BC7, else ASTC 4x4) with the file's
+    /// mip levels, else RGBA8.
+    #[default]
+    Auto,
+    /// RGBA8, as transcoded at load (four times the memory of BC7; to compare with).
+    Rgba8,
+}
+
+/// The block format KTX2 textures transcode to on `ctx`'s device, if it samples one: BC7
+/// first (desktop GPUs, lavapipe), else ASTC 4x4 (mobile GPUs).
+fn block_target(ctx: &Context) -> Option<BlockTarget> {
+    let f = ctx.features();
+    if f.bc7_textures {
+        Some(BlockTarget::Bc7)
+    } else if f.astc_4x4_textures {
+        Some(BlockTarget::Astc4x4)
+    } else {
+        None
+    }
+}
+
+/// The Vulkan format of `target` blocks, sRGB for colour images.
+fn block_format(target: BlockTarget, srgb: bool) -> vk::Format {
+    match (target, srgb) {
+        (BlockTarget::Bc7, true) => vk::Format::BC7_SRGB_BLOCK,
+        (BlockTarget::Bc7, false) => vk::Format::BC7_UNORM_BLOCK,
+        (BlockTarget::Astc4x4, true) => vk::Format::ASTC_4X4_SRGB_BLOCK,
+        (BlockTarget::Astc4x4, false) => vk::Format::ASTC_4X4_UNORM_BLOCK,
+    }
+}
+
+/// What one image uploads.
+enum Texels<'a> {
+    /// The scene's RGBA8 levels (level 0 alone: the upload generates the chain).
+    Rgba8(Vec<&'a [u8]>),
+    /// Levels transcoded from the image's KTX2 file to a block format.
+    Blocks(vk::Format, BlockLevels),
+}
+
+impl Texels<'_> {
+    fn levels(&self) -> Vec<&[u8]> {
+        match self {
+            Self::Rgba8(levels) => levels.clone(),
+            Self::Blocks(_, levels) => levels.iter().map(Vec::as_slice).collect(),
+        }
+    }
+
+    /// Device memory the image takes: the stored levels, plus a third of level 0 for a
+    /// chain the upload generates.
+    fn device_bytes(&self) -> u64 {
+        match self {
+            Self::Rgba8(levels) if levels.len() == 1 => levels[0].len() as u64 / 3 * 4,
+            _ => self.levels().iter().map(|l| l.len() as u64).sum(),
+        }
+    }
+}
+
+/// Levels 0.. of one image in 4x4 blocks.
+type BlockLevels = Vec<Vec<u8>>;
+
+/// Whether image `img` uploads as `target` blocks: it comes from a KTX2 file that stores its
+/// mip chain (block formats cannot be blitted, so a single-level file of a larger image keeps
+/// RGBA8 and a generated chain).
+fn uses_blocks(img: &ImageData, target: Option<BlockTarget>) -> bool {
+    target.is_some()
+        && img.ktx2.is_some()
+        && (!img.mips.is_empty() || mip_levels(img.width, img.height) == 1)
+}
+
+/// Transcodes the images that [`uses_blocks`] to `target` (in parallel: the transcoder is
+/// single-threaded), naming the file and image on failure; `None` for the others.
+fn transcode_images(
+    scene: &Scene,
+    target: Option<BlockTarget>,
+) -> VkResult<Vec<Option<(vk::Format, BlockLevels)>>> {
+    let Some(block) = target else {
+        return Ok(scene.images.iter().map(|_| None).collect());
+    };
+    let jobs: Vec<usize> = (0..scene.images.len())
+        .filter(|&i| uses_blocks(&scene.images[i], target))
+        .collect();
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(jobs.len())
+        .max(1);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<(usize, Result<BlockLevels, String>)> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut out = Vec::new();
+                    while let Some(&i) =
+                        jobs.get(next.fetch_add(1, std::sync::atomic::Ordering::Relaxed))
+                    {
+                        let img = &scene.images[i];
+                        let levels = 1 + img.mips.len() as u32;
+                        let file = img.ktx2.as_deref().unwrap_or_default();
+                        let blocks =
+                            ktx2::transcode_blocks(file, block, (img.width, img.height), levels);
+                        out.push((i, blocks));
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| vec![(usize::MAX, Err("transcoder panicked".into()))])
+            })
+            .collect()
+    });
+    let mut out: Vec<Option<(vk::Format, BlockLevels)>> =
+        scene.images.iter().map(|_| None).collect();
+    let mut first_error: Option<(usize, String)> = None;
+    for (i, result) in results {
+        match result {
+            Ok(levels) => out[i] = Some((block_format(block, scene.images[i].srgb), levels)),
+            Err(e) if first_error.as_ref().is_none_or(|(j, _)| i < *j) => {
+                first_error = Some((i, e))
+            }
+            Err(_) => {}
+        }
+    }
+    match first_error {
+        Some((i, e)) => Err(VkError::Limit(format!(
+            "{}: image {}: {e} (`--texture-format rgba8` uploads the RGBA8 decoded at load)",
+            scene.source,
+            if i == usize::MAX {
+                "?".to_string()
+            } else {
+                i.to_string()
+            }
+        ))),
+        None => Ok(out),
+    }
+}
 
 /// A scene's textures on the GPU.
 pub struct GpuTextures {
@@ -138,16 +283,36 @@ impl GpuTextures {
                 }
             }
         }
-        // A full mip chain adds a third to the largest level.
-        let bytes: u64 = scene
-            .images
-            .iter()
-            .map(|i| i.rgba8.len() as u64 / 3 * 4)
-            .sum();
+        let target = block_target(ctx);
+        let texels: Vec<Texels> = transcode_images(scene, target)?
+            .into_iter()
+            .zip(&scene.images)
+            .map(|(blocks, img)| match blocks {
+                Some((format, levels)) => Texels::Blocks(format, levels),
+                None => Texels::Rgba8(
+                    std::iter::once(img.rgba8.as_slice())
+                        .chain(img.mips.iter().map(Vec::as_slice))
+                        .collect(),
+                ),
+            })
+            .collect();
+        let bytes: u64 = texels.iter().map(Texels::device_bytes).sum();
         ctx.check_memory(&format!("{}: the scene's textures", scene.source), bytes)?;
+        let compressed = texels
+            .iter()
+            .filter(|t| matches!(t, Texels::Blocks(..)))
+            .count();
+        if let (Some(target), true) = (target, compressed > 0) {
+            log::info!(
+                "{}: {compressed} of {} images uploaded as {} blocks ({bytes} bytes of textures)",
+                scene.source,
+                scene.images.len(),
+                target.name()
+            );
+        }
         let mut images = Vec::with_capacity(scene.images.len());
-        for (i, img) in scene.images.iter().enumerate() {
-            images.push(Self::upload_image(ctx, i, img)?);
+        for (i, (img, texels)) in scene.images.iter().zip(&texels).enumerate() {
+            images.push(Self::upload_image(ctx, i, img, texels)?);
         }
         let mut samplers = Vec::new();
         let mut sampler_of: HashMap<SamplerState, usize> = HashMap::new();
@@ -178,17 +343,23 @@ impl GpuTextures {
         })
     }
 
-    fn upload_image(ctx: &Context, index: usize, img: &super::ImageData) -> VkResult<Image> {
-        let format = if img.srgb {
-            vk::Format::R8G8B8A8_SRGB
-        } else {
-            vk::Format::R8G8B8A8_UNORM
+    fn upload_image(
+        ctx: &Context,
+        index: usize,
+        img: &ImageData,
+        texels: &Texels,
+    ) -> VkResult<Image> {
+        let format = match texels {
+            Texels::Blocks(format, _) => *format,
+            Texels::Rgba8(_) if img.srgb => vk::Format::R8G8B8A8_SRGB,
+            Texels::Rgba8(_) => vk::Format::R8G8B8A8_UNORM,
         };
+        let stored = texels.levels();
         // The file's own levels when it stores them (KTX2), else a full generated chain.
-        let levels = if img.mips.is_empty() {
+        let levels = if stored.len() == 1 {
             mip_levels(img.width, img.height)
         } else {
-            1 + img.mips.len() as u32
+            stored.len() as u32
         };
         let extent = vk::Extent2D {
             width: img.width,
@@ -199,14 +370,13 @@ impl GpuTextures {
             &format!("texture image {index}"),
             extent,
             format,
+            // TRANSFER_SRC: the chain's blits, and readback (block formats are checked for
+            // it by the probe).
             vk::ImageUsageFlags::SAMPLED
                 | vk::ImageUsageFlags::TRANSFER_SRC
                 | vk::ImageUsageFlags::TRANSFER_DST,
             levels,
         )?;
-        let stored: Vec<&[u8]> = std::iter::once(img.rgba8.as_slice())
-            .chain(img.mips.iter().map(Vec::as_slice))
-            .collect();
         let mut staging = Buffer::new(
             ctx,
             "texture staging",
@@ -261,8 +431,11 @@ impl GpuTextures {
                     copy
                 })
                 .collect();
-            // SAFETY: the staging buffer holds every stored level back to back, each
-            // width*height*4 bytes (checked in `upload`); all levels are TRANSFER_DST.
+            // SAFETY: the staging buffer holds every stored level back to back: RGBA8 levels
+            // of width*height*4 bytes (checked in `upload`), or whole 16-byte blocks per
+            // level (checked by the transcode), so every offset is a multiple of the block
+            // size; extents are the levels' texel sizes, which Vulkan allows for a partial
+            // last block; all levels are TRANSFER_DST.
             unsafe {
                 device.cmd_copy_buffer_to_image(
                     cmd,
@@ -272,7 +445,9 @@ impl GpuTextures {
                     &copies,
                 )
             };
-            if stored.len() > 1 {
+            // Stored levels (KTX2, RGBA8 or blocks) are complete; a block-compressed image has
+            // more than one (`uses_blocks`) or is a single 1x1..4x4 level.
+            if stored.len() > 1 || matches!(texels, Texels::Blocks(..)) {
                 pipeline_barrier(
                     device,
                     cmd,

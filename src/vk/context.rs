@@ -55,6 +55,12 @@ pub struct Features {
     /// `shaderBufferInt64Atomics` enabled: the compute rasterizer's one-pass 64-bit
     /// atomic-min (depth | triangle) path.
     pub buffer_int64_atomics: bool,
+    /// `textureCompressionBC` enabled and BC7 sampleable ([`DeviceInfo::bc7_textures`]):
+    /// KTX2 textures upload as BC7.
+    pub bc7_textures: bool,
+    /// `textureCompressionASTC_LDR` enabled and ASTC 4x4 sampleable
+    /// ([`DeviceInfo::astc_4x4_textures`]).
+    pub astc_4x4_textures: bool,
 }
 
 /// Validation messages collected by the debug messenger.
@@ -403,6 +409,9 @@ impl Context {
         let base_enable = vk::PhysicalDeviceFeatures::default()
             .shader_int64(true)
             .sampler_anisotropy(base.sampler_anisotropy == vk::TRUE)
+            // Block-compressed KTX2 textures, where the probe found the formats sampleable.
+            .texture_compression_bc(info.bc7_textures)
+            .texture_compression_astc_ldr(info.astc_4x4_textures)
             .fragment_stores_and_atomics(base.fragment_stores_and_atomics == vk::TRUE);
         let mut e12 = vk::PhysicalDeviceVulkan12Features::default()
             .buffer_device_address(true)
@@ -457,6 +466,8 @@ impl Context {
                 ray_query,
                 timestamps,
                 buffer_int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
+                bc7_textures: info.bc7_textures,
+                astc_4x4_textures: info.astc_4x4_textures,
             },
         ))
     }

@@ -93,6 +93,12 @@ pub struct DeviceInfo {
     pub buffer_int64_atomics: bool,
     /// `VK_KHR_ray_query` usable.
     pub ray_query: bool,
+    /// BC7 textures usable: `textureCompressionBC`, and `BC7_SRGB_BLOCK` and `BC7_UNORM_BLOCK`
+    /// sampled with linear filtering and copied to and from (KTX2 textures upload as BC7).
+    pub bc7_textures: bool,
+    /// ASTC 4x4 LDR textures usable, checked as for [`Self::bc7_textures`]
+    /// (`textureCompressionASTC_LDR`, `ASTC_4X4_SRGB_BLOCK` and `ASTC_4X4_UNORM_BLOCK`).
+    pub astc_4x4_textures: bool,
     /// `VK_KHR_acceleration_structure` usable.
     pub acceleration_structure: bool,
     /// `VK_KHR_ray_tracing_pipeline` supported (rqr does not use it).
@@ -185,6 +191,33 @@ fn c_string(chars: &[std::ffi::c_char]) -> String {
         .unwrap_or_default()
 }
 
+/// Format features a block-compressed texture format needs: copied into from a staging buffer,
+/// sampled with linear filtering (rqr's samplers are linear unless glTF asks otherwise), and
+/// copied out (like every rqr texture: tests read the uploaded levels back).
+const BLOCK_TEXTURE_FEATURES: vk::FormatFeatureFlags = vk::FormatFeatureFlags::from_raw(
+    vk::FormatFeatureFlags::SAMPLED_IMAGE.as_raw()
+        | vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR.as_raw()
+        | vk::FormatFeatureFlags::TRANSFER_DST.as_raw()
+        | vk::FormatFeatureFlags::TRANSFER_SRC.as_raw(),
+);
+
+/// Whether every format of `formats` (an sRGB and a UNORM variant) has
+/// [`BLOCK_TEXTURE_FEATURES`] with optimal tiling. The caller checks the feature bit that
+/// makes these formats legal at all.
+fn block_formats_usable(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+    formats: [vk::Format; 2],
+) -> bool {
+    formats.iter().all(|&f| {
+        // SAFETY: `pd` comes from `instance`; a plain property read.
+        let props = unsafe { instance.get_physical_device_format_properties(pd, f) };
+        props
+            .optimal_tiling_features
+            .contains(BLOCK_TEXTURE_FEATURES)
+    })
+}
+
 /// Reads a physical device's properties, limits and support.
 pub(crate) fn describe_device(
     instance: &ash::Instance,
@@ -234,6 +267,21 @@ pub(crate) fn describe_device(
     };
     let acceleration_structure = has_as && fas.acceleration_structure == vk::TRUE;
     let ray_query = acceleration_structure && has_rq && frq.ray_query == vk::TRUE;
+    let bc7_textures = base_features.texture_compression_bc == vk::TRUE
+        && block_formats_usable(
+            instance,
+            pd,
+            [vk::Format::BC7_SRGB_BLOCK, vk::Format::BC7_UNORM_BLOCK],
+        );
+    let astc_4x4_textures = base_features.texture_compression_astc_ldr == vk::TRUE
+        && block_formats_usable(
+            instance,
+            pd,
+            [
+                vk::Format::ASTC_4X4_SRGB_BLOCK,
+                vk::Format::ASTC_4X4_UNORM_BLOCK,
+            ],
+        );
 
     // SAFETY: as above.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
@@ -282,6 +330,8 @@ pub(crate) fn describe_device(
         device_uuid: uuid_string(&id_props.device_uuid),
         buffer_int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
         ray_query,
+        bc7_textures,
+        astc_4x4_textures,
         acceleration_structure,
         ray_tracing_pipeline: has_rtp,
         as_properties: acceleration_structure.then_some(AsProperties {

@@ -27,13 +27,25 @@ struct Slice {
 /// (`uastc` false) or UASTC, and returns the KTX2 file (BasisLZ for ETC1S, no
 /// supercompression for UASTC).
 pub fn encode(rgba: &[u8], width: u32, height: u32, uastc: bool, srgb: bool) -> Vec<u8> {
+    encode_with(rgba, width, height, uastc, srgb, true)
+}
+
+/// [`encode`], with or without the mip chain (`mipmaps` false: level 0 alone).
+pub fn encode_with(
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    uastc: bool,
+    srgb: bool,
+    mipmaps: bool,
+) -> Vec<u8> {
     let mut params = CompressorParams::new();
     params.set_basis_format(if uastc {
         BasisTextureFormat::UASTC4x4
     } else {
         BasisTextureFormat::ETC1S
     });
-    params.set_generate_mipmaps(true);
+    params.set_generate_mipmaps(mipmaps);
     params.set_color_space(if srgb {
         ColorSpace::Srgb
     } else {

@@ -38,6 +38,7 @@ impl Loader<'_> {
                     rgba8: Vec::new(),
                     mips: Vec::new(),
                     srgb,
+                    ktx2: None,
                 });
                 self.image_sources.push(source);
                 let i = (self.scene.images.len() - 1) as u32;
@@ -254,6 +255,10 @@ impl Loader<'_> {
             data.height = d.height;
             data.rgba8 = d.rgba8;
             data.mips = d.mips;
+            data.ktx2 = match self.opts.texture_format {
+                TextureFormat::Auto => d.ktx2,
+                TextureFormat::Rgba8 => None,
+            };
         }
         Ok(())
     }
