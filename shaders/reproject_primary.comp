@@ -36,11 +36,13 @@ void cache_interpolated(uint q) {
         e.normal = pack_normal(s.ng_front);
         e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u);
         e.material = s.material;
+        anchor_store(q, uint(h.instance), uint(h.primitive), h.barycentrics);
     } else {
         e.position = r.dir;
         e.normal = 0u;
         e.meta = CACHE_VALID | CACHE_MISS;
         e.material = 0u;
+        anchor_clear(q);
     }
     cache_next[q] = e;
 }

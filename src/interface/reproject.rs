@@ -26,6 +26,11 @@ pub const BINDING_RP_GBUFFER: u32 = 13;
 pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
 /// The sample each pixel shows (without its colour).
 pub const BINDING_RP_SHOWN: u32 = 21;
+/// The previous frame's sample anchors ([`Anchor`], per cache slot; read only with
+/// [`RP_MOVING`]).
+pub const BINDING_RP_ANCHORS_PREV: u32 = 22;
+/// The next frame's sample anchors (written only with [`RP_MOVING`]).
+pub const BINDING_RP_ANCHORS_NEXT: u32 = 23;
 
 /// Params flag: reproject the previous frame's cache.
 pub const RP_REUSE: u32 = 1;
@@ -37,6 +42,12 @@ pub const RP_VERIFY_ALL: u32 = 4;
 pub const RP_FRAMELESS: u32 = 8;
 /// Params flag: adaptive sub-sampling of the pixels that need new colour.
 pub const RP_ADAPTIVE: u32 = 16;
+/// Params flag: the scene has moving geometry (animated transforms, skins, morph targets):
+/// every cache entry has an [`Anchor`], and the scatter moves cached samples with their
+/// objects.
+pub const RP_MOVING: u32 = 32;
+/// [`Anchor::instance`] of an entry without an anchor (a miss).
+pub const NO_ANCHOR: u32 = 0xFFFF_FFFF;
 
 /// reproject.comp stage (its specialization constant 0): scatter the previous cache.
 pub const STAGE_SCATTER: u32 = 0;
@@ -188,6 +199,22 @@ pub struct CacheEntry {
     pub meta: u32,
     /// Material index.
     pub material: u32,
+}
+
+/// Where on the scene's geometry a cached sample lies, for scenes with moving geometry
+/// ([`RP_MOVING`]): one per cache slot, in a side buffer double-buffered like the cache (so
+/// static scenes do not pay for it). The scatter recomputes the sample's world position and
+/// normal from this frame's instance transform and (skinned, morphed) vertices.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Anchor {
+    /// Scene instance, or [`NO_ANCHOR`].
+    pub instance: u32,
+    /// Triangle of the instance's geometry.
+    pub primitive: u32,
+    /// Barycentrics (b1, b2) of the point in that triangle (may lie outside it for a fill's
+    /// point on the triangle's plane).
+    pub bary: [f32; 2],
 }
 
 /// What the stages that look at a pixel's neighbours need of the sample it shows after the
