@@ -33,6 +33,13 @@
 //! to trace, pending interpolation, to cache), dispatched indirectly by its length, so its
 //! cost follows its jobs.
 //!
+//! On a scene whose geometry moves between frames ([`Reprojector::track_moving_geometry`];
+//! issue 15), every sample also keeps an anchor (instance, triangle, barycentrics; a side buffer
+//! bound only for such scenes), and the scatter first moves it to where that point is in this
+//! frame (this frame's instance transform and skinned/morphed vertices), so a sample on a moving
+//! object lands where the object went and then meets the same tests as any other
+//! (`shaders/common/reproject_anchor.glsl`).
+//!
 //! Reused samples keep the world position where their colour was computed (as in the Render
 //! Cache, Walter et al. 1999), so the error of a reused pixel stays within its footprint and
 //! does not drift. Fills and interpolated pixels are cached at their own primary hit, flagged
