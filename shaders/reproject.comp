@@ -360,6 +360,7 @@ bool interpolate(uint q, out bool uncached) {
             e.material = material;
         }
         cache_next[q] = e;
+        anchor_from_gbuffer(q, ip);
     }
     return true;
 }
@@ -406,7 +407,14 @@ void main() {
             // Thread q reprojects the sample cached at pixel q of the previous frame. Nearest
             // depth wins; equal depths go to the lowest source index, so the result is
             // deterministic.
-            CacheEntry e = cache_prev[q];
+            // The scatter moves samples on moving geometry with their objects first.
+            // (No ?: between the two: glslang mistypes a buffer struct against a local one.)
+            CacheEntry e;
+            if (STAGE == STAGE_SCATTER) {
+                e = moved_entry(q);
+            } else {
+                e = cache_prev[q];
+            }
             uint target, key;
             vec2 film;
             if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {

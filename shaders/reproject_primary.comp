@@ -36,11 +36,13 @@ void cache_interpolated(uint q) {
         e.normal = pack_normal(s.ng_front);
         e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u);
         e.material = s.material;
+        anchor_store(q, uint(h.instance), uint(h.primitive), h.barycentrics);
     } else {
         e.position = r.dir;
         e.normal = 0u;
         e.meta = CACHE_VALID | CACHE_MISS;
         e.material = 0u;
+        anchor_clear(q);
     }
     cache_next[q] = e;
 }
@@ -87,25 +89,24 @@ void main() {
         state[q] = st;
         // The hit goes to the G-buffer images for the passes that read it: all of it for a
         // pixel that will be shaded (the tracing pass, the interpolation), only where it is
-        // for a reused fill (commit). Most candidates are reused as they are and write
-        // nothing (on lavapipe this pass took 2.0 ms instead of 1.3-1.5 ms per 256x256
-        // CornellBox_kajiya frame when every candidate stored all seven texels).
+        // (and, for moving geometry, its anchor) for a reused fill (commit). Most candidates
+        // are reused as they are and write nothing (on lavapipe this pass took 2.0 ms instead
+        // of 1.3-1.5 ms per 256x256 CornellBox_kajiya frame when every candidate stored all
+        // seven texels).
         bool reused = (st & PX_KIND_MASK) == PX_REUSE;
         if (!reused || (st & PX_FILLED) != 0u) {
             if (hit) {
                 imageStore(g_position, pix, vec4(s.position, h.t));
                 imageStore(g_geometric, pix, vec4(s.ng_front, s.metallic));
+                imageStore(g_ids, pix, uvec4(uint(h.instance), uint(h.primitive), s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission)));
+                imageStore(g_bary, pix, vec4(h.barycentrics, 0.0, 0.0));
+            } else {
+                imageStore(g_ids, pix, uvec4(0xFFFFFFFFu));
             }
-            if (!reused) {
-                if (hit) {
-                    imageStore(g_normal, pix, vec4(s.n, s.roughness));
-                    imageStore(g_base, pix, vec4(s.base_color, s.alpha));
-                    imageStore(g_emissive, pix, vec4(s.emissive, s.occlusion));
-                    imageStore(g_ids, pix, uvec4(uint(h.instance), uint(h.primitive), s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission)));
-                    imageStore(g_bary, pix, vec4(h.barycentrics, 0.0, 0.0));
-                } else {
-                    imageStore(g_ids, pix, uvec4(0xFFFFFFFFu));
-                }
+            if (!reused && hit) {
+                imageStore(g_normal, pix, vec4(s.n, s.roughness));
+                imageStore(g_base, pix, vec4(s.base_color, s.alpha));
+                imageStore(g_emissive, pix, vec4(s.emissive, s.occlusion));
             }
         }
         if (candidate) {

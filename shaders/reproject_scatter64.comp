@@ -22,7 +22,8 @@ void main() {
         return;
     }
     uint q = pix.y * frame.width + pix.x;
-    CacheEntry e = cache_prev[q];
+    // Samples on moving geometry move with their objects first (reproject_anchor.glsl).
+    CacheEntry e = moved_entry(q);
     uint target, key;
     vec2 film;
     if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {

@@ -84,11 +84,14 @@ void main() {
         e.normal = pack_normal(info.normal);
         e.meta = CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u);
         e.material = material;
+        // The G-buffer's barycentrics where the primary hit came from there.
+        anchor_store(q, uint(info.instance), uint(info.primitive), known ? imageLoad(g_bary, pix).xy : info.bary);
     } else {
         e.position = camera.dir;
         e.normal = 0u;
         e.meta = CACHE_VALID | CACHE_MISS;
         e.material = 0u;
+        anchor_clear(q);
     }
     cache_next[q] = e;
 

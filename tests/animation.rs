@@ -351,22 +351,40 @@ fn cli_renders_animated_frames_on_both_backends() {
         let d = rqr::render::image::compare::compare(48, 48, a.as_raw(), b.as_raw());
         assert!(d.flip_mean < 0.01, "hw vs bvh frame: FLIP {}", d.flip_mean);
     }
-    // Reuse between frames is refused with a clear error rather than rendered wrongly.
-    let (o, _) = common::run_rqr(
-        &[
+    // Reuse between frames keeps one renderer updated in place (samples move with their
+    // objects, tests/reproject_animated.rs); the per-frame rebuild, which replaces that
+    // renderer, is refused with a clear error rather than rendered wrongly.
+    let run = |extra: &[&str], name: &str| {
+        let out = dir.join(name);
+        let mut a = vec![
             "render",
             scene.to_str().unwrap(),
+            "--width",
+            "48",
+            "--height",
+            "48",
             "--frames",
             "2",
             "--reproject",
             "-o",
-            dir.join("r.png").to_str().unwrap(),
-        ],
-        &[("RQR_NO_AUTOTUNE", "1")],
-        std::time::Duration::from_secs(120),
-    );
+            out.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        common::run_rqr(
+            &a,
+            &[("RQR_NO_AUTOTUNE", "1")],
+            std::time::Duration::from_secs(120),
+        )
+        .0
+    };
+    for backend in ["hw", "bvh"] {
+        let o = run(&["--backend", backend], &format!("r_{backend}.png"));
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(dir.join(format!("r_{backend}_0001.png")).exists());
+    }
+    let o = run(&["--animation-update", "rebuild"], "rr.png");
     assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("animated scenes"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--animation-update refit"));
     std::fs::remove_dir_all(&dir).ok();
 }
 

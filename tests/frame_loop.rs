@@ -31,14 +31,14 @@ fn orbit(scene: &Scene) -> CameraPath {
     }
 }
 
-fn sequence<'r>(
+fn sequence(
     ctx: &Context,
-    r: &'r Renderer,
+    r: &Renderer,
     scene: &Scene,
     path: RenderPath,
     reuse: ReuseOptions,
     reference: bool,
-) -> Sequence<'r> {
+) -> Sequence {
     Sequence::new(
         ctx,
         r,

@@ -234,15 +234,15 @@ fn debug_dump(f: &SequenceFrame, name: &str) {
     .unwrap();
 }
 
-fn sequence<'r>(
+fn sequence(
     ctx: &Context,
-    r: &'r Renderer,
+    r: &Renderer,
     scene: &Scene,
     size: u32,
     path: CameraPath,
     mode: (RenderPath, RtVisibility),
     reuse: ReuseOptions,
-) -> Sequence<'r> {
+) -> Sequence {
     Sequence::new(
         ctx,
         r,

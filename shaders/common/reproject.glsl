@@ -51,7 +51,9 @@ vec3 unpack_normal(uint p) {
 
 layout(set = 0, binding = BINDING_RP_PARAMS, scalar) uniform Params { GpuParams params; };
 
-layout(set = 0, binding = BINDING_RP_CACHE_PREV, scalar) readonly buffer CachePrev { CacheEntry cache_prev[]; };
+// Not readonly: with moving geometry the scatter moves each entry with its object
+// (reproject_anchor.glsl).
+layout(set = 0, binding = BINDING_RP_CACHE_PREV, scalar) buffer CachePrev { CacheEntry cache_prev[]; };
 layout(set = 0, binding = BINDING_RP_CACHE_NEXT, scalar) buffer CacheNext { CacheEntry cache_next[]; };
 // Per pixel, interleaved: word 2q is the index of the sample that won pixel q, word 2q + 1 its
 // depth key. Where the device has 64-bit atomics, one atomicMin of key << 32 | index on the
@@ -306,6 +308,8 @@ uint judge_against_gbuffer(ivec2 pix, CacheEntry e) {
     return judge_primary(e, true, p.xyz, ng.xyz, ids.z & 0x7FFFFFFFu, ng.w, n.w, uintBitsToFloat(ids.w), base.a);
 }
 
+#include "reproject_anchor.glsl"
+
 #ifndef RQR_KEY_WINNER_64
 // Reused pixels take their sample's colour (a miss: the background seen along this pixel's
 // own ray) and carry the sample, one frame older, into the next cache. Every other pixel
@@ -353,6 +357,7 @@ void commit_entry(uint q, uint st, CacheEntry e) {
         }
         e.meta = with_hops(e.meta, cache_hops(e) + 1u);
     }
+    anchor_commit(q, resolved_winner(q), st, e);
     cache_next[q] = e;
 }
 

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
-use rqr::render::drivers::animated::AnimatedFrames;
+use rqr::render::drivers::animated::{AnimatedFrames, AnimationUpdate};
 use rqr::render::drivers::sequence::SequenceFrame;
 use rqr::render::drivers::sequence::{
     self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
@@ -79,7 +79,7 @@ pub struct SequenceArgs {
     /// acceleration structure again per frame, for comparisons). Frames' `gpu_ms` list the
     /// update's passes (skin, blas refit / blas build, tlas build).
     #[arg(long, value_enum, default_value = "refit")]
-    animation_update: rqr::render::drivers::animated::AnimationUpdate,
+    animation_update: AnimationUpdate,
     /// Reproject the previous frame's samples; trace only disoccluded, rejected,
     /// view-dependent (mirror, metal, glass) and expired pixels.
     #[arg(long)]
@@ -415,18 +415,25 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         reuse,
         reference: seq.reference,
     };
-    let mut sequence = match &renderer {
-        Some(renderer) => Some(Sequence::new(
-            &ctx,
-            renderer,
-            &scene,
-            &settings,
-            base,
-            path.clone(),
-            options,
-        )?),
-        None => None,
-    };
+    // One sequence for every frame, so that reuse keeps its sample cache across an animated
+    // scene's updates (which happen in place in the animated renderer).
+    let mut sequence = Sequence::new(
+        &ctx,
+        match (&renderer, &animated_frames) {
+            (Some(renderer), _) => renderer,
+            (None, Some(anim)) => anim.renderer(),
+            (None, None) => bail!("internal error: a sequence without a renderer"),
+        },
+        &scene,
+        &settings,
+        base,
+        path.clone(),
+        options,
+    )?;
+    if animated {
+        // Samples on moving geometry move with their objects.
+        sequence.track_moving_geometry(&ctx)?;
+    }
     let bar = indicatif::ProgressBar::new(u64::from(range.end - range.start));
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {elapsed} {msg}")
@@ -434,8 +441,8 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     );
     // Frames per submission: one (and every frame read back before the next) without
     // --benchmark; bursts after a warm-up with it (refused for animated scenes).
-    let (burst, warm_up) = match (&mut sequence, seq.benchmark) {
-        (Some(sequence), true) => {
+    let (burst, warm_up) = match (animated, seq.benchmark) {
+        (false, true) => {
             let contents = RingContents {
                 rgba8: true,
                 color: ext == "exr",
@@ -460,40 +467,30 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let mut start = range.start;
     while start < range.end {
         let end = range.end.min(start.saturating_add(burst));
-        let frames = match (&mut animated_frames, &mut sequence) {
-            (Some(anim), _) => {
+        let frames = match &mut animated_frames {
+            Some(anim) => {
                 // Frame k shows the animation at k / --fps s; the first frame is the pose
-                // the renderer was built with.
-                let updated;
-                let (posed, update_ms) = if start == range.start {
-                    (&scene, Vec::new())
-                } else {
-                    updated =
+                // the renderer was built with. The update happens in place, so the sequence
+                // (and its sample cache) carries on with the updated scene.
+                let mut update_ms = Vec::new();
+                if start != range.start {
+                    let (posed, ms) =
                         anim.update_with(&ctx, start as f32 / seq.fps, seq.animation_update)?;
-                    (&updated.0, updated.1.clone())
-                };
-                let base = match posed.cameras.is_empty() {
-                    true => base,
-                    false => args.camera.resolve(posed, aspect)?,
-                };
-                let mut frame_sequence = Sequence::new(
-                    &ctx,
-                    anim.renderer(),
-                    posed,
-                    &settings,
-                    base,
-                    path.clone(),
-                    options,
-                )?;
-                let mut frames = frame_sequence.render_burst(&ctx, start..end)?;
+                    let base = match posed.cameras.is_empty() {
+                        true => base,
+                        false => args.camera.resolve(&posed, aspect)?,
+                    };
+                    sequence.update_scene(&ctx, anim.renderer(), &posed, base)?;
+                    update_ms = ms;
+                }
+                let mut frames = sequence.render_burst(&ctx, start..end)?;
                 for frame in &mut frames {
                     frame.frame_gpu_ms += update_ms.iter().map(|p| p.1).sum::<f64>();
                     frame.output.gpu_ms.splice(0..0, update_ms.iter().cloned());
                 }
                 frames
             }
-            (None, Some(sequence)) => sequence.render_burst(&ctx, start..end)?,
-            (None, None) => bail!("internal error: a sequence without animation has no renderer"),
+            None => sequence.render_burst(&ctx, start..end)?,
         };
         start = end;
         for frame in frames {
@@ -566,15 +563,16 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     super::common::check_validation(&ctx)
 }
 
-/// Refuses what animated sequences do not support yet: reuse between frames (moving objects
-/// are not reprojected) and burst timing (each frame rebuilds its scene).
+/// Refuses what animated sequences do not support: reuse between frames with
+/// `--animation-update rebuild` (which replaces the renderer the sample cache is bound to)
+/// and burst timing (each frame's scene update is its own submission between frames).
 fn check_animated_sequence(args: &RenderArgs, reuse: &ReuseOptions) -> Result<()> {
     let seq = &args.sequence;
-    if reuse.any() {
-        bail!("--reproject, --frameless and --adaptive-subsample do not support animated scenes yet (moving objects are not reprojected); render with --animation none for the rest pose");
+    if reuse.any() && seq.animation_update == AnimationUpdate::Rebuild {
+        bail!("--reproject, --frameless and --adaptive-subsample keep their sample cache bound to one renderer updated in place, which --animation-update rebuild replaces every frame: use --animation-update refit");
     }
     if seq.benchmark {
-        bail!("--benchmark does not support animated scenes yet; use --animation none for the rest pose");
+        bail!("--benchmark does not support animated scenes: it records frames back to back in one submission, but every animated frame updates its scene (skinning, acceleration structures) in a submission of its own before it is rendered; time them without --benchmark (per-frame GPU timestamps)");
     }
     if args.scene.time.is_some() {
         bail!("--time is for single images: frame k of a sequence shows the animation at k/--fps seconds");

@@ -28,6 +28,11 @@ pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
 pub const BINDING_RP_SHOWN: u32 = 21;
 /// The frame's display pixels (RGBA8, one word each), written with the colour.
 pub const BINDING_RP_RGBA8: u32 = 24;
+/// The previous frame's sample anchors ([`Anchor`], per cache slot; read only with
+/// [`RP_MOVING`]).
+pub const BINDING_RP_ANCHORS_PREV: u32 = 22;
+/// The next frame's sample anchors (written only with [`RP_MOVING`]).
+pub const BINDING_RP_ANCHORS_NEXT: u32 = 23;
 
 /// Params flag: reproject the previous frame's cache.
 pub const RP_REUSE: u32 = 1;
@@ -41,6 +46,12 @@ pub const RP_FRAMELESS: u32 = 8;
 pub const RP_ADAPTIVE: u32 = 16;
 /// Params flag: the passes write each pixel's linear colour, not only its display value.
 pub const RP_LINEAR_COLOR: u32 = 64;
+/// Params flag: the scene has moving geometry (animated transforms, skins, morph targets):
+/// every cache entry has an [`Anchor`], and the scatter moves cached samples with their
+/// objects.
+pub const RP_MOVING: u32 = 32;
+/// [`Anchor::instance`] of an entry without an anchor (a miss).
+pub const NO_ANCHOR: u32 = 0xFFFF_FFFF;
 
 /// reproject.comp stage (its specialization constant 0): scatter the previous cache.
 pub const STAGE_SCATTER: u32 = 0;
@@ -191,6 +202,22 @@ pub struct CacheEntry {
     pub meta: u32,
     /// Material index.
     pub material: u32,
+}
+
+/// Where on the scene's geometry a cached sample lies, for scenes with moving geometry
+/// ([`RP_MOVING`]): one per cache slot, in a side buffer double-buffered like the cache (so
+/// static scenes do not pay for it). The scatter recomputes the sample's world position and
+/// normal from this frame's instance transform and (skinned, morphed) vertices.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Anchor {
+    /// Scene instance, or [`NO_ANCHOR`].
+    pub instance: u32,
+    /// Triangle of the instance's geometry.
+    pub primitive: u32,
+    /// Barycentrics (b1, b2) of the point in that triangle (may lie outside it for a fill's
+    /// point on the triangle's plane).
+    pub bary: [f32; 2],
 }
 
 /// What the edge test of a pixel's neighbours needs of the sample a pixel shows after the

@@ -34,13 +34,17 @@ use crate::vk::{Context, FrameTiming, GpuProfiler, VkError};
 /// the reprojection cache, the full-render targets and the host-visible ring that frames copy
 /// their images and counters into. Frames are recorded in bursts, back to back in one
 /// submission ([`Sequence::render_burst`]); [`Sequence::render_frame`] is a burst of one.
-pub struct Sequence<'r> {
+///
+/// It does not borrow the renderer (whose buffers its descriptor sets point at: the renderer
+/// must outlive it), so an animated scene updated in place between frames keeps one sequence,
+/// and its sample cache, across them ([`Sequence::update_scene`]).
+pub struct Sequence {
     draws: Vec<Draw>,
     settings: RenderSettings,
     base: Camera,
     path: CameraPath,
     options: SequenceOptions,
-    reprojector: Option<Reprojector<'r>>,
+    reprojector: Option<Reprojector>,
     /// Full renders: every frame of a sequence without reuse, and the references.
     full: FrameTargets,
     burst: BurstResources,
@@ -108,13 +112,13 @@ pub struct WarmUp {
 
 pub use crate::render::drivers::burst::{WARM_UP_MAX_BURSTS, WARM_UP_TOLERANCE};
 
-impl<'r> Sequence<'r> {
+impl Sequence {
     /// Prepares a sequence of `scene` (already uploaded into `renderer`) along `path`, where
     /// `base` is frame 0's camera. Fails before allocating anything when the frames, and with
     /// reuse the sample cache ([`Reprojector::check_device`]), do not fit the device.
     pub fn new(
         ctx: &Context,
-        renderer: &'r Renderer,
+        renderer: &Renderer,
         scene: &Scene,
         settings: &RenderSettings,
         base: Camera,
@@ -216,6 +220,45 @@ impl<'r> Sequence<'r> {
     /// its own full render and needs no reference slots).
     fn separate_references(&self) -> bool {
         self.options.reference && self.reprojector.is_some()
+    }
+
+    /// Makes reprojected samples move with their objects, for a scene whose geometry moves
+    /// between frames ([`Reprojector::track_moving_geometry`]; nothing without reuse).
+    pub fn track_moving_geometry(&mut self, ctx: &Context) -> crate::Result<()> {
+        if let Some(r) = self.reprojector.as_mut() {
+            r.track_moving_geometry(ctx)?;
+        }
+        self.next = None;
+        Ok(())
+    }
+
+    /// Takes the next frames' scene, `scene` as updated in place in `renderer` (an animated
+    /// frame, [`crate::render::drivers::animated::AnimatedFrames::update`]), and `base`, the
+    /// camera of frame 0 in it: the raster draws, the full render's passes (bound to the
+    /// renderer's ray backend, which an update may have built again) and the reprojector's
+    /// bindings. The sample cache is kept, so the next frame in order reuses this one's
+    /// samples.
+    pub fn update_scene(
+        &mut self,
+        ctx: &Context,
+        renderer: &Renderer,
+        scene: &Scene,
+        base: Camera,
+    ) -> crate::Result<()> {
+        self.draws = gbuffer::draws(scene);
+        self.full = FrameTargets::new(
+            ctx,
+            renderer,
+            self.options.path,
+            &self.settings,
+            &self.draws,
+            false,
+        )?;
+        if let Some(r) = self.reprojector.as_mut() {
+            r.update_scene(renderer);
+        }
+        self.base = base;
+        Ok(())
     }
 
     /// The longest burst [`Self::render_burst`] takes.

@@ -33,6 +33,13 @@
 //! to trace, pending interpolation, to cache), dispatched indirectly by its length, so its
 //! cost follows its jobs.
 //!
+//! On a scene whose geometry moves between frames ([`Reprojector::track_moving_geometry`];
+//! issue 15), every sample also keeps an anchor (instance, triangle, barycentrics; a side buffer
+//! bound only for such scenes), and the scatter first moves it to where that point is in this
+//! frame (this frame's instance transform and skinned/morphed vertices), so a sample on a moving
+//! object lands where the object went and then meets the same tests as any other
+//! (`shaders/common/reproject_anchor.glsl`).
+//!
 //! Reused samples keep the world position where their colour was computed (as in the Render
 //! Cache, Walter et al. 1999), so the error of a reused pixel stays within its footprint and
 //! does not drift. Fills and interpolated pixels are cached at their own primary hit, flagged
@@ -70,6 +77,7 @@ use crate::vk::{
 /// A cache entry's and a shown sample's size (`src/interface/reproject.rs`).
 const CACHE_ENTRY_BYTES: u64 = std::mem::size_of::<io::CacheEntry>() as u64;
 const SHOWN_BYTES: u64 = std::mem::size_of::<io::Shown>() as u64;
+const ANCHOR_BYTES: u64 = std::mem::size_of::<io::Anchor>() as u64;
 
 /// The stages of `reproject.comp`, each its own pipeline.
 const STAGES: [u32; 6] = [
@@ -118,8 +126,15 @@ impl Visibility {
 }
 
 /// The reprojection passes and the sample cache of one resolution, for one [`Renderer`].
-pub struct Reprojector<'r> {
-    renderer: &'r Renderer,
+///
+/// Like [`crate::render::drivers::targets::FrameTargets`] it does not borrow the renderer,
+/// so a renderer whose scene is updated in place between frames
+/// ([`crate::render::drivers::animated::AnimatedFrames`]) keeps its cache: its descriptor
+/// sets point at the renderer's buffers, so the renderer must outlive it, and after a
+/// renderer's ray backend changed, [`Self::update_scene`] rebinds it.
+pub struct Reprojector {
+    /// Diagonal of the scene bounds (ray offsets), as of the last [`Self::update_scene`].
+    scene_scale: f32,
     path: RenderPath,
     options: ReuseOptions,
     settings: RenderSettings,
@@ -132,6 +147,11 @@ pub struct Reprojector<'r> {
     frame: Buffer,
     params: Buffer,
     _caches: [Buffer; 2],
+    /// Per cache parity: the samples' anchors (`interface::reproject::Anchor`), with
+    /// [`Self::track_moving_geometry`]; placeholders of one anchor otherwise.
+    anchors: [Buffer; 2],
+    /// Whether samples move with their objects ([`Self::track_moving_geometry`]).
+    moving: bool,
     /// Per pixel: the winning sample's index and its depth key (interleaved u32 pairs).
     key_winner: Buffer,
     /// The one-pass scatter and its descriptor set per cache parity, where the device has
@@ -161,13 +181,13 @@ pub struct Reprojector<'r> {
     prev_view_proj: Option<[f32; 16]>,
 }
 
-impl<'r> Reprojector<'r> {
+impl Reprojector {
     /// Creates the passes and an empty cache for images of `settings` on `path`.
     /// Reprojection caches one sample per pixel at its centre: `settings` must use one
     /// sample per pixel with the `center` sampler.
     pub fn new(
         ctx: &Context,
-        renderer: &'r Renderer,
+        renderer: &Renderer,
         path: RenderPath,
         settings: &RenderSettings,
         options: ReuseOptions,
@@ -206,6 +226,11 @@ impl<'r> Reprojector<'r> {
         let caches = [
             storage("reproject cache 0", pixels * CACHE_ENTRY_BYTES)?,
             storage("reproject cache 1", pixels * CACHE_ENTRY_BYTES)?,
+        ];
+        // Placeholders until track_moving_geometry(): static scenes never read them.
+        let anchors = [
+            storage("reproject anchors 0", ANCHOR_BYTES)?,
+            storage("reproject anchors 1", ANCHOR_BYTES)?,
         ];
         let key_winner = storage("reproject winners and depth keys", pixels * 8)?;
         let state = storage("reproject states", pixels * 4)?;
@@ -271,6 +296,8 @@ impl<'r> Reprojector<'r> {
                 (BINDING_RP_DISPATCH_ARGS, storage),
                 (BINDING_RP_SHOWN, storage),
                 (BINDING_RP_RGBA8, storage),
+                (BINDING_RP_ANCHORS_PREV, storage),
+                (BINDING_RP_ANCHORS_NEXT, storage),
             ];
             b.extend(
                 (0..GBUFFER_FORMATS.len() as u32)
@@ -344,7 +371,9 @@ impl<'r> Reprojector<'r> {
                     .buffer(BINDING_RP_COUNTERS, &counters, storage)
                     .buffer(BINDING_RP_DISPATCH_ARGS, &args, storage)
                     .buffer(BINDING_RP_SHOWN, &shown, storage)
-                    .buffer(BINDING_RP_RGBA8, &display, storage);
+                    .buffer(BINDING_RP_RGBA8, &display, storage)
+                    .buffer(BINDING_RP_ANCHORS_PREV, &anchors[parity], storage)
+                    .buffer(BINDING_RP_ANCHORS_NEXT, &anchors[1 - parity], storage);
                 for (i, image) in visibility.images().iter().enumerate() {
                     set.storage_image(BINDING_RP_GBUFFER + i as u32, image.view());
                 }
@@ -374,7 +403,7 @@ impl<'r> Reprojector<'r> {
         let readback = Some(readback);
         let profiler = GpuProfiler::new(ctx, SCOPES_PER_FRAME).ok();
         Ok(Self {
-            renderer,
+            scene_scale: renderer.scene_scale(),
             path,
             options,
             settings: settings.clone(),
@@ -385,6 +414,8 @@ impl<'r> Reprojector<'r> {
             frame,
             params,
             _caches: caches,
+            anchors,
+            moving: false,
             key_winner,
             scatter64: scatter64.map(|p| (p, scatter64_sets)),
             state,
@@ -476,6 +507,61 @@ impl<'r> Reprojector<'r> {
             )));
         }
         Ok(())
+    }
+
+    /// Makes cached samples move with their objects, for a scene whose geometry moves between
+    /// frames (animated transforms, skins, morph targets; issue 15): allocates the anchor
+    /// buffers (16 bytes per pixel, twice) and empties the cache. Each sample then remembers
+    /// its instance, triangle and barycentrics, and the scatter recomputes its position and
+    /// normal from the frame's transforms and vertices before projecting it
+    /// (`shaders/common/reproject_anchor.glsl`).
+    pub fn track_moving_geometry(&mut self, ctx: &Context) -> crate::Result<()> {
+        if self.moving {
+            return Ok(());
+        }
+        let bytes = self.settings.pixels().saturating_mul(ANCHOR_BYTES);
+        ctx.check_memory("the reprojection's sample anchors", 2 * bytes)?;
+        let storage = |name: &str| {
+            Buffer::new(
+                ctx,
+                name,
+                bytes,
+                vk::BufferUsageFlags::empty(),
+                MemoryLocation::GpuOnly,
+            )
+        };
+        self.anchors = [
+            storage("reproject anchors 0")?,
+            storage("reproject anchors 1")?,
+        ];
+        // Each parity's sets read that parity's anchors and write the other's.
+        let storage = Binding::StorageBuffer;
+        for parity in 0..2 {
+            let scatter = self.scatter64.as_ref().map(|(_, sets)| &sets[parity]);
+            for set in self.sets[parity].iter().chain(scatter) {
+                set.buffer(BINDING_RP_ANCHORS_PREV, &self.anchors[parity], storage)
+                    .buffer(BINDING_RP_ANCHORS_NEXT, &self.anchors[1 - parity], storage);
+            }
+        }
+        self.moving = true;
+        self.reset();
+        Ok(())
+    }
+
+    /// Whether cached samples move with their objects ([`Self::track_moving_geometry`]).
+    pub fn tracks_moving_geometry(&self) -> bool {
+        self.moving
+    }
+
+    /// Takes `renderer`'s scene as updated in place for the next frame (an animated frame):
+    /// its scale, and its ray backend, which an update may have built again. The cache is
+    /// kept.
+    pub fn update_scene(&mut self, renderer: &Renderer) {
+        self.scene_scale = renderer.scene_scale();
+        for [_, primary, trace] in &self.sets {
+            renderer.pass_context().bind_scene(primary);
+            renderer.pass_context().bind_scene(trace);
+        }
     }
 
     /// Empties the cache: the next frame traces every pixel (the start of a frame range).

@@ -4,7 +4,7 @@ use ash::vk;
 
 use super::*;
 
-impl Reprojector<'_> {
+impl Reprojector {
     /// Records one frame through `camera` into `cmd`, reusing what the cache allows and
     /// caching its samples for the next frame, then, with `out`, copies its counters, image and
     /// pixel states into that ring slot. Frames recorded back to back into one command buffer
@@ -21,7 +21,7 @@ impl Reprojector<'_> {
         out: Option<(&FrameRing, u32)>,
     ) {
         let s = &self.settings;
-        let scale = self.renderer.scene_scale();
+        let scale = self.scene_scale;
         let setup = CameraSetup::new(camera, s.width, s.height, scale);
         let mut frame = GpuFrame::new(s, &setup, scale);
         if let Some(prev) = self.prev_view_proj {
@@ -46,6 +46,9 @@ impl Reprojector<'_> {
         }
         if o.linear_color {
             flags |= RP_LINEAR_COLOR;
+        }
+        if self.moving {
+            flags |= RP_MOVING;
         }
         let params = GpuParams {
             flags,
