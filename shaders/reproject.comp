@@ -163,7 +163,13 @@ void record_shown(uint q) {
         }
     }
     if ((params.flags & RP_FRAMELESS) != 0u) {
-        COUNTER_ADD(counters[C_CANDIDATES], candidate ? 1u : 0u);
+        // Candidates, and empty pixels (C_FORCED holds their count until the threshold stage
+        // turns it into the forced count): a fill keeps an empty pixel out of both.
+        uvec2 sums = subgroupAdd(uvec2(candidate ? 1u : 0u, w == NO_SAMPLE ? 1u : 0u));
+        if (subgroupElect()) {
+            atomicAdd(counters[C_CANDIDATES], sums.x);
+            atomicAdd(counters[C_FORCED], sums.y);
+        }
     }
 }
 
@@ -181,9 +187,7 @@ uint classify(uint q) {
     }
     bool filled = false;
     bool frameless = (params.flags & RP_FRAMELESS) != 0u;
-    // Frameless rendering traces empty pixels instead of filling them: the histogram counted
-    // them as pixels that must be traced, so the budget holds.
-    if (reuse && w == NO_SAMPLE && !frameless) {
+    if (reuse && w == NO_SAMPLE) {
         w = fill(pix, nb);
         if (w != NO_SAMPLE) {
             // Later stages read the choice through resolved_winner(): the depth key is free
@@ -218,7 +222,9 @@ uint classify(uint q) {
         st |= PX_FILLED;
     }
     uint kind = st & PX_KIND_MASK;
-    if (frameless && (kind == PX_REUSE || kind == PX_VERIFY) && frameless_selects(pixel_of(q), age)) {
+    // Frameless: a filled pixel was an empty one in the histogram's count, outside the
+    // budget (kept, or traced on top of it), so only samples that landed are selected.
+    if (frameless && !filled && (kind == PX_REUSE || kind == PX_VERIFY) && frameless_selects(pixel_of(q), age)) {
         st = PX_TRACE | PX_FRAMELESS;
         kind = PX_TRACE;
     }
@@ -247,7 +253,11 @@ uint refresh_bin(uint age, float rank) {
 // the bin where the budget runs out and the share of that bin to take.
 void threshold() {
     uint budget = uint(ceil(params.frameless_fraction * float(pixel_count())));
-    uint forced = pixel_count() - counters[C_CANDIDATES];
+    // Every pixel that showed a sample and is no candidate must be traced. Empty pixels are
+    // left out: filled, they keep a neighbour's fresh copy; unfilled, they are traced on top
+    // of the budget, so at least the budget is refreshed either way.
+    uint empty = counters[C_FORCED];
+    uint forced = pixel_count() - counters[C_CANDIDATES] - empty;
     counters[C_FORCED] = forced;
     uint extra = budget > forced ? budget - forced : 0u;
     uint bin = NO_SAMPLE;
