@@ -140,7 +140,9 @@ bool frameless_selects(uvec2 pix, uint age);
 // refresh order decides), as opposed to pixels that must be traced anyway. The samples that
 // classify then rejects (G-buffer, visibility) are traced on top of the budget.
 bool frameless_candidate(CacheEntry e) {
-    return (params.flags & RP_FRAMELESS) != 0u && (e.meta & CACHE_VIEW_DEPENDENT) == 0u && cache_age(e.meta) < params.max_age;
+    uint age = cache_age(e.meta);
+    return (params.flags & RP_FRAMELESS) != 0u && (e.meta & CACHE_VIEW_DEPENDENT) == 0u && age < params.max_age
+        && ((e.meta & CACHE_MOVED) == 0u || age < MOVED_MAX_AGE);
 }
 
 // Records the sample pixel q shows (the scatter's winner) in pixel order, for the stage that
@@ -208,7 +210,7 @@ uint classify(uint q) {
         age = cache_age(e.meta);
         if ((e.meta & CACHE_VIEW_DEPENDENT) != 0u) {
             st = PX_TRACE | PX_VIEW_DEPENDENT;
-        } else if (age >= params.max_age) {
+        } else if (age >= params.max_age || ((e.meta & CACHE_MOVED) != 0u && age >= MOVED_MAX_AGE)) {
             st = PX_TRACE | PX_EXPIRED;
         } else if ((params.flags & RP_GBUFFER) != 0u) {
             st = judge_against_gbuffer(pix, e);

@@ -109,6 +109,14 @@ CacheEntry moved_entry(uint q) {
         cache_prev[q].meta = 0u;
         return e;
     }
+    // A sample that moves with its object keeps the shading of where the object was
+    // (shadows, highlights), so it is re-traced sooner (classify, MOVED_MAX_AGE). Moved: by
+    // more than float noise relative to its distance (a traced hit point and the same point
+    // recomputed from its anchor differ by that much).
+    if (distance(p, e.position) > 1e-4 * max(distance(p, frame.camera_pos), 1e-6)) {
+        e.meta |= CACHE_MOVED;
+        cache_prev[q].meta = e.meta;
+    }
     e.position = p;
     e.normal = pack_normal(ng);
     cache_prev[q].position = e.position;

@@ -116,6 +116,13 @@ pub const CACHE_VALID: u32 = 1;
 pub const CACHE_MISS: u32 = 2;
 /// Cache entry flag: specular/transmissive, never reused.
 pub const CACHE_VIEW_DEPENDENT: u32 = 4;
+/// [`CacheEntry::meta`] flag: the sample has moved with its object (moving geometry) since it
+/// was traced, so its shading is that of where the object was.
+pub const CACHE_MOVED: u32 = 8;
+/// A sample that moved with its object is re-traced once it is this many frames old (its
+/// shadows and highlights belong to where the object was; `--max-age` still bounds every
+/// sample).
+pub const MOVED_MAX_AGE: u32 = 4;
 /// Cache entry flags: bits 8-15 count fills away from where the colour was computed.
 pub const CACHE_HOPS_SHIFT: u32 = 8;
 /// Cache entry flags: bits 16-31 count the frames the sample has been reused.
