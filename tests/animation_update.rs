@@ -13,18 +13,11 @@ use rqr::interface::GBUFFER_BARY;
 use rqr::render::drivers::animated::{frame_renderer, AnimatedFrames};
 use rqr::render::passes::gbuffer::{self, GbufferLayout};
 use rqr::render::{FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer};
-use rqr::scene::{AnimationSelection, Camera, Instance, LoadOptions, Scene};
+use rqr::scene::{Camera, Instance, Scene};
+
+use common::animated::{camera, load};
 
 const SIZE: u32 = 64;
-
-fn load(rel: &str) -> (Scene, Vec<usize>) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
-    let s = rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let first = s.select_animations(&AnimationSelection::default()).unwrap();
-    (s, first)
-}
 
 fn settings() -> RenderSettings {
     RenderSettings {
@@ -32,17 +25,6 @@ fn settings() -> RenderSettings {
         height: SIZE,
         ..Default::default()
     }
-}
-
-/// One camera for every frame of a scene: the automatic camera of its rest bounds, pulled
-/// back so that the moving parts stay in view.
-fn camera(rest: &Scene) -> Camera {
-    let mut bounds = rest.bounds;
-    let c = bounds.center();
-    let half = (bounds.max - bounds.min) * 0.75;
-    bounds.min = c - half;
-    bounds.max = c + half;
-    rqr::scene::auto_camera(&bounds, 1.0)
 }
 
 fn rt(ctx: &rqr::vk::Context, r: &Renderer, cam: &Camera) -> RenderOutput {

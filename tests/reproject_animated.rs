@@ -11,30 +11,12 @@ use rqr::render::drivers::animated::AnimatedFrames;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
 use rqr::render::passes::reproject::{RenderPath, ReuseOptions, RtVisibility};
 use rqr::render::RenderSettings;
-use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene};
 use rqr::vk::Context;
+
+use common::animated::{camera, load};
 
 const SIZE: u32 = 64;
 const FPS: f32 = 24.0;
-
-fn load(rel: &str) -> (Scene, Vec<usize>) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
-    let s = rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let first = s.select_animations(&AnimationSelection::default()).unwrap();
-    (s, first)
-}
-
-/// The automatic camera of the rest bounds, pulled back so the moving parts stay in view.
-fn camera(rest: &Scene) -> Camera {
-    let mut bounds = rest.bounds;
-    let c = bounds.center();
-    let half = (bounds.max - bounds.min) * 0.75;
-    bounds.min = c - half;
-    bounds.max = c + half;
-    rqr::scene::auto_camera(&bounds, 1.0)
-}
 
 /// One reprojected frame of [`run`]: rays traced, reused pixels, rejected samples, and with a
 /// reference the ray fraction and mean FLIP against the full render of the same frame.

@@ -3,6 +3,7 @@
 
 use rqr::vk::{Context, ContextOptions, VkError};
 
+pub mod animated;
 pub mod trace;
 
 pub const INSTALL_HINT: &str =
