@@ -5,10 +5,8 @@
 mod common;
 mod scene_util;
 
+use common::render_alike::assert_renders_alike;
 use glam::Vec3;
-use rqr::accel::Backend;
-use rqr::render::image::compare;
-use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, LoadOptions, Scene};
 use scene_util::asset;
 use serde_json::{json, Value};
@@ -63,37 +61,7 @@ fn meshopt_renders_like_its_source() {
     let ctx = common::gpu();
     let a = load("Avocado/Avocado.gltf");
     let b = load("Avocado/Avocado_meshopt.glb");
-    let camera = scene::auto_camera(&a.bounds, 1.0);
-    let settings = RenderSettings {
-        width: 96,
-        height: 96,
-        ..Default::default()
-    };
-    let mut backends = vec![Backend::Bvh];
-    if ctx.features().ray_query {
-        backends.insert(0, Backend::Hw);
-    }
-    for backend in backends {
-        let render = |s: &Scene| {
-            Renderer::new(&ctx, s, backend)
-                .unwrap()
-                .render_rt(&ctx, &settings, &camera, false)
-                .unwrap()
-                .rgba8
-        };
-        let d = compare::compare(96, 96, &render(&a), &render(&b));
-        eprintln!(
-            "Avocado vs Avocado_meshopt, {}: FLIP mean {:.5}",
-            backend.as_str(),
-            d.flip_mean
-        );
-        assert!(
-            d.flip_mean < 0.01,
-            "{}: FLIP {} between Avocado and its meshopt copy",
-            backend.as_str(),
-            d.flip_mean
-        );
-    }
+    assert_renders_alike(&ctx, &a, &b, 96, 0.01, "Avocado vs Avocado_meshopt");
     common::assert_validation_clean(&ctx);
 }
 
@@ -175,37 +143,7 @@ fn draco_renders_like_its_source() {
     let ctx = common::gpu();
     let a = load("CesiumMan/CesiumMan.glb");
     let b = load("CesiumMan_Draco/CesiumMan.gltf");
-    let camera = scene::auto_camera(&a.bounds, 1.0);
-    let settings = RenderSettings {
-        width: 96,
-        height: 96,
-        ..Default::default()
-    };
-    let mut backends = vec![Backend::Bvh];
-    if ctx.features().ray_query {
-        backends.insert(0, Backend::Hw);
-    }
-    for backend in backends {
-        let render = |s: &Scene| {
-            Renderer::new(&ctx, s, backend)
-                .unwrap()
-                .render_rt(&ctx, &settings, &camera, false)
-                .unwrap()
-                .rgba8
-        };
-        let d = compare::compare(96, 96, &render(&a), &render(&b));
-        eprintln!(
-            "CesiumMan vs CesiumMan_Draco, {}: FLIP mean {:.5}",
-            backend.as_str(),
-            d.flip_mean
-        );
-        assert!(
-            d.flip_mean < 0.01,
-            "{}: FLIP {} between CesiumMan and its Draco copy",
-            backend.as_str(),
-            d.flip_mean
-        );
-    }
+    assert_renders_alike(&ctx, &a, &b, 96, 0.01, "CesiumMan vs CesiumMan_Draco");
     common::assert_validation_clean(&ctx);
 }
 

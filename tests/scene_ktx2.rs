@@ -11,10 +11,9 @@ mod ktx2;
 mod readback;
 mod scene_util;
 
+use common::render_alike::assert_renders_alike;
 use readback::read_level;
-use rqr::accel::Backend;
 use rqr::render::image::compare;
-use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::textures::GpuTextures;
 use rqr::scene::{self, LoadOptions, Scene, TextureFormat};
 use rqr::vk::{vk, Context};
@@ -305,45 +304,15 @@ fn ktx2_texture_renders_like_its_png() {
     ))
     .unwrap();
     let from_ktx2 = load(&ktx2_quad(&ktx2::encode(&original, SIZE, SIZE, true, true))).unwrap();
-    assert_renders_alike(&ctx, &from_png, &from_ktx2, SIZE, "PNG vs UASTC KTX2 quad");
+    assert_renders_alike(
+        &ctx,
+        &from_png,
+        &from_ktx2,
+        SIZE,
+        0.02,
+        "PNG vs UASTC KTX2 quad",
+    );
     common::assert_validation_clean(&ctx);
-}
-
-/// Renders `a` and `b` (ray traced, from the camera that frames `a`) at `size`² on every
-/// backend the device has, and asserts a mean FLIP below 0.02 between them on each.
-fn assert_renders_alike(ctx: &Context, a: &Scene, b: &Scene, size: u32, label: &str) {
-    let camera = scene::auto_camera(&a.bounds, 1.0);
-    let settings = RenderSettings {
-        width: size,
-        height: size,
-        ..Default::default()
-    };
-    let mut backends = vec![Backend::Bvh];
-    if ctx.features().ray_query {
-        backends.insert(0, Backend::Hw);
-    }
-    for backend in backends {
-        let render = |s: &Scene| {
-            Renderer::new(ctx, s, backend)
-                .unwrap()
-                .render_rt(ctx, &settings, &camera, false)
-                .unwrap()
-                .rgba8
-        };
-        let d = compare::compare(size, size, &render(a), &render(b));
-        eprintln!(
-            "{label}, {}: FLIP mean {:.5}, PSNR {:.2} dB",
-            backend.as_str(),
-            d.flip_mean,
-            d.psnr_db
-        );
-        assert!(
-            d.flip_mean < 0.02,
-            "{label}, {}: FLIP {}",
-            backend.as_str(),
-            d.flip_mean
-        );
-    }
 }
 
 /// The block format this device uploads KTX2 textures as: BC7 on lavapipe and desktop GPUs.
@@ -478,6 +447,7 @@ fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
         &rgba8,
         &blocks,
         128,
+        0.02,
         "StainedGlassLamp textures, RGBA8 vs block upload",
     );
     common::assert_validation_clean(&ctx);

@@ -4,6 +4,7 @@
 use rqr::vk::{Context, ContextOptions, VkError};
 
 pub mod animated;
+pub mod render_alike;
 pub mod trace;
 
 pub const INSTALL_HINT: &str =
