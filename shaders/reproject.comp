@@ -42,7 +42,7 @@ const ivec2 EDGE_NEIGHBOURS[4] = ivec2[4](ivec2(0, -1), ivec2(-1, 0), ivec2(1, 0
 
 Neighbours load_neighbours(ivec2 pix) {
     Neighbours nb;
-    for (uint k = 0u; k < 4u; ++k) {
+    [[unroll]] for (uint k = 0u; k < 4u; ++k) {
         ivec2 n = pix + EDGE_NEIGHBOURS[k];
         bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
         nb.pixel[k] = inside ? uint(n.y) * frame.width + uint(n.x) : NO_SAMPLE;
@@ -65,31 +65,28 @@ Neighbours load_neighbours(ivec2 pix) {
 // The plane distance is measured from the neighbour's tangent plane (Shown keeps two words per
 // pixel: the plane's offset and the normal); where the normals pass the normal test, the two
 // samples' planes nearly agree, so which one is used hardly matters.
+//
+// Every neighbour is tested and the results combined, without early exits or divisions: on a
+// CPU device (lavapipe) a branch that some lanes leave costs more than the arithmetic it skips.
 bool near_edge(CacheEntry e, Neighbours nb) {
     bool miss = cache_miss(e);
-    float z = miss ? 1.0 : max(view_depth(e.position), 1e-6);
-    vec3 en = unpack_normal(e.normal);
     vec3 from_camera = e.position - frame.camera_pos;
-    for (uint k = 0u; k < 4u; ++k) {
-        Shown o = nb.shown[k];
-        if ((o.normal & SHOWN_SAMPLE) == 0u) {
-            // An empty neighbour is traced this frame anyway (or filled from its own
-            // neighbours). Counting it as an edge would verify the neighbourhood of every pixel
-            // a stretched surface leaves empty: on an orbit, most of the rays this mode saves.
-            continue;
-        }
-        bool other_miss = (o.normal & SHOWN_MISS) != 0u;
-        if (other_miss != miss) {
-            return true;
-        }
-        if (!miss) {
-            vec3 on = unpack_normal(o.normal);
-            if (abs(dot(from_camera, on) - o.plane) / z > params.edge_threshold || dot(on, en) < params.normal_threshold) {
-                return true;
-            }
-        }
+    // The plane distance relative to the view depth, compared as a distance.
+    float limit = params.edge_threshold * (miss ? 1.0 : max(view_depth(e.position), 1e-6));
+    vec3 en = unpack_normal(e.normal);
+    bool edge = false;
+    [[unroll]] for (uint k = 0u; k < 4u; ++k) {
+        uint bits = nb.shown[k].normal;
+        // An empty neighbour is traced this frame anyway (or filled from its own neighbours).
+        // Counting it as an edge would verify the neighbourhood of every pixel a stretched
+        // surface leaves empty: on an orbit, most of the rays this mode saves.
+        bool landed = (bits & SHOWN_SAMPLE) != 0u;
+        bool other_miss = (bits & SHOWN_MISS) != 0u;
+        vec3 on = unpack_normal(bits);
+        bool apart = abs(dot(from_camera, on) - nb.shown[k].plane) > limit || dot(on, en) < params.normal_threshold;
+        edge = edge || (landed && (other_miss != miss || (!miss && apart)));
     }
-    return false;
+    return edge;
 }
 
 // Reprojected point samples leave empty pixels where a surface is seen a little larger than
@@ -106,27 +103,21 @@ bool near_edge(CacheEntry e, Neighbours nb) {
 uint fill(ivec2 pix, Neighbours nb) {
     vec2 centre = vec2(pix) + 0.5;
     uint best = NO_SAMPLE;
-    float best_d = params.fill_radius;
-    for (uint k = 0u; k < 4u; ++k) {
-        Shown o = nb.shown[k];
-        if ((o.normal & (SHOWN_SAMPLE | SHOWN_COPYABLE)) != (SHOWN_SAMPLE | SHOWN_COPYABLE)) {
-            continue;
-        }
-        // Only empty pixels fill, so gathering the candidates' positions here costs less than
-        // keeping them in Shown for every pixel.
-        uint w = WINNER(nb.pixel[k]);
-        CacheEntry e;
-        e.position = cache_prev[w].position;
-        e.meta = CACHE_VALID | ((o.normal & SHOWN_MISS) != 0u ? CACHE_MISS : 0u);
-        uint target, key;
-        vec2 film;
-        if (!project_sample(e, target, key, film)) {
-            continue;
-        }
-        float d = distance(film, centre);
-        if (d < best_d || (d == best_d && w < best)) {
-            best_d = d;
-            best = w;
+    // Squared distances: no square roots.
+    float best_d2 = params.fill_radius * params.fill_radius;
+    [[unroll]] for (uint k = 0u; k < 4u; ++k) {
+        uint bits = nb.shown[k].normal;
+        if ((bits & (SHOWN_SAMPLE | SHOWN_COPYABLE)) == (SHOWN_SAMPLE | SHOWN_COPYABLE)) {
+            // Only empty pixels fill, so gathering the candidates' positions here costs less
+            // than keeping them in Shown for every pixel. A shown sample projected into the
+            // image this frame (it won its pixel), so only where it falls is computed.
+            uint w = WINNER(nb.pixel[k]);
+            vec2 d = film_of(cache_prev[w].position, (bits & SHOWN_MISS) != 0u) - centre;
+            float d2 = dot(d, d);
+            if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
+                best_d2 = d2;
+                best = w;
+            }
         }
     }
     return best;
@@ -149,7 +140,7 @@ bool frameless_candidate(CacheEntry e) {
 // looks at neighbours. With frameless rendering it also builds the histogram of the
 // candidates' refresh order, so that the threshold is known before classify, which then
 // selects the pixels to refresh itself (one pass over the image, not two).
-void record_shown(uint q) {
+void record_shown(uint q, uvec2 pix) {
     uint w = WINNER(q);
     bool candidate = false;
     if (w == NO_SAMPLE) {
@@ -161,7 +152,7 @@ void record_shown(uint q) {
         shown[q] = Shown(plane, e.normal | bits);
         candidate = frameless_candidate(e);
         if (candidate) {
-            atomicAdd(counters[C_HISTOGRAM + refresh_bin(cache_age(e.meta), refresh_rank(pixel_of(q)))], 1u);
+            atomicAdd(counters[C_HISTOGRAM + refresh_bin(cache_age(e.meta), refresh_rank(pix))], 1u);
         }
     }
     if ((params.flags & RP_FRAMELESS) != 0u) {
@@ -177,8 +168,7 @@ void record_shown(uint q) {
 
 // Decides pixel q and, unless it is a candidate for the visibility pass, commits it with the
 // entry it has read anyway. Returns the state.
-uint classify(uint q) {
-    ivec2 pix = ivec2(pixel_of(q));
+uint classify(uint q, ivec2 pix) {
     uint w = WINNER(q);
     bool reuse = (params.flags & RP_REUSE) != 0u;
     // The neighbours are needed by a pixel to fill, and by the edge test (rt path).
@@ -226,11 +216,14 @@ uint classify(uint q) {
     uint kind = st & PX_KIND_MASK;
     // Frameless: a filled pixel was an empty one in the histogram's count, outside the
     // budget (kept, or traced on top of it), so only samples that landed are selected.
-    if (frameless && !filled && (kind == PX_REUSE || kind == PX_VERIFY) && frameless_selects(pixel_of(q), age)) {
+    if (frameless && !filled && (kind == PX_REUSE || kind == PX_VERIFY) && frameless_selects(uvec2(pix), age)) {
         st = PX_TRACE | PX_FRAMELESS;
         kind = PX_TRACE;
     }
-    state[q] = st;
+    // The frame starts every state as PX_REUSE (a buffer fill).
+    if (st != PX_REUSE) {
+        state[q] = st;
+    }
     if (kind != PX_VERIFY) {
         commit_entry(q, st, e);
     }
@@ -359,7 +352,6 @@ bool interpolate(uint q, out bool uncached) {
             e.position = camera_ray(vec2(pix) + 0.5).dir;
             e.normal = 0u;
             e.meta = CACHE_VALID | CACHE_MISS;
-            e.material = 0u;
         } else {
             vec4 n = imageLoad(g_normal, ip);
             vec4 ng = imageLoad(g_geometric, ip);
@@ -368,8 +360,7 @@ bool interpolate(uint q, out bool uncached) {
             bool vd = surface_view_dependent(ng.w, n.w, uintBitsToFloat(ids.w), scene_material(material).alpha_mode, base.a);
             e.position = imageLoad(g_position, ip).xyz;
             e.normal = pack_normal(ng.xyz);
-            e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u);
-            e.material = material;
+            e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u) | (material << CACHE_MATERIAL_SHIFT);
         }
         cache_next[q] = e;
         anchor_from_gbuffer(q, ip);
@@ -438,8 +429,8 @@ void main() {
             }
             break;
         }
-        case STAGE_SHOWN: record_shown(q); break;
-        case STAGE_CLASSIFY: st = classify(q); break;
+        case STAGE_SHOWN: record_shown(q, pix); break;
+        case STAGE_CLASSIFY: st = classify(q, ivec2(pix)); break;
         case STAGE_INTERPOLATE: interpolated = interpolate(q, uncached); break;
         default: break;
         }
@@ -447,22 +438,16 @@ void main() {
             settled = settled_state(st);
         }
     }
-    uint subgroups = gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumSubgroups;
     if (settling) {
         // Settled pixels are counted, and the pixels left for rays are listed: those the
         // visibility pass looks at first, and the others to trace at the first level.
-        count_settled(settled);
         bool look = inside && wants_visibility(st);
-        list_append(LIST_VERIFY, look, q);
-        list_append(LIST_TRACE, inside && !look && traced_at(st, pix, pc.gather), q);
-        uint lists = (1u << LIST_VERIFY) | (1u << LIST_TRACE);
-        if ((params.flags & RP_ADAPTIVE) != 0u) {
-            list_append(LIST_PENDING, inside && (st & PX_KIND_MASK) == PX_TRACE, q);
-            lists |= 1u << LIST_PENDING;
-        }
-        lists_done(lists, subgroups);
+        bool adaptive = (params.flags & RP_ADAPTIVE) != 0u;
+        settle_and_list(settled, uvec3(LIST_VERIFY, LIST_TRACE, LIST_PENDING),
+                        bvec3(look, inside && !look && traced_at(st, pix, pc.gather), adaptive && inside && (st & PX_KIND_MASK) == PX_TRACE), q);
+        lists_done((1u << LIST_VERIFY) | (1u << LIST_TRACE) | (adaptive ? 1u << LIST_PENDING : 0u));
     } else if (STAGE == STAGE_INTERPOLATE) {
-        COUNTER_ADD(counters[C_INTERP], interpolated ? 1u : 0u);
+        COUNTER_ADD(counters[stat_slot(C_INTERP)], interpolated ? 1u : 0u);
         uint lists = 0u;
         if (pc.gather != GATHER_NONE) {
             list_append(LIST_VERIFY, inside && traced_at(state[q], pix, pc.gather), q);
@@ -473,7 +458,7 @@ void main() {
             lists |= 1u << LIST_CACHE;
         }
         if (lists != 0u) {
-            lists_done(lists, subgroups);
+            lists_done(lists);
         }
     }
 }

@@ -34,14 +34,12 @@ void cache_interpolated(uint q) {
         bool vd = surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha);
         e.position = s.position;
         e.normal = pack_normal(s.ng_front);
-        e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u);
-        e.material = s.material;
+        e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u) | (s.material << CACHE_MATERIAL_SHIFT);
         anchor_store(q, uint(h.instance), uint(h.primitive), h.barycentrics);
     } else {
         e.position = r.dir;
         e.normal = 0u;
         e.meta = CACHE_VALID | CACHE_MISS;
-        e.material = 0u;
         anchor_clear(q);
     }
     cache_next[q] = e;
@@ -54,8 +52,8 @@ void main() {
         if (listed) {
             cache_interpolated(job_at(LIST_CACHE, i));
         }
-        COUNTER_ADD(counters[0], listed ? 1u : 0u);
-        COUNTER_ADD(counters[C_VERIFY_RAYS], listed ? 1u : 0u);
+        COUNTER_ADD(counters[stat_slot(0u)], listed ? 1u : 0u);
+        COUNTER_ADD(counters[stat_slot(C_VERIFY_RAYS)], listed ? 1u : 0u);
         return;
     }
     uint i = gl_GlobalInvocationID.x;
@@ -68,8 +66,8 @@ void main() {
         ivec2 pix = ivec2(pixel_of(q));
         Ray r = camera_ray(vec2(pix) + 0.5);
         Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
-        COUNTER_ADD(counters[0], 1u);
-        COUNTER_ADD(counters[C_VERIFY_RAYS], 1u);
+        COUNTER_ADD(counters[stat_slot(0u)], 1u);
+        COUNTER_ADD(counters[stat_slot(C_VERIFY_RAYS)], 1u);
         uint w = resolved_winner(q);
         CacheEntry e = cache_prev[w == NO_SAMPLE ? 0u : w];
         uint st = state[q];
@@ -118,13 +116,8 @@ void main() {
         }
         trace = traced_at(st, uvec2(pix), pc.level);
     }
-    count_settled(settled);
-    list_append(LIST_TRACE, trace, q);
-    uint lists = 1u << LIST_TRACE;
-    if ((params.flags & RP_ADAPTIVE) != 0u) {
-        // Rejected candidates join the pixels the interpolation passes look at.
-        list_append(LIST_PENDING, rejected, q);
-        lists |= 1u << LIST_PENDING;
-    }
-    lists_done(lists, gl_NumWorkGroups.x * gl_NumSubgroups);
+    // Rejected candidates join the pixels the interpolation passes look at.
+    bool adaptive = (params.flags & RP_ADAPTIVE) != 0u;
+    settle_and_list(settled, uvec3(LIST_TRACE, LIST_PENDING, LIST_PENDING), bvec3(trace, adaptive && rejected, false), q);
+    lists_done((1u << LIST_TRACE) | (adaptive ? 1u << LIST_PENDING : 0u));
 }

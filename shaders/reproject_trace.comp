@@ -82,22 +82,20 @@ void main() {
             : material_view_dependent(material));
         e.position = info.position;
         e.normal = pack_normal(info.normal);
-        e.meta = CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u);
-        e.material = material;
+        e.meta = CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u) | (material << CACHE_MATERIAL_SHIFT);
         // The G-buffer's barycentrics where the primary hit came from there.
         anchor_store(q, uint(info.instance), uint(info.primitive), known ? imageLoad(g_bary, pix).xy : info.bary);
     } else {
         e.position = camera.dir;
         e.normal = 0u;
         e.meta = CACHE_VALID | CACHE_MISS;
-        e.material = 0u;
         anchor_clear(q);
     }
     cache_next[q] = e;
 
-    for (uint k = 0u; k < 4u; ++k) {
-        COUNTER_ADD(counters[k], rays_by_kind[k]);
+    [[unroll]] for (uint k = 0u; k < 4u; ++k) {
+        COUNTER_ADD(counters[stat_slot(k)], rays_by_kind[k]);
     }
-    COUNTER_ADD(counters[C_SAMPLES], 1u);
-    COUNTER_ADD(counters[C_TRACED], 1u);
+    COUNTER_ADD(counters[stat_slot(C_SAMPLES)], 1u);
+    COUNTER_ADD(counters[stat_slot(C_TRACED)], 1u);
 }

@@ -837,6 +837,10 @@ fn cli_sequence_writes_frames_and_json_lines() {
             "must be a percentage",
         ),
         (
+            vec!["--frames", "2", "--reproject", "--max-age", "1024"],
+            "--max-age 1024 must be at most 1023",
+        ),
+        (
             vec![
                 "--frames",
                 "2",

@@ -10,20 +10,25 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
+// [[unroll]] on the short loops over neighbours and counters: a CPU device (lavapipe) keeps a
+// local array indexed by a loop variable on the stack and gathers from it lane by lane.
+#extension GL_EXT_control_flow_attributes : require
 #include "counters.glsl"
 #include "interface_passes.glsl"
 #include "tonemap.glsl"
 #include "interface_reproject.glsl"
 
 // CacheEntry: a cached sample, the colour of one primary hit and where it was. meta holds
-// CACHE_* flags in bits 0-7; bits 8-15 count how many fills away from where it was computed the
+// CACHE_* flags in bits 0-3; bits 4-5 count how many fills away from where it was computed the
 // colour is (an interpolated colour counts as one; a fill copies only samples below
-// params.max_hops); bits 16-31 its age in frames.
-uint cache_hops(CacheEntry e) { return (e.meta >> CACHE_HOPS_SHIFT) & 255u; }
-uint with_hops(uint meta, uint hops) { return (meta & ~(255u << CACHE_HOPS_SHIFT)) | (min(hops, 255u) << CACHE_HOPS_SHIFT); }
-uint cache_age(uint meta) { return meta >> CACHE_AGE_SHIFT; }
+// params.max_hops); bits 6-15 its age in frames (saturating at MAX_CACHE_AGE); bits 16-31 its
+// material.
+uint cache_hops(CacheEntry e) { return (e.meta >> CACHE_HOPS_SHIFT) & 3u; }
+uint with_hops(uint meta, uint hops) { return (meta & ~(3u << CACHE_HOPS_SHIFT)) | (min(hops, 3u) << CACHE_HOPS_SHIFT); }
+uint cache_age(uint meta) { return (meta >> CACHE_AGE_SHIFT) & MAX_CACHE_AGE; }
 // One frame older (saturating).
-uint aged(uint meta) { return cache_age(meta) < 0xFFFFu ? meta + (1u << CACHE_AGE_SHIFT) : meta; }
+uint aged(uint meta) { return cache_age(meta) < MAX_CACHE_AGE ? meta + (1u << CACHE_AGE_SHIFT) : meta; }
+uint cache_material(CacheEntry e) { return e.meta >> CACHE_MATERIAL_SHIFT; }
 bool cache_miss(CacheEntry e) { return (e.meta & CACHE_MISS) != 0u; }
 
 // Unit normals in one word: octahedral coordinates (Cigolle et al. 2014), 14 bits each in
@@ -36,13 +41,14 @@ uint pack_normal(vec3 n) {
     uvec2 u = uvec2(round(clamp(o * 0.5 + 0.5, 0.0, 1.0) * 16383.0));
     return (u.x << 18) | (u.y << 4);
 }
+// (The z < 0 half is unfolded without branches, Stubbe's form of oct_wrap, and normalized by
+// one reciprocal square root: the edge test unpacks five normals per pixel.)
 vec3 unpack_normal(uint p) {
-    vec2 o = vec2(uvec2(p >> 18, (p >> 4) & 0x3FFFu)) / 16383.0 * 2.0 - 1.0;
+    vec2 o = vec2(uvec2(p >> 18, (p >> 4) & 0x3FFFu)) * (2.0 / 16383.0) - 1.0;
     vec3 n = vec3(o, 1.0 - abs(o.x) - abs(o.y));
-    if (n.z < 0.0) {
-        n.xy = oct_wrap(n.xy);
-    }
-    return normalize(n);
+    float t = max(-n.z, 0.0);
+    n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
+    return n * inversesqrt(dot(n, n));
 }
 
 // Pixel state: a PX_* kind in the low bits plus the reasons that led to it (for statistics).
@@ -135,52 +141,96 @@ void list_append(uint list, bool take, uint q) {
     }
 }
 
-// After every append of the dispatch (`subgroups` of them): the last subgroup to finish turns
-// the lengths of the lists in the bit set `lists` into their indirect dispatches, so no
-// separate pass and barrier is needed. List 0 restarts at zero for the next stage that lists
-// into it; the others keep their lengths for the later passes that append to them.
-void lists_done(uint lists, uint subgroups) {
+// The counter slot of statistic `slot` (ray kinds, C_SAMPLES, the pixel counts) for this
+// workgroup: its stripe's copy (COUNTER_STRIPES in src/interface/reproject.rs). Runs of
+// consecutive workgroups share a stripe, so on a CPU device, whose threads each run a
+// contiguous range of workgroups, the threads count on different cache lines. Runs are a
+// power of two long (shifts, not divisions: a CPU device divides lane by lane), so that at most
+// COUNTER_STRIPES of them cover the dispatch.
+uint workgroup_count() { return gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumWorkGroups.z; }
+uint workgroup_index() { return (gl_WorkGroupID.z * gl_NumWorkGroups.y + gl_WorkGroupID.y) * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
+uint stripe_shift() {
+    uint groups = workgroup_count();
+    // ceil(log2(groups)) - log2(COUNTER_STRIPES), at least 0.
+    return groups <= COUNTER_STRIPES ? 0u : uint(findMSB(groups - 1u)) + 1u - uint(findMSB(COUNTER_STRIPES));
+}
+uint stat_slot(uint slot) { return ((workgroup_index() >> stripe_shift()) + 1u) * COUNTER_STRIPE_WORDS + slot; }
+
+// After every append of the dispatch: the last subgroup to finish turns the lengths of the
+// lists in the bit set `lists` into their indirect dispatches, so no separate pass and barrier
+// is needed. Subgroups count themselves done per stripe, and the last of each stripe once more
+// in a shared counter (one shared atomic per stripe, not per subgroup). List 0 restarts at zero
+// for the next stage that lists into it; the others keep their lengths for the later passes
+// that append to them.
+void lists_done(uint lists) {
     if (subgroupElect()) {
         // This subgroup's appends are counted before it counts itself done.
         memoryBarrierBuffer();
-        if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == subgroups) {
-            for (uint list = 0u; list < JOB_LISTS; ++list) {
-                if ((lists & (1u << list)) != 0u) {
-                    uint n = list == LIST_VERIFY ? atomicExchange(counters[C_JOBS], 0u) : atomicAdd(counters[list_counter(list)], 0u);
-                    dispatch_args[4u * list] = (n + 63u) / 64u;
-                    dispatch_args[4u * list + 1u] = 1u;
-                    dispatch_args[4u * list + 2u] = 1u;
-                    dispatch_args[4u * list + 3u] = n;
+        uint groups = workgroup_count();
+        uint shift = stripe_shift();
+        uint stripe = workgroup_index() >> shift;
+        uint members = min(1u << shift, groups - (stripe << shift));
+        uint slot = stat_slot(C_STRIPE_DONE);
+        if (atomicAdd(counters[slot], 1u) + 1u == members * gl_NumSubgroups) {
+            counters[slot] = 0u;
+            memoryBarrierBuffer();
+            uint stripes = (groups + (1u << shift) - 1u) >> shift;
+            if (atomicAdd(counters[C_TILES_DONE], 1u) + 1u == stripes) {
+                for (uint list = 0u; list < JOB_LISTS; ++list) {
+                    if ((lists & (1u << list)) != 0u) {
+                        uint n = list == LIST_VERIFY ? atomicExchange(counters[C_JOBS], 0u) : atomicAdd(counters[list_counter(list)], 0u);
+                        dispatch_args[4u * list] = (n + 63u) / 64u;
+                        dispatch_args[4u * list + 1u] = 1u;
+                        dispatch_args[4u * list + 2u] = 1u;
+                        dispatch_args[4u * list + 3u] = n;
+                    }
                 }
+                counters[C_TILES_DONE] = 0u;
             }
-            counters[C_TILES_DONE] = 0u;
         }
     }
 }
 
-// Statistics of a settled pixel state (0: nothing to count). A pixel is counted once, by the
-// pass that settles it; the tracing and interpolation passes count the kinds they turn pixels
-// into. Call from every invocation: sums are per subgroup.
-// The seven 0/1 counts travel as 8-bit fields of two words, so a subgroup sums them in one
-// reduction (a subgroup has at most 128 lanes): on a CPU device every reduction is a loop over
-// the lanes, and seven of them cost 1.5 ms per 256x256 frame on lavapipe.
-const uint SETTLED_COUNTERS[7] = uint[7](C_REUSED, C_HOLES, C_REJECTED, C_VIEW_DEPENDENT, C_EXPIRED, C_FRAMELESS, C_FILLED);
-
-void count_settled(uint st) {
-    uint kind = st & PX_KIND_MASK;
-    uvec2 packed = uvec2((kind == PX_REUSE ? 1u : 0u) | ((st & PX_HOLE) != 0u ? 1u << 8 : 0u)
-                             | ((st & PX_REJECTED) != 0u ? 1u << 16 : 0u) | ((st & PX_VIEW_DEPENDENT) != 0u ? 1u << 24 : 0u),
-                         ((st & PX_EXPIRED) != 0u ? 1u : 0u) | ((st & PX_FRAMELESS) != 0u ? 1u << 8 : 0u)
-                             | ((st & PX_FILLED) != 0u && kind == PX_REUSE ? 1u << 16 : 0u));
-    uvec2 sums = subgroupAdd(packed);
-    if (subgroupElect() && (sums.x | sums.y) != 0u) {
-        for (uint k = 0u; k < 7u; ++k) {
-            uint n = ((k < 4u ? sums.x : sums.y) >> (8u * (k & 3u))) & 255u;
-            if (n != 0u) {
-                atomicAdd(counters[SETTLED_COUNTERS[k]], n);
-            }
-        }
+// Counts settled state `settled` (0: nothing to count; a pixel is counted once, by the pass
+// that settles it, and the tracing and interpolation passes count the kinds they turn pixels
+// into; each count is a ballot's bit count, not a reduction) and appends q to the job lists `list[i]` whose
+// `take[i]` holds (no list: take false in every invocation), with one elected lane doing every
+// atomic and one broadcast handing the lists' offsets back: on a CPU device each election and
+// broadcast is a loop over the lanes. Call from every invocation of the dispatch.
+void settle_and_list(uint settled, uvec3 list, bvec3 take, uint q) {
+    uint kind = settled & PX_KIND_MASK;
+    uint reused = subgroupBallotBitCount(subgroupBallot(kind == PX_REUSE));
+    uint holes = subgroupBallotBitCount(subgroupBallot((settled & PX_HOLE) != 0u));
+    uint rejected = subgroupBallotBitCount(subgroupBallot((settled & PX_REJECTED) != 0u));
+    uint view_dependent = subgroupBallotBitCount(subgroupBallot((settled & PX_VIEW_DEPENDENT) != 0u));
+    uint expired = subgroupBallotBitCount(subgroupBallot((settled & PX_EXPIRED) != 0u));
+    uint frameless = subgroupBallotBitCount(subgroupBallot((settled & PX_FRAMELESS) != 0u));
+    uint filled = subgroupBallotBitCount(subgroupBallot((settled & PX_FILLED) != 0u && kind == PX_REUSE));
+    uvec4 b0 = subgroupBallot(take.x);
+    uvec4 b1 = subgroupBallot(take.y);
+    uvec4 b2 = subgroupBallot(take.z);
+    uvec3 total = uvec3(subgroupBallotBitCount(b0), subgroupBallotBitCount(b1), subgroupBallotBitCount(b2));
+    uvec3 base = uvec3(0u);
+    if (subgroupElect()) {
+        if (reused != 0u) atomicAdd(counters[stat_slot(C_REUSED)], reused);
+        if (holes != 0u) atomicAdd(counters[stat_slot(C_HOLES)], holes);
+        if (rejected != 0u) atomicAdd(counters[stat_slot(C_REJECTED)], rejected);
+        if (view_dependent != 0u) atomicAdd(counters[stat_slot(C_VIEW_DEPENDENT)], view_dependent);
+        if (expired != 0u) atomicAdd(counters[stat_slot(C_EXPIRED)], expired);
+        if (frameless != 0u) atomicAdd(counters[stat_slot(C_FRAMELESS)], frameless);
+        if (filled != 0u) atomicAdd(counters[stat_slot(C_FILLED)], filled);
+        if (total.x != 0u) base.x = atomicAdd(counters[list_counter(list.x)], total.x);
+        if (total.y != 0u) base.y = atomicAdd(counters[list_counter(list.y)], total.y);
+        if (total.z != 0u) base.z = atomicAdd(counters[list_counter(list.z)], total.z);
     }
+    if ((total.x | total.y | total.z) == 0u) {
+        return;
+    }
+    base = subgroupBroadcastFirst(base);
+    uint n = pixel_count();
+    if (take.x) jobs[list.x * n + base.x + subgroupBallotExclusiveBitCount(b0)] = q;
+    if (take.y) jobs[list.y * n + base.y + subgroupBallotExclusiveBitCount(b1)] = q;
+    if (take.z) jobs[list.z * n + base.z + subgroupBallotExclusiveBitCount(b2)] = q;
 }
 
 // The sample shown at pixel q: the one the scatter chose, or, for a pixel no sample landed on,
@@ -197,7 +247,13 @@ uint resolved_winner(uint q) {
 }
 
 #endif
-uvec2 pixel_of(uint index) { return uvec2(index % frame.width, index / frame.width); }
+// Pixel of an index in pixel order. The row is a float quotient corrected by one (exact for
+// any image size): a CPU device has no vector integer division and divides lane by lane.
+uvec2 pixel_of(uint index) {
+    uint y = uint((float(index) + 0.5) / float(frame.width));
+    y = y * frame.width > index ? y - 1u : ((y + 1u) * frame.width <= index ? y + 1u : y);
+    return uvec2(index - y * frame.width, y);
+}
 
 // Adaptive sub-sampling blocks of L x L pixels share their corners with their neighbours:
 // block b spans pixels [b L, min(b L + L, n - 1)], and pixel x belongs to block
@@ -258,6 +314,13 @@ bool project_sample(CacheEntry e, out uint pixel, out uint key, out vec2 film) {
     return true;
 }
 
+// Where on the film a cached sample that lies in front of this camera falls (project_sample's
+// film, without its checks).
+vec2 film_of(vec3 position, bool miss) {
+    vec4 clip = frame.view_proj * vec4(position, miss ? 0.0 : 1.0);
+    return (clip.xy / clip.w * 0.5 + 0.5) * vec2(frame.width, frame.height);
+}
+
 // Whether a surface looks different from another viewpoint: transmissive, metal, see-through
 // blending, or glossy enough for the Whitted mirror term ((1 - roughness)^2 of the reflection).
 bool surface_view_dependent(float metallic, float roughness, float transmission, uint alpha_mode, float alpha) {
@@ -280,7 +343,7 @@ bool sample_matches(CacheEntry e, vec3 p, vec3 ng, uint material) {
     }
     float z = max(view_depth(p), 1e-6);
     float plane = abs(dot(e.position - p, ng)) / z;
-    return plane <= params.plane_threshold && dot(unpack_normal(e.normal), ng) >= params.normal_threshold && e.material == material;
+    return plane <= params.plane_threshold && dot(unpack_normal(e.normal), ng) >= params.normal_threshold && cache_material(e) == material;
 }
 
 // Decides a pixel with candidate sample `e` from this frame's primary hit there.

@@ -75,7 +75,10 @@ const _: () =
 const _: () = assert!(reproject::HISTOGRAM_BINS == reproject::AGE_LEVELS * reproject::RANK_LEVELS);
 const _: () =
     assert!(reproject::RP_COUNTER_SLOTS == reproject::C_HISTOGRAM + reproject::HISTOGRAM_BINS);
-const _: () = assert!(reproject::C_TILES_DONE < reproject::C_HISTOGRAM);
+const _: () = assert!(reproject::C_STRIPE_DONE < reproject::COUNTER_STRIPE_WORDS);
+const _: () = assert!(
+    reproject::C_HISTOGRAM == (reproject::COUNTER_STRIPES + 1) * reproject::COUNTER_STRIPE_WORDS
+);
 const _: () = assert!(GBUFFER_BARY + 1 == GBUFFER_IMAGES);
 
 #[cfg(test)]

@@ -123,10 +123,19 @@ pub const CACHE_MOVED: u32 = 8;
 /// shadows and highlights belong to where the object was; `--max-age` still bounds every
 /// sample).
 pub const MOVED_MAX_AGE: u32 = 4;
-/// Cache entry flags: bits 8-15 count fills away from where the colour was computed.
-pub const CACHE_HOPS_SHIFT: u32 = 8;
-/// Cache entry flags: bits 16-31 count the frames the sample has been reused.
-pub const CACHE_AGE_SHIFT: u32 = 16;
+/// [`CacheEntry::meta`]: bits 4-5 count fills away from where the colour was computed
+/// (saturating at 3; fills copy samples below `MAX_FILL_HOPS`).
+pub const CACHE_HOPS_SHIFT: u32 = 4;
+/// [`CacheEntry::meta`]: bits 6-15 count the frames the sample has been reused (saturating at
+/// [`MAX_CACHE_AGE`]).
+pub const CACHE_AGE_SHIFT: u32 = 6;
+/// The oldest age a cache entry counts to (`--max-age` is at most this).
+pub const MAX_CACHE_AGE: u32 = 1023;
+/// [`CacheEntry::meta`]: bits 16-31 hold the sample's material index (reprojection takes scenes
+/// of at most [`MAX_CACHE_MATERIALS`] materials).
+pub const CACHE_MATERIAL_SHIFT: u32 = 16;
+/// Materials a scene may have for reprojection (16 bits of [`CacheEntry::meta`]).
+pub const MAX_CACHE_MATERIALS: u32 = 65536;
 /// [`Shown::normal`] bit: a sample landed on (or was filled into) the pixel.
 pub const SHOWN_SAMPLE: u32 = 1;
 /// [`Shown::normal`] bit: the sample is a miss.
@@ -178,8 +187,22 @@ pub const C_TRACE_JOBS: u32 = 21;
 pub const C_PENDING_JOBS: u32 = 22;
 /// Counter slot: length of job list 3 (both interpolation passes append to it).
 pub const C_CACHE_JOBS: u32 = 23;
-/// Counter slot: first of the age x rank histogram.
-pub const C_HISTOGRAM: u32 = 32;
+/// Counter slot: subgroups of one stripe that finished appending to the current job lists
+/// (per stripe, like the statistics; `lists_done` of reproject.glsl).
+pub const C_STRIPE_DONE: u32 = 24;
+/// The statistics counters (ray kinds, `C_SAMPLES`, `C_REUSED` .. `C_FILLED` but the frameless
+/// and job-list slots) come in this many stripes: a workgroup counts into the stripe of its
+/// share of the dispatch (consecutive workgroups share one). A CPU device (lavapipe) hands each
+/// thread a contiguous range of workgroups, so the threads' per-subgroup atomics land on
+/// different cache lines instead of bouncing one line between cores.
+pub const COUNTER_STRIPES: u32 = 8;
+/// Counter slots per stripe (128 bytes: two cache lines). Slots `[0, COUNTER_STRIPE_WORDS)`
+/// hold the counters every workgroup shares (job lists, frameless threshold); stripe `s` of
+/// the statistics starts at `(s + 1) * COUNTER_STRIPE_WORDS`, and a statistic is the sum over
+/// stripes.
+pub const COUNTER_STRIPE_WORDS: u32 = 32;
+/// Counter slot: first of the age x rank histogram (after the shared slots and the stripes).
+pub const C_HISTOGRAM: u32 = 288;
 /// Histogram: age levels.
 pub const AGE_LEVELS: u32 = 64;
 /// Histogram: rank levels.
@@ -187,9 +210,9 @@ pub const RANK_LEVELS: u32 = 64;
 /// Histogram bins (`AGE_LEVELS` x `RANK_LEVELS`).
 pub const HISTOGRAM_BINS: u32 = 4096;
 /// Counter slots in all (`C_HISTOGRAM` + `AGE_LEVELS` x `RANK_LEVELS`).
-pub const RP_COUNTER_SLOTS: u32 = 4128;
+pub const RP_COUNTER_SLOTS: u32 = 4384;
 
-/// A cached sample: the colour of one primary hit and where it was. Nine words, not sixteen:
+/// A cached sample: the colour of one primary hit and where it was. Eight words, not sixteen:
 /// every reprojected frame moves each pixel's entry about three times (scatter, fill,
 /// commit), and on a CPU device (lavapipe) every word gathered from a per-pixel address
 /// costs alike, so the entry carries only what a stage reads.
@@ -203,12 +226,11 @@ pub struct CacheEntry {
     /// Geometric normal of the glTF front face, octahedral (`pack_normal` of reproject.glsl:
     /// two 14-bit coordinates in bits 4-31).
     pub normal: u32,
-    /// Bits 0-7: `CACHE_*` flags; bits 8-15: fills away from where the colour was computed
-    /// (`CACHE_HOPS_SHIFT`); bits 16-31: age in frames (`CACHE_AGE_SHIFT`, saturating).
-    /// 0 (no `CACHE_VALID`) marks an empty entry.
+    /// Bits 0-3: `CACHE_*` flags; bits 4-5: fills away from where the colour was computed
+    /// (`CACHE_HOPS_SHIFT`); bits 6-15: age in frames (`CACHE_AGE_SHIFT`, saturating at
+    /// `MAX_CACHE_AGE`); bits 16-31: material index (`CACHE_MATERIAL_SHIFT`). 0 (no
+    /// `CACHE_VALID`) marks an empty entry.
     pub meta: u32,
-    /// Material index.
-    pub material: u32,
 }
 
 /// Where on the scene's geometry a cached sample lies, for scenes with moving geometry

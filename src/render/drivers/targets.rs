@@ -41,7 +41,7 @@ pub struct RingContents {
 }
 
 /// Counter words every ring slot holds (rays by kind, samples, reprojection statistics).
-pub const RING_COUNTERS: usize = 32;
+pub const RING_COUNTERS: usize = crate::interface::reproject::C_HISTOGRAM as usize;
 const AOV_BYTES: u64 = std::mem::size_of::<Aov>() as u64;
 
 /// Host-visible slots that frames copy their outputs into with their own commands: one slot

@@ -100,6 +100,13 @@ impl ReuseOptions {
                 return Err(format!("--frameless {p} must be a percentage in (0, 100]"));
             }
         }
+        if let Some(k) = self.max_age {
+            if k > MAX_CACHE_AGE {
+                return Err(format!(
+                    "--max-age {k} must be at most {MAX_CACHE_AGE} (cached samples count their age in 10 bits)"
+                ));
+            }
+        }
         if !(self.subsample_threshold.is_finite() && self.subsample_threshold >= 0.0) {
             return Err(format!(
                 "--subsample-threshold {} must be a finite non-negative number",
@@ -179,7 +186,13 @@ pub struct ReprojectedFrame {
 
 /// Rays, samples and pixel statistics from a reprojected frame's counters.
 pub(super) fn counts(c: &[u32], pixels: u64) -> (RayCounts, u64, ReuseStats) {
-    let count = |i: u32| u64::from(c.get(i as usize).copied().unwrap_or(0));
+    // A statistic is the sum of its stripes (COUNTER_STRIPES of interface/reproject.rs).
+    let count = |i: u32| {
+        (1..=COUNTER_STRIPES)
+            .map(|s| (s * COUNTER_STRIPE_WORDS + i) as usize)
+            .map(|slot| u64::from(c.get(slot).copied().unwrap_or(0)))
+            .sum::<u64>()
+    };
     (
         RayCounts {
             primary: count(0),

@@ -120,6 +120,9 @@ impl Reprojector {
         unsafe {
             device.cmd_fill_buffer(cmd, self.key_winner.raw(), 0, vk::WHOLE_SIZE, !0);
             device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0);
+            // Most pixels reuse their sample; the passes write the state of the others only
+            // (a CPU device stores words lane by lane, and fills buffers with memset).
+            device.cmd_fill_buffer(cmd, self.state.raw(), 0, vk::WHOLE_SIZE, PX_REUSE);
         }
         memory_barrier(device, cmd);
         match &self.visibility {
