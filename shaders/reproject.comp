@@ -443,9 +443,11 @@ void main() {
         // visibility pass looks at first, and the others to trace at the first level.
         bool look = inside && wants_visibility(st);
         bool adaptive = (params.flags & RP_ADAPTIVE) != 0u;
+        bool leader = subgroupElect();
         settle_and_list(settled, uvec3(LIST_VERIFY, LIST_TRACE, LIST_PENDING),
-                        bvec3(look, inside && !look && traced_at(st, pix, pc.gather), adaptive && inside && (st & PX_KIND_MASK) == PX_TRACE), q);
-        lists_done((1u << LIST_VERIFY) | (1u << LIST_TRACE) | (adaptive ? 1u << LIST_PENDING : 0u));
+                        bvec3(look, inside && !look && traced_at(st, pix, pc.gather), adaptive && inside && (st & PX_KIND_MASK) == PX_TRACE),
+                        adaptive ? 3u : 2u, q, leader);
+        lists_done((1u << LIST_VERIFY) | (1u << LIST_TRACE) | (adaptive ? 1u << LIST_PENDING : 0u), leader);
     } else if (STAGE == STAGE_INTERPOLATE) {
         COUNTER_ADD(counters[stat_slot(C_INTERP)], interpolated ? 1u : 0u);
         uint lists = 0u;
@@ -458,7 +460,7 @@ void main() {
             lists |= 1u << LIST_CACHE;
         }
         if (lists != 0u) {
-            lists_done(lists);
+            lists_done(lists, subgroupElect());
         }
     }
 }

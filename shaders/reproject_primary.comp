@@ -118,6 +118,7 @@ void main() {
     }
     // Rejected candidates join the pixels the interpolation passes look at.
     bool adaptive = (params.flags & RP_ADAPTIVE) != 0u;
-    settle_and_list(settled, uvec3(LIST_TRACE, LIST_PENDING, LIST_PENDING), bvec3(trace, adaptive && rejected, false), q);
-    lists_done((1u << LIST_TRACE) | (adaptive ? 1u << LIST_PENDING : 0u));
+    bool leader = subgroupElect();
+    settle_and_list(settled, uvec3(LIST_TRACE, LIST_PENDING, LIST_PENDING), bvec3(trace, adaptive && rejected, false), 2u, q, leader);
+    lists_done((1u << LIST_TRACE) | (adaptive ? 1u << LIST_PENDING : 0u), leader);
 }

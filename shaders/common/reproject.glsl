@@ -156,14 +156,14 @@ uint stripe_shift() {
 }
 uint stat_slot(uint slot) { return ((workgroup_index() >> stripe_shift()) + 1u) * COUNTER_STRIPE_WORDS + slot; }
 
-// After every append of the dispatch: the last subgroup to finish turns the lengths of the
+// After every append of the dispatch (`leader`: one elected lane of each subgroup): the last subgroup to finish turns the lengths of the
 // lists in the bit set `lists` into their indirect dispatches, so no separate pass and barrier
 // is needed. Subgroups count themselves done per stripe, and the last of each stripe once more
 // in a shared counter (one shared atomic per stripe, not per subgroup). List 0 restarts at zero
 // for the next stage that lists into it; the others keep their lengths for the later passes
 // that append to them.
-void lists_done(uint lists) {
-    if (subgroupElect()) {
+void lists_done(uint lists, bool leader) {
+    if (leader) {
         // This subgroup's appends are counted before it counts itself done.
         memoryBarrierBuffer();
         uint groups = workgroup_count();
@@ -193,32 +193,33 @@ void lists_done(uint lists) {
 
 // Counts settled state `settled` (0: nothing to count; a pixel is counted once, by the pass
 // that settles it, and the tracing and interpolation passes count the kinds they turn pixels
-// into; each count is a ballot's bit count, not a reduction) and appends q to the job lists `list[i]` whose
-// `take[i]` holds (no list: take false in every invocation), with one elected lane doing every
-// atomic and one broadcast handing the lists' offsets back: on a CPU device each election and
-// broadcast is a loop over the lanes. Call from every invocation of the dispatch.
-void settle_and_list(uint settled, uvec3 list, bvec3 take, uint q) {
+// into) and appends q to the job lists `list[i]` whose `take[i]` holds (the first `lists` of
+// them are used). One lane, `leader` (subgroupElect(), elected once by the caller), does every
+// atomic, and one broadcast hands the lists' offsets back: a CPU device (lavapipe) runs each
+// subgroup operation (election, ballot, reduction, broadcast) as a loop over the lanes. The
+// seven 0/1 counts travel as 8-bit fields of two words, one reduction for all (a subgroup has
+// at most 128 lanes). Call from every invocation of the dispatch.
+const uint SETTLED_COUNTERS[7] = uint[7](C_REUSED, C_HOLES, C_REJECTED, C_VIEW_DEPENDENT, C_EXPIRED, C_FRAMELESS, C_FILLED);
+
+void settle_and_list(uint settled, uvec3 list, bvec3 take, uint lists, uint q, bool leader) {
     uint kind = settled & PX_KIND_MASK;
-    uint reused = subgroupBallotBitCount(subgroupBallot(kind == PX_REUSE));
-    uint holes = subgroupBallotBitCount(subgroupBallot((settled & PX_HOLE) != 0u));
-    uint rejected = subgroupBallotBitCount(subgroupBallot((settled & PX_REJECTED) != 0u));
-    uint view_dependent = subgroupBallotBitCount(subgroupBallot((settled & PX_VIEW_DEPENDENT) != 0u));
-    uint expired = subgroupBallotBitCount(subgroupBallot((settled & PX_EXPIRED) != 0u));
-    uint frameless = subgroupBallotBitCount(subgroupBallot((settled & PX_FRAMELESS) != 0u));
-    uint filled = subgroupBallotBitCount(subgroupBallot((settled & PX_FILLED) != 0u && kind == PX_REUSE));
+    uvec2 packed = uvec2((kind == PX_REUSE ? 1u : 0u) | ((settled & PX_HOLE) != 0u ? 1u << 8 : 0u)
+                             | ((settled & PX_REJECTED) != 0u ? 1u << 16 : 0u) | ((settled & PX_VIEW_DEPENDENT) != 0u ? 1u << 24 : 0u),
+                         ((settled & PX_EXPIRED) != 0u ? 1u : 0u) | ((settled & PX_FRAMELESS) != 0u ? 1u << 8 : 0u)
+                             | ((settled & PX_FILLED) != 0u && kind == PX_REUSE ? 1u << 16 : 0u));
+    uvec2 sums = subgroupAdd(packed);
     uvec4 b0 = subgroupBallot(take.x);
     uvec4 b1 = subgroupBallot(take.y);
-    uvec4 b2 = subgroupBallot(take.z);
+    uvec4 b2 = lists > 2u ? subgroupBallot(take.z) : uvec4(0u);
     uvec3 total = uvec3(subgroupBallotBitCount(b0), subgroupBallotBitCount(b1), subgroupBallotBitCount(b2));
     uvec3 base = uvec3(0u);
-    if (subgroupElect()) {
-        if (reused != 0u) atomicAdd(counters[stat_slot(C_REUSED)], reused);
-        if (holes != 0u) atomicAdd(counters[stat_slot(C_HOLES)], holes);
-        if (rejected != 0u) atomicAdd(counters[stat_slot(C_REJECTED)], rejected);
-        if (view_dependent != 0u) atomicAdd(counters[stat_slot(C_VIEW_DEPENDENT)], view_dependent);
-        if (expired != 0u) atomicAdd(counters[stat_slot(C_EXPIRED)], expired);
-        if (frameless != 0u) atomicAdd(counters[stat_slot(C_FRAMELESS)], frameless);
-        if (filled != 0u) atomicAdd(counters[stat_slot(C_FILLED)], filled);
+    if (leader) {
+        [[unroll]] for (uint k = 0u; k < 7u; ++k) {
+            uint n = ((k < 4u ? sums.x : sums.y) >> (8u * (k & 3u))) & 255u;
+            if (n != 0u) {
+                atomicAdd(counters[stat_slot(SETTLED_COUNTERS[k])], n);
+            }
+        }
         if (total.x != 0u) base.x = atomicAdd(counters[list_counter(list.x)], total.x);
         if (total.y != 0u) base.y = atomicAdd(counters[list_counter(list.y)], total.y);
         if (total.z != 0u) base.z = atomicAdd(counters[list_counter(list.z)], total.z);
@@ -257,11 +258,12 @@ uvec2 pixel_of(uint index) {
 
 // Adaptive sub-sampling blocks of L x L pixels share their corners with their neighbours:
 // block b spans pixels [b L, min(b L + L, n - 1)], and pixel x belongs to block
-// min(x / L, blocks - 1) (so the last row/column closes the last block).
-uint block_count(uint n, uint l) { return max(1u, (n - 1u + l - 1u) / l); }
+// min(x / L, blocks - 1) (so the last row/column closes the last block). L is a power of two
+// (4, 2, 1), so these divide by shifting: a CPU device has no vector integer division.
+uint block_count(uint n, uint l) { return max(1u, (n - 2u + l) >> uint(findLSB(l))); }
 
 uvec2 block_span(uint x, uint n, uint l) {
-    uint x0 = min(x / l, block_count(n, l) - 1u) * l;
+    uint x0 = min(x >> uint(findLSB(l)), block_count(n, l) - 1u) * l;
     return uvec2(x0, min(x0 + l, n - 1u));
 }
 
