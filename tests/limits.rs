@@ -395,6 +395,39 @@ fn reprojection_cache_is_checked_with_the_full_render() {
 }
 
 #[test]
+fn reuse_refuses_scenes_with_more_materials_than_cache_entries_index() {
+    let ctx = gpu();
+    let mut scene = cornell();
+    let limit = rqr::interface::reproject::MAX_CACHE_MATERIALS as usize;
+    let copy = scene.materials[0].clone();
+    scene.materials.resize(limit + 1, copy);
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let s = settings(32, 32, 1);
+    let new_sequence = |reproject: bool| {
+        Sequence::new(
+            &ctx,
+            &renderer,
+            &scene,
+            &s,
+            scene.cameras[0],
+            CameraPath::Static,
+            sequence_options(reproject),
+        )
+        .map(|_| ())
+    };
+    let err = new_sequence(true)
+        .expect_err("65537 materials with reuse")
+        .to_string();
+    assert!(
+        err.contains("16-bit material index") && err.contains("65537 materials"),
+        "{err}"
+    );
+    // Without reuse the cache's material index is never read.
+    new_sequence(false).unwrap();
+    assert_validation_clean(&ctx);
+}
+
+#[test]
 fn sequences_check_the_reprojection_cache_before_allocating() {
     let mut ctx = gpu();
     let scene = cornell();

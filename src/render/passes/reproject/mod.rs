@@ -204,7 +204,7 @@ impl Reprojector {
         let pass = renderer.pass_context();
         let materials = pass.scene.materials.size()
             / std::mem::size_of::<crate::scene::layout::GpuMaterial>() as u64;
-        if materials > u64::from(MAX_CACHE_MATERIALS) {
+        if options.reuses() && materials > u64::from(MAX_CACHE_MATERIALS) {
             return Err(VkError::Limit(format!(
                 "reprojection caches a 16-bit material index per sample: the scene has {materials} materials (at most {MAX_CACHE_MATERIALS})"
             ))
