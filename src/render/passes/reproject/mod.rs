@@ -3,7 +3,7 @@
 //!
 //! A [`Reprojector`] keeps a per-pixel cache of the last frame's samples: linear colour,
 //! world position of the primary hit (or the ray direction of a miss), geometric normal
-//! (octahedral, one word), material, age and flags: nine words per pixel
+//! (octahedral, one word), and flags, age and material in one word: eight words per pixel
 //! (`interface::reproject::CacheEntry`). Each frame:
 //!
 //! 1. **Scatter**: every cached sample is projected into the new camera. The nearest sample
@@ -469,7 +469,7 @@ impl Reprojector {
     }
 
     /// The largest buffer the reprojection binds as one storage buffer (either sample cache:
-    /// `size_of::<CacheEntry>()`, 36 bytes per pixel), to compare with
+    /// `size_of::<CacheEntry>()`, 32 bytes per pixel), to compare with
     /// `maxStorageBufferRange`.
     pub fn largest_buffer_bytes(settings: &RenderSettings) -> u64 {
         settings.pixels().saturating_mul(CACHE_ENTRY_BYTES)
