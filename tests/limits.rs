@@ -445,7 +445,7 @@ fn sequences_check_the_reprojection_cache_before_allocating() {
         .map(|_| ())
     };
 
-    // A side whose sample cache exceeds the device's maxStorageBufferRange (lavapipe: 1933).
+    // A side whose sample cache exceeds the device's maxStorageBufferRange (lavapipe: 2050).
     let info = ctx.info();
     let side = ((u64::from(info.max_storage_buffer_range)
         / std::mem::size_of::<rqr::interface::reproject::CacheEntry>() as u64)
