@@ -152,7 +152,9 @@ void record_shown(uint q, uvec2 pix) {
         shown[q] = Shown(plane, e.normal | bits);
         candidate = frameless_candidate(e);
         if (candidate) {
-            atomicAdd(counters[C_HISTOGRAM + refresh_bin(cache_age(e.meta), refresh_rank(pix))], 1u);
+            // This stripe's copy of the histogram (HISTOGRAM_COPIES).
+            uint copy = (workgroup_index() >> stripe_shift()) / (COUNTER_STRIPES / HISTOGRAM_COPIES);
+            atomicAdd(counters[C_HISTOGRAM + copy * HISTOGRAM_BINS + refresh_bin(cache_age(e.meta), refresh_rank(pix))], 1u);
         }
     }
     if ((params.flags & RP_FRAMELESS) != 0u) {
@@ -261,7 +263,10 @@ void threshold() {
         uint acc = 0u;
         bin = HISTOGRAM_BINS;
         for (uint b = 0u; b < HISTOGRAM_BINS; ++b) {
-            uint h = counters[C_HISTOGRAM + b];
+            uint h = 0u;
+            for (uint c = 0u; c < HISTOGRAM_COPIES; ++c) {
+                h += counters[C_HISTOGRAM + c * HISTOGRAM_BINS + b];
+            }
             if (h > 0u && acc + h >= extra) {
                 bin = b;
                 fraction = float(extra - acc) / float(h);

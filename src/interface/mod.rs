@@ -73,8 +73,11 @@ const _: () = assert!(reproject::C_SAMPLES == COUNTER_SAMPLES);
 const _: () =
     assert!(COUNTER_SAMPLES == RAY_REFRACTION + 1 && COUNTER_SLOTS == COUNTER_SAMPLES + 1);
 const _: () = assert!(reproject::HISTOGRAM_BINS == reproject::AGE_LEVELS * reproject::RANK_LEVELS);
-const _: () =
-    assert!(reproject::RP_COUNTER_SLOTS == reproject::C_HISTOGRAM + reproject::HISTOGRAM_BINS);
+const _: () = assert!(
+    reproject::RP_COUNTER_SLOTS
+        == reproject::C_HISTOGRAM + reproject::HISTOGRAM_COPIES * reproject::HISTOGRAM_BINS
+);
+const _: () = assert!(reproject::COUNTER_STRIPES % reproject::HISTOGRAM_COPIES == 0);
 const _: () = assert!(reproject::C_STRIPE_DONE < reproject::COUNTER_STRIPE_WORDS);
 const _: () = assert!(
     reproject::C_HISTOGRAM == (reproject::COUNTER_STRIPES + 1) * reproject::COUNTER_STRIPE_WORDS

@@ -209,8 +209,13 @@ pub const AGE_LEVELS: u32 = 64;
 pub const RANK_LEVELS: u32 = 64;
 /// Histogram bins (`AGE_LEVELS` x `RANK_LEVELS`).
 pub const HISTOGRAM_BINS: u32 = 4096;
-/// Counter slots in all (`C_HISTOGRAM` + `AGE_LEVELS` x `RANK_LEVELS`).
-pub const RP_COUNTER_SLOTS: u32 = 4384;
+/// Copies of the histogram: the workgroups of the first half of a dispatch (by stripe) count
+/// into the first, the others into the second, so that a CPU device's two threads do not
+/// bounce the bins' cache lines between them on every candidate pixel. The threshold stage
+/// adds the copies.
+pub const HISTOGRAM_COPIES: u32 = 2;
+/// Counter slots in all (`C_HISTOGRAM` + `HISTOGRAM_COPIES` x `AGE_LEVELS` x `RANK_LEVELS`).
+pub const RP_COUNTER_SLOTS: u32 = 8480;
 
 /// A cached sample: the colour of one primary hit and where it was. Eight words, not sixteen:
 /// every reprojected frame moves each pixel's entry about three times (scatter, fill,
