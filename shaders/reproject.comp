@@ -112,7 +112,7 @@ uint fill(ivec2 pix, Neighbours nb) {
             // than keeping them in Shown for every pixel. A shown sample projected into the
             // image this frame (it won its pixel), so only where it falls is computed.
             uint w = WINNER(nb.pixel[k]);
-            vec2 d = film_of(cache_prev[w].position, (bits & SHOWN_MISS) != 0u) - centre;
+            vec2 d = film_of(clip_of(cache_prev[w].position, (bits & SHOWN_MISS) != 0u)) - centre;
             float d2 = dot(d, d);
             if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
                 best_d2 = d2;
@@ -153,7 +153,7 @@ void record_shown(uint q, uvec2 pix) {
         candidate = frameless_candidate(e);
         if (candidate) {
             // This stripe's copy of the histogram (HISTOGRAM_COPIES).
-            uint copy = (workgroup_index() >> stripe_shift()) / (COUNTER_STRIPES / HISTOGRAM_COPIES);
+            uint copy = stripe() / (COUNTER_STRIPES / HISTOGRAM_COPIES);
             atomicAdd(counters[C_HISTOGRAM + copy * HISTOGRAM_BINS + refresh_bin(cache_age(e.meta), refresh_rank(pix))], 1u);
         }
     }
@@ -455,17 +455,17 @@ void main() {
         lists_done((1u << LIST_VERIFY) | (1u << LIST_TRACE) | (adaptive ? 1u << LIST_PENDING : 0u), leader);
     } else if (STAGE == STAGE_INTERPOLATE) {
         COUNTER_ADD(counters[stat_slot(C_INTERP)], interpolated ? 1u : 0u);
-        uint lists = 0u;
-        if (pc.gather != GATHER_NONE) {
-            list_append(LIST_VERIFY, inside && traced_at(state[q], pix, pc.gather), q);
-            lists |= 1u << LIST_VERIFY;
-        }
-        if ((params.flags & RP_GBUFFER) == 0u) {
-            list_append(LIST_CACHE, inside && interpolated && uncached, q);
-            lists |= 1u << LIST_CACHE;
-        }
+        // The next level's pixels to trace, and (rt path) interpolated pixels for the caching
+        // pass; the interpolation counts itself above, so nothing settles here.
+        bool gather = pc.gather != GATHER_NONE;
+        bool cache = (params.flags & RP_GBUFFER) == 0u;
+        uint lists = (gather ? 1u << LIST_VERIFY : 0u) | (cache ? 1u << LIST_CACHE : 0u);
         if (lists != 0u) {
-            lists_done(lists, subgroupElect());
+            bool leader = subgroupElect();
+            settle_and_list(0u, uvec3(LIST_VERIFY, LIST_CACHE, LIST_CACHE),
+                            bvec3(gather && inside && traced_at(state[q], pix, pc.gather), cache && inside && interpolated && uncached, false),
+                            2u, q, leader);
+            lists_done(lists, leader);
         }
     }
 }

@@ -116,29 +116,9 @@ void store_color(uint q, vec3 c) {
 uint job_count(uint list) { return dispatch_args[4u * list + 3u]; }
 uint job_at(uint list, uint i) { return jobs[list * pixel_count() + i]; }
 
-// Stream compaction into job list `list`, in tile order: every subgroup writes its jobs
-// contiguously in invocation order after one atomic (a subgroup covers one or more rows of an
-// 8x8 tile), so neighbouring lanes of a tracing pass trace neighbouring pixels. Call from every
-// invocation of the dispatch. No workgroup barrier: a CPU device (lavapipe) runs shaders with
-// barrier() as coroutines, which cost more than the atomics they would save.
 // The counter slot that holds list `list`'s length while stages append to it.
 uint list_counter(uint list) {
     return list == LIST_VERIFY ? C_JOBS : (list == LIST_TRACE ? C_TRACE_JOBS : (list == LIST_PENDING ? C_PENDING_JOBS : C_CACHE_JOBS));
-}
-
-void list_append(uint list, bool take, uint q) {
-    // A ballot, not a scan: on a CPU device a scan is a loop over the lanes.
-    uvec4 ballot = subgroupBallot(take);
-    uint within = subgroupBallotExclusiveBitCount(ballot);
-    uint total = subgroupBallotBitCount(ballot);
-    uint base = 0u;
-    if (subgroupElect() && total > 0u) {
-        base = atomicAdd(counters[list_counter(list)], total);
-    }
-    base = subgroupBroadcastFirst(base);
-    if (take) {
-        jobs[list * pixel_count() + base + within] = q;
-    }
 }
 
 // The counter slot of statistic `slot` (ray kinds, C_SAMPLES, the pixel counts) for this
@@ -154,11 +134,12 @@ uint stripe_shift() {
     // ceil(log2(groups)) - log2(COUNTER_STRIPES), at least 0.
     return groups <= COUNTER_STRIPES ? 0u : uint(findMSB(groups - 1u)) + 1u - uint(findMSB(COUNTER_STRIPES));
 }
-uint stat_slot(uint slot) { return ((workgroup_index() >> stripe_shift()) + 1u) * COUNTER_STRIPE_WORDS + slot; }
+uint stripe() { return workgroup_index() >> stripe_shift(); }
+uint stat_slot(uint slot) { return (stripe() + 1u) * COUNTER_STRIPE_WORDS + slot; }
 
-// After every append of the dispatch (`leader`: one elected lane of each subgroup): the last subgroup to finish turns the lengths of the
-// lists in the bit set `lists` into their indirect dispatches, so no separate pass and barrier
-// is needed. Subgroups count themselves done per stripe, and the last of each stripe once more
+// After every append of the dispatch (`leader`: one elected lane of each subgroup): the last
+// subgroup to finish turns the lengths of the lists in the bit set `lists` into their indirect
+// dispatches, so no separate pass and barrier is needed. Subgroups count themselves done per stripe, and the last of each stripe once more
 // in a shared counter (one shared atomic per stripe, not per subgroup). List 0 restarts at zero
 // for the next stage that lists into it; the others keep their lengths for the later passes
 // that append to them.
@@ -168,8 +149,7 @@ void lists_done(uint lists, bool leader) {
         memoryBarrierBuffer();
         uint groups = workgroup_count();
         uint shift = stripe_shift();
-        uint stripe = workgroup_index() >> shift;
-        uint members = min(1u << shift, groups - (stripe << shift));
+        uint members = min(1u << shift, groups - (stripe() << shift));
         uint slot = stat_slot(C_STRIPE_DONE);
         if (atomicAdd(counters[slot], 1u) + 1u == members * gl_NumSubgroups) {
             counters[slot] = 0u;
@@ -194,7 +174,11 @@ void lists_done(uint lists, bool leader) {
 // Counts settled state `settled` (0: nothing to count; a pixel is counted once, by the pass
 // that settles it, and the tracing and interpolation passes count the kinds they turn pixels
 // into) and appends q to the job lists `list[i]` whose `take[i]` holds (the first `lists` of
-// them are used). One lane, `leader` (subgroupElect(), elected once by the caller), does every
+// them are used). Stream compaction in tile order: every subgroup writes its jobs contiguously
+// in invocation order after one atomic per list (a subgroup covers one or more rows of an 8x8
+// tile), so neighbouring lanes of a tracing pass trace neighbouring pixels; ballots, not scans,
+// and no workgroup barrier (a CPU device runs shaders with barrier() as coroutines, which cost
+// more than the atomics they would save). One lane, `leader` (subgroupElect(), elected once by the caller), does every
 // atomic, and one broadcast hands the lists' offsets back: a CPU device (lavapipe) runs each
 // subgroup operation (election, ballot, reduction, broadcast) as a loop over the lanes. The
 // seven 0/1 counts travel as 8-bit fields of two words, one reduction for all (a subgroup has
@@ -293,6 +277,11 @@ float view_depth(vec3 p) { return dot(p - frame.camera_pos, camera_forward()); }
 // sample has the smallest key (positive float bits order like the floats; misses, points at
 // infinity, lose to every hit). Misses are not reprojected by orthographic cameras, whose
 // rays all share one direction.
+// A cached sample in clip space (a miss, a direction: a point at infinity).
+vec4 clip_of(vec3 position, bool miss) { return frame.view_proj * vec4(position, miss ? 0.0 : 1.0); }
+// Where on the film, in pixels, a point in clip space in front of the camera falls.
+vec2 film_of(vec4 clip) { return (clip.xy / clip.w * 0.5 + 0.5) * vec2(frame.width, frame.height); }
+
 bool project_sample(CacheEntry e, out uint pixel, out uint key, out vec2 film) {
     pixel = NO_SAMPLE;
     key = NO_SAMPLE;
@@ -301,12 +290,12 @@ bool project_sample(CacheEntry e, out uint pixel, out uint key, out vec2 film) {
     if (miss && frame.ortho != 0u) {
         return false;
     }
-    vec4 clip = frame.view_proj * vec4(e.position, miss ? 0.0 : 1.0);
+    vec4 clip = clip_of(e.position, miss);
     float z = miss ? 1.0 : view_depth(e.position);
     if (!(clip.w > 0.0) || !(z > 0.0)) {
         return false;
     }
-    film = (clip.xy / clip.w * 0.5 + 0.5) * vec2(frame.width, frame.height);
+    film = film_of(clip);
     if (!(film.x >= 0.0 && film.y >= 0.0 && film.x < float(frame.width) && film.y < float(frame.height))) {
         return false;
     }
@@ -314,13 +303,6 @@ bool project_sample(CacheEntry e, out uint pixel, out uint key, out vec2 film) {
     pixel = p.y * frame.width + p.x;
     key = miss ? 0x7F800000u : floatBitsToUint(z);
     return true;
-}
-
-// Where on the film a cached sample that lies in front of this camera falls (project_sample's
-// film, without its checks).
-vec2 film_of(vec3 position, bool miss) {
-    vec4 clip = frame.view_proj * vec4(position, miss ? 0.0 : 1.0);
-    return (clip.xy / clip.w * 0.5 + 0.5) * vec2(frame.width, frame.height);
 }
 
 // Whether a surface looks different from another viewpoint: transmissive, metal, see-through
