@@ -28,7 +28,7 @@ layout(push_constant) uniform Push { ReprojectPush pc; };
 // The colour of a pixel settled earlier this frame: every pixel that has one (reused, traced,
 // interpolated) has it in its next cache entry, so adaptive sub-sampling needs no separate
 // colour buffer.
-vec3 color_at(uint x, uint y) { return cache_next[y * frame.width + x].color; }
+vec3 color_at(uint x, uint y) { return CACHE_NEXT(y * frame.width + x).color; }
 
 // A pixel's 4 edge-sharing neighbours, in pixel order: the records of the samples they show
 // (Shown, written by the previous stage), and their pixel indices (NO_SAMPLE outside the
@@ -48,7 +48,7 @@ Neighbours load_neighbours(ivec2 pix) {
         nb.pixel[k] = inside ? uint(n.y) * frame.width + uint(n.x) : NO_SAMPLE;
         nb.shown[k] = Shown(0.0, 0u);
         if (inside) {
-            nb.shown[k] = shown[nb.pixel[k]];
+            nb.shown[k] = SHOWN(nb.pixel[k]);
         }
     }
     return nb;
@@ -112,7 +112,7 @@ uint fill(ivec2 pix, Neighbours nb) {
             // than keeping them in Shown for every pixel. A shown sample projected into the
             // image this frame (it won its pixel), so only where it falls is computed.
             uint w = WINNER(nb.pixel[k]);
-            vec2 d = film_of(clip_of(cache_prev[w].position, (bits & SHOWN_MISS) != 0u)) - centre;
+            vec2 d = film_of(clip_of(CACHE_PREV(w).position, (bits & SHOWN_MISS) != 0u)) - centre;
             float d2 = dot(d, d);
             if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
                 best_d2 = d2;
@@ -144,12 +144,12 @@ void record_shown(uint q, uvec2 pix) {
     uint w = WINNER(q);
     bool candidate = false;
     if (w == NO_SAMPLE) {
-        shown[q].normal = 0u;
+        SHOWN(q).normal = 0u;
     } else {
-        CacheEntry e = cache_prev[w];
+        CacheEntry e = CACHE_PREV(w);
         uint bits = SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u) | (cache_hops(e) < params.max_hops ? SHOWN_COPYABLE : 0u);
         float plane = cache_miss(e) ? 0.0 : dot(e.position - frame.camera_pos, unpack_normal(e.normal));
-        shown[q] = Shown(plane, e.normal | bits);
+        SHOWN(q) = Shown(plane, e.normal | bits);
         candidate = frameless_candidate(e);
         if (candidate) {
             // This stripe's copy of the histogram (HISTOGRAM_COPIES).
@@ -198,7 +198,7 @@ uint classify(uint q, ivec2 pix) {
     } else if (w == NO_SAMPLE) {
         st = PX_TRACE | PX_HOLE;
     } else {
-        e = cache_prev[w];
+        e = CACHE_PREV(w);
         age = cache_age(e.meta);
         if ((e.meta & CACHE_VIEW_DEPENDENT) != 0u) {
             st = PX_TRACE | PX_VIEW_DEPENDENT;
@@ -224,7 +224,7 @@ uint classify(uint q, ivec2 pix) {
     }
     // The frame starts every state as PX_REUSE (a buffer fill).
     if (st != PX_REUSE) {
-        state[q] = st;
+        STATE(q) = st;
     }
     if (kind != PX_VERIFY) {
         commit_entry(q, st, e);
@@ -315,7 +315,7 @@ float tent(float u, float c) {
 // next level.
 bool interpolate(uint q, out bool uncached) {
     uncached = false;
-    uint st = state[q];
+    uint st = STATE(q);
     if ((st & PX_KIND_MASK) != PX_TRACE) {
         return false;
     }
@@ -341,11 +341,11 @@ bool interpolate(uint q, out bool uncached) {
     vec3 c = bil + (cc - bil_c) * tent(uv.x, uvc.x) * tent(uv.y, uvc.y);
     c = max(c, vec3(0.0));
     store_color(q, c);
-    state[q] = (st & ~PX_KIND_MASK) | PX_INTERP;
+    STATE(q) = (st & ~PX_KIND_MASK) | PX_INTERP;
     uncached = (params.flags & RP_GBUFFER) == 0u && (st & PX_VERIFIED) == 0u;
     if (uncached) {
         // For the next level's interpolation and the caching pass, which completes the entry.
-        cache_next[q].color = c;
+        CACHE_NEXT(q).color = c;
     } else {
         // Cached at the pixel's primary hit, flagged so that fills do not copy it (the rt
         // path's pixels without a look at their hit go to the caching pass instead).
@@ -367,7 +367,7 @@ bool interpolate(uint q, out bool uncached) {
             e.normal = pack_normal(ng.xyz);
             e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u) | (material << CACHE_MATERIAL_SHIFT);
         }
-        cache_next[q] = e;
+        CACHE_NEXT(q) = e;
         anchor_from_gbuffer(q, ip);
     }
     return true;
@@ -421,7 +421,7 @@ void main() {
             if (STAGE == STAGE_SCATTER) {
                 e = moved_entry(q);
             } else {
-                e = cache_prev[q];
+                e = CACHE_PREV(q);
             }
             uint target, key;
             vec2 film;
@@ -463,7 +463,7 @@ void main() {
         if (lists != 0u) {
             bool leader = subgroupElect();
             settle_and_list(0u, uvec3(LIST_VERIFY, LIST_CACHE, LIST_CACHE),
-                            bvec3(gather && inside && traced_at(state[q], pix, pc.gather), cache && inside && interpolated && uncached, false),
+                            bvec3(gather && inside && traced_at(STATE(q), pix, pc.gather), cache && inside && interpolated && uncached, false),
                             2u, q, leader);
             lists_done(lists, leader);
         }

@@ -28,7 +28,7 @@ void cache_interpolated(uint q) {
     Ray r = camera_ray(vec2(pixel_of(q)) + 0.5);
     Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
     CacheEntry e;
-    e.color = cache_next[q].color; // written by the interpolation
+    e.color = CACHE_NEXT(q).color; // written by the interpolation
     if (hit_found(h)) {
         Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
         bool vd = surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha);
@@ -42,7 +42,7 @@ void cache_interpolated(uint q) {
         e.meta = CACHE_VALID | CACHE_MISS;
         anchor_clear(q);
     }
-    cache_next[q] = e;
+    CACHE_NEXT(q) = e;
 }
 
 void main() {
@@ -69,8 +69,8 @@ void main() {
         COUNTER_ADD(counters[stat_slot(0u)], 1u);
         COUNTER_ADD(counters[stat_slot(C_VERIFY_RAYS)], 1u);
         uint w = resolved_winner(q);
-        CacheEntry e = cache_prev[w == NO_SAMPLE ? 0u : w];
-        uint st = state[q];
+        CacheEntry e = CACHE_PREV(w == NO_SAMPLE ? 0u : w);
+        uint st = STATE(q);
         // Pixels already bound for tracing (adaptive sub-sampling on the rt path) only record
         // their hit; candidates are judged.
         bool candidate = (st & PX_KIND_MASK) == PX_VERIFY;
@@ -84,7 +84,7 @@ void main() {
             verdict = judge_primary(e, false, vec3(0.0), vec3(0.0), 0u, 0.0, 1.0, 0.0, 1.0);
         }
         st = candidate ? verdict | PX_VERIFIED | (st & PX_FILLED) : st | PX_VERIFIED;
-        state[q] = st;
+        STATE(q) = st;
         // The hit goes to the G-buffer images for the passes that read it: all of it for a
         // pixel that will be shaded (the tracing pass, the interpolation), only where it is
         // (and, for moving geometry, its anchor) for a reused fill (commit). Most candidates

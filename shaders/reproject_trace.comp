@@ -32,7 +32,7 @@ void main() {
     }
     uint q = job_at(pc.list, i);
     ivec2 pix = ivec2(pixel_of(q));
-    uint st = state[q];
+    uint st = STATE(q);
     Ray camera = camera_ray(vec2(pix) + 0.5);
     bool known = (params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u;
 
@@ -68,7 +68,7 @@ void main() {
         c = whitted(camera, known ? PRIMARY_SURFACE : PRIMARY_TRACE, s, at, info);
     }
     store_color(q, c);
-    state[q] = (st & ~PX_KIND_MASK) | PX_TRACED;
+    STATE(q) = (st & ~PX_KIND_MASK) | PX_TRACED;
 
     CacheEntry e;
     e.color = c;
@@ -91,7 +91,7 @@ void main() {
         e.meta = CACHE_VALID | CACHE_MISS;
         anchor_clear(q);
     }
-    cache_next[q] = e;
+    CACHE_NEXT(q) = e;
 
     [[unroll]] for (uint k = 0u; k < 4u; ++k) {
         COUNTER_ADD(counters[stat_slot(k)], rays_by_kind[k]);

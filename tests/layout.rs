@@ -207,11 +207,11 @@ fn interface_structs_match_generated_glsl_layout() {
         ("GpuBvhRefs", words(&distinct::<GpuBvhRefs>(23))),
         ("BvhBuildRefs", words(&distinct::<BvhBuildRefs>(24))),
         ("BvhRefitRefs", words(&distinct::<BvhRefitRefs>(25))),
+        ("GpuParams", words(&distinct::<GpuParams>(13))),
         ("Aov", words(&distinct::<Aov>(9))),
         ("RasterDraw", words(&distinct::<RasterDraw>(10))),
         ("CacheEntry", words(&distinct::<CacheEntry>(11))),
         ("Shown", words(&distinct::<Shown>(12))),
-        ("GpuParams", words(&distinct::<GpuParams>(13))),
     ];
     let concat = |parts: &[(&str, Vec<u32>)]| -> Vec<u32> {
         parts.iter().flat_map(|p| p.1.iter().copied()).collect()

@@ -57,24 +57,31 @@ vec3 unpack_normal(uint p) {
 
 layout(set = 0, binding = BINDING_RP_PARAMS, scalar) uniform Params { GpuParams params; };
 
-// Not readonly: with moving geometry the scatter moves each entry with its object
-// (reproject_anchor.glsl).
-layout(set = 0, binding = BINDING_RP_CACHE_PREV, scalar) buffer CachePrev { CacheEntry cache_prev[]; };
-layout(set = 0, binding = BINDING_RP_CACHE_NEXT, scalar) buffer CacheNext { CacheEntry cache_next[]; };
+// The per-pixel buffers, through buffer references at the addresses in `params` (GpuParams:
+// a CPU device (lavapipe) gathers and scatters through a buffer reference with vector
+// instructions, where it accesses a descriptor-bound buffer lane by lane). Not readonly:
+// with moving geometry the scatter moves each entry with its object (reproject_anchor.glsl).
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer CacheEntries { CacheEntry v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Words { uint v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Colors { vec4 v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer ShownRecords { Shown v[]; };
+// The cache this frame reads (the previous frame's samples) and the one it writes.
+#define CACHE_PREV(i) CacheEntries(params.cache_prev).v[i]
+#define CACHE_NEXT(i) CacheEntries(params.cache_next).v[i]
 // Per pixel, interleaved: word 2q is the index of the sample that won pixel q, word 2q + 1 its
 // depth key. Where the device has 64-bit atomics, one atomicMin of key << 32 | index on the
 // pair (little-endian: index in the low word) picks the nearest sample and breaks depth ties
 // by the lowest index in one pass (reproject_scatter64.comp); otherwise two 32-bit passes do.
 #ifndef RQR_KEY_WINNER_64
-layout(set = 0, binding = BINDING_RP_KEY_WINNER, std430) buffer KeyWinner { uint key_winner[]; };
-#define WINNER(q) key_winner[2u * (q)]
-#define DEPTH_KEY(q) key_winner[2u * (q) + 1u]
+#define WINNER(q) Words(params.key_winner).v[2u * (q)]
+#define DEPTH_KEY(q) Words(params.key_winner).v[2u * (q) + 1u]
 #endif
-layout(set = 0, binding = BINDING_RP_STATES, std430) buffer States { uint state[]; };
-layout(set = 0, binding = BINDING_RP_COLORS, scalar) buffer Colors { vec4 color[]; };
-layout(set = 0, binding = BINDING_RP_RGBA8, std430) writeonly buffer DisplayPixels { uint display_pixels[]; };
-// The job lists share one buffer: list k holds jobs[k n, k n + n), n = pixels.
-layout(set = 0, binding = BINDING_RP_JOBS, std430) buffer Jobs { uint jobs[]; };
+// Per pixel: the PX_* state, the linear colour (EXR output only), the display value (RGBA8).
+#define STATE(q) Words(params.states).v[q]
+#define LINEAR_COLOR(q) Colors(params.colors).v[q]
+#define DISPLAY(q) Words(params.display).v[q]
+// The job lists share one buffer: list k holds jobs [k n, k n + n), n = pixels.
+#define JOBS(i) Words(params.jobs).v[i]
 layout(set = 0, binding = BINDING_RP_COUNTERS, std430) buffer Counters { uint counters[]; };
 // The G-buffer images (gbuffer.frag's layout): the raster pass's (hybrid) or the visibility
 // pass's (rt).
@@ -95,7 +102,7 @@ layout(set = 0, binding = BINDING_RP_DISPATCH_ARGS, std430) buffer DispatchArgs 
 // Written in pixel order by the shown stage, so the stage that looks at a pixel's neighbours
 // reads neighbouring memory instead of gathering whole cache entries from wherever they came
 // from.
-layout(set = 0, binding = BINDING_RP_SHOWN, scalar) buffer ShownSamples { Shown shown[]; };
+#define SHOWN(q) ShownRecords(params.shown).v[q]
 
 uint pixel_count() { return frame.width * frame.height; }
 
@@ -103,9 +110,9 @@ uint pixel_count() { return frame.width * frame.height; }
 // and its linear colour where a reader wants it.
 void store_color(uint q, vec3 c) {
     if ((params.flags & RP_LINEAR_COLOR) != 0u) {
-        color[q] = vec4(c, 1.0);
+        LINEAR_COLOR(q) = vec4(c, 1.0);
     }
-    display_pixels[q] = tonemap_rgba8(c, params.tonemap_op, params.tonemap_scale);
+    DISPLAY(q) = tonemap_rgba8(c, params.tonemap_op, params.tonemap_scale);
 }
 
 // Job lists. The stage that settles the pixels lists those the visibility pass looks at (list
@@ -114,7 +121,7 @@ void store_color(uint q, vec3 c) {
 // whose visibility jobs are done by then. Tracing passes run one job per invocation, 64 per
 // workgroup.
 uint job_count(uint list) { return dispatch_args[4u * list + 3u]; }
-uint job_at(uint list, uint i) { return jobs[list * pixel_count() + i]; }
+uint job_at(uint list, uint i) { return JOBS(list * pixel_count() + i); }
 
 // The counter slot that holds list `list`'s length while stages append to it.
 uint list_counter(uint list) {
@@ -213,9 +220,9 @@ void settle_and_list(uint settled, uvec3 list, bvec3 take, uint lists, uint q, b
     }
     base = subgroupBroadcastFirst(base);
     uint n = pixel_count();
-    if (take.x) jobs[list.x * n + base.x + subgroupBallotExclusiveBitCount(b0)] = q;
-    if (take.y) jobs[list.y * n + base.y + subgroupBallotExclusiveBitCount(b1)] = q;
-    if (take.z) jobs[list.z * n + base.z + subgroupBallotExclusiveBitCount(b2)] = q;
+    if (take.x) JOBS(list.x * n + base.x + subgroupBallotExclusiveBitCount(b0)) = q;
+    if (take.y) JOBS(list.y * n + base.y + subgroupBallotExclusiveBitCount(b1)) = q;
+    if (take.z) JOBS(list.z * n + base.z + subgroupBallotExclusiveBitCount(b2)) = q;
 }
 
 // The sample shown at pixel q: the one the scatter chose, or, for a pixel no sample landed on,
@@ -265,7 +272,7 @@ bool traced_at(uint st, uvec2 pix, uint level) {
 }
 
 // An entry without CACHE_VALID is empty: no reader looks past its meta.
-void clear_entry(uint q) { cache_next[q].meta = 0u; }
+void clear_entry(uint q) { CACHE_NEXT(q).meta = 0u; }
 
 vec3 camera_forward() { return normalize(-frame.camera_to_world[2].xyz); }
 
@@ -362,7 +369,7 @@ uint judge_against_gbuffer(ivec2 pix, CacheEntry e) {
 // own ray) and carry the sample, one frame older, into the next cache. Every other pixel
 // starts the next cache empty; the tracing pass fills the ones it traces. Run by the pass
 // that settles pixel q (state `st`).
-// `e` is the sample the pixel shows (cache_prev[resolved_winner(q)]), read by the caller,
+// `e` is the sample the pixel shows (CACHE_PREV(resolved_winner(q))), read by the caller,
 // which has usually read it already for its own tests.
 void commit_entry(uint q, uint st, CacheEntry e) {
     if ((st & PX_KIND_MASK) != PX_REUSE) {
@@ -405,13 +412,13 @@ void commit_entry(uint q, uint st, CacheEntry e) {
         e.meta = with_hops(e.meta, cache_hops(e) + 1u);
     }
     anchor_commit(q, resolved_winner(q), st, e);
-    cache_next[q] = e;
+    CACHE_NEXT(q) = e;
 }
 
 void commit(uint q, uint st) {
     CacheEntry e;
     if ((st & PX_KIND_MASK) == PX_REUSE) {
-        e = cache_prev[resolved_winner(q)];
+        e = CACHE_PREV(resolved_winner(q));
     }
     commit_entry(q, st, e);
 }

@@ -10,22 +10,24 @@
 #ifndef RQR_REPROJECT_ANCHOR_GLSL
 #define RQR_REPROJECT_ANCHOR_GLSL
 
-layout(set = 0, binding = BINDING_RP_ANCHORS_PREV, scalar) readonly buffer AnchorsPrev { Anchor anchors_prev[]; };
-layout(set = 0, binding = BINDING_RP_ANCHORS_NEXT, scalar) buffer AnchorsNext { Anchor anchors_next[]; };
+// The anchors this frame reads and writes (buffer references, like the cache's).
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Anchors { Anchor v[]; };
+#define ANCHOR_PREV(q) Anchors(params.anchors_prev).v[q]
+#define ANCHOR_NEXT(q) Anchors(params.anchors_next).v[q]
 
 bool tracks_motion() { return (params.flags & RP_MOVING) != 0u; }
 
 // Anchors the sample cached at slot q of the next cache.
 void anchor_store(uint q, uint instance, uint primitive, vec2 bary) {
     if (tracks_motion()) {
-        anchors_next[q] = Anchor(instance, primitive, bary);
+        ANCHOR_NEXT(q) = Anchor(instance, primitive, bary);
     }
 }
 
 // The sample cached at slot q of the next cache has no anchor (a miss).
 void anchor_clear(uint q) {
     if (tracks_motion()) {
-        anchors_next[q].instance = NO_ANCHOR;
+        ANCHOR_NEXT(q).instance = NO_ANCHOR;
     }
 }
 
@@ -85,11 +87,11 @@ vec2 anchor_barycentrics(uint instance, uint primitive, vec3 p) {
 // the frame (shown records, classification, commit) sees where the sample is now. Run by the
 // scatter, one invocation per slot.
 CacheEntry moved_entry(uint q) {
-    CacheEntry e = cache_prev[q];
+    CacheEntry e = CACHE_PREV(q);
     if (!tracks_motion() || (e.meta & CACHE_VALID) == 0u || cache_miss(e)) {
         return e;
     }
-    Anchor a = anchors_prev[q];
+    Anchor a = ANCHOR_PREV(q);
     if (a.instance == NO_ANCHOR) {
         return e;
     }
@@ -106,7 +108,7 @@ CacheEntry moved_entry(uint q) {
     bool front_after = dot(ng, view_after) < 0.0;
     if (front_before != front_after) {
         e.meta = 0u;
-        cache_prev[q].meta = 0u;
+        CACHE_PREV(q).meta = 0u;
         return e;
     }
     // A sample that moves with its object keeps the shading of where the object was
@@ -115,12 +117,12 @@ CacheEntry moved_entry(uint q) {
     // recomputed from its anchor differ by that much).
     if (distance(p, e.position) > 1e-4 * max(distance(p, frame.camera_pos), 1e-6)) {
         e.meta |= CACHE_MOVED;
-        cache_prev[q].meta = e.meta;
+        CACHE_PREV(q).meta = e.meta;
     }
     e.position = p;
     e.normal = pack_normal(ng);
-    cache_prev[q].position = e.position;
-    cache_prev[q].normal = e.normal;
+    CACHE_PREV(q).position = e.position;
+    CACHE_PREV(q).normal = e.normal;
     return e;
 }
 
@@ -135,12 +137,12 @@ void anchor_commit(uint q, uint w, uint st, CacheEntry e) {
     if (cache_miss(e)) {
         anchor_clear(q);
     } else if ((st & PX_FILLED) == 0u) {
-        Anchor a = anchors_prev[w];
+        Anchor a = ANCHOR_PREV(w);
         anchor_store(q, a.instance, a.primitive, a.bary);
     } else if ((params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u) {
         anchor_from_gbuffer(q, ivec2(pixel_of(q)));
     } else {
-        Anchor a = anchors_prev[w];
+        Anchor a = ANCHOR_PREV(w);
         if (a.instance != NO_ANCHOR) {
             a.bary = anchor_barycentrics(a.instance, a.primitive, e.position);
         }

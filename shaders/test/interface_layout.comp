@@ -53,11 +53,11 @@ layout(set = 0, binding = 5, scalar) readonly buffer Records {
     GpuBvhRefs bvh_refs;
     BvhBuildRefs bvh_build_refs;
     BvhRefitRefs bvh_refit_refs;
+    GpuParams params;
     Aov aov;
     RasterDraw raster_draw;
     CacheEntry cache_entry;
     Shown shown;
-    GpuParams params;
 } records;
 
 void main() {
@@ -79,9 +79,9 @@ void main() {
     put_GpuBvhRefs(records.bvh_refs);
     put_BvhBuildRefs(records.bvh_build_refs);
     put_BvhRefitRefs(records.bvh_refit_refs);
+    put_GpuParams(records.params);
     put_Aov(records.aov);
     put_RasterDraw(records.raster_draw);
     put_CacheEntry(records.cache_entry);
     put_Shown(records.shown);
-    put_GpuParams(records.params);
 }

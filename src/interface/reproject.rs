@@ -4,35 +4,18 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// The `Params` uniform ([`GpuParams`]).
+/// The `Params` uniform ([`GpuParams`]), which also holds the addresses of the per-pixel
+/// buffers (cache, states, colours, job lists, shown samples, anchors: the shaders reach
+/// them through buffer references).
 pub const BINDING_RP_PARAMS: u32 = 4;
-/// The previous frame's sample cache.
-pub const BINDING_RP_CACHE_PREV: u32 = 5;
-/// The next frame's sample cache.
-pub const BINDING_RP_CACHE_NEXT: u32 = 6;
 /// Scatter winners and depth keys, interleaved per pixel.
 pub const BINDING_RP_KEY_WINNER: u32 = 7;
-/// Pixel states.
-pub const BINDING_RP_STATES: u32 = 9;
-/// Colour per pixel.
-pub const BINDING_RP_COLORS: u32 = 10;
-/// The two job lists (list k at jobs[k n, k n + n), n = pixels).
-pub const BINDING_RP_JOBS: u32 = 11;
 /// Counters (`C_*` slots).
 pub const BINDING_RP_COUNTERS: u32 = 12;
 /// First G-buffer image; the others follow in `GBUFFER_*` order.
 pub const BINDING_RP_GBUFFER: u32 = 13;
 /// Per job list: the indirect dispatch of the pass working through it and its job count.
 pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
-/// The sample each pixel shows (without its colour).
-pub const BINDING_RP_SHOWN: u32 = 21;
-/// The frame's display pixels (RGBA8, one word each), written with the colour.
-pub const BINDING_RP_RGBA8: u32 = 24;
-/// The previous frame's sample anchors ([`Anchor`], per cache slot; read only with
-/// [`RP_MOVING`]).
-pub const BINDING_RP_ANCHORS_PREV: u32 = 22;
-/// The next frame's sample anchors (written only with [`RP_MOVING`]).
-pub const BINDING_RP_ANCHORS_NEXT: u32 = 23;
 
 /// Params flag: reproject the previous frame's cache.
 pub const RP_REUSE: u32 = 1;
@@ -326,4 +309,30 @@ pub struct GpuParams {
     pub max_hops: u32,
     /// Exposure scale of the display pixels (2^exposure).
     pub tonemap_scale: f32,
+    /// Aligns the addresses below (8 bytes).
+    pub pad0: u32,
+    /// Device addresses of the per-pixel buffers, which the shaders reach through
+    /// `buffer_reference`s rather than descriptor bindings: a CPU device (lavapipe) loads and
+    /// stores a descriptor-bound buffer at per-lane addresses one lane at a time (a branch,
+    /// a bounds check and a scalar access per lane and word), but a buffer reference with a
+    /// vector gather or scatter. The cache this frame reads ([`CacheEntry`] array).
+    pub cache_prev: u64,
+    /// The cache this frame writes.
+    pub cache_next: u64,
+    /// Per pixel, interleaved: the winning sample's index and its depth key.
+    pub key_winner: u64,
+    /// Per pixel: the `PX_*` state.
+    pub states: u64,
+    /// Per pixel: linear colour (`vec4`), for EXR output.
+    pub colors: u64,
+    /// Per pixel: the display value (RGBA8).
+    pub display: u64,
+    /// Per pixel: [`Shown`].
+    pub shown: u64,
+    /// The job lists (`JOB_LISTS` x pixels).
+    pub jobs: u64,
+    /// Per cache slot: the [`Anchor`]s this frame reads.
+    pub anchors_prev: u64,
+    /// The [`Anchor`]s this frame writes.
+    pub anchors_next: u64,
 }

@@ -142,11 +142,11 @@ pub struct Reprojector {
     stages: Vec<Arc<ComputePipeline>>,
     primary: Arc<ComputePipeline>,
     trace: Arc<ComputePipeline>,
-    /// Per cache parity: descriptor sets of `stages`, `primary`, `trace`.
-    sets: Vec<[DescriptorSet; 3]>,
+    /// Descriptor sets of `stages`, `primary`, `trace`.
+    sets: [DescriptorSet; 3],
     frame: Buffer,
     params: Buffer,
-    _caches: [Buffer; 2],
+    caches: [Buffer; 2],
     /// Per cache parity: the samples' anchors (`interface::reproject::Anchor`), with
     /// [`Self::track_moving_geometry`]; placeholders of one anchor otherwise.
     anchors: [Buffer; 2],
@@ -154,13 +154,13 @@ pub struct Reprojector {
     moving: bool,
     /// Per pixel: the winning sample's index and its depth key (interleaved u32 pairs).
     key_winner: Buffer,
-    /// The one-pass scatter and its descriptor set per cache parity, where the device has
-    /// 64-bit buffer atomics.
-    scatter64: Option<(Arc<ComputePipeline>, Vec<DescriptorSet>)>,
+    /// The one-pass scatter and its descriptor set, where the device has 64-bit buffer
+    /// atomics.
+    scatter64: Option<(Arc<ComputePipeline>, DescriptorSet)>,
     state: Buffer,
     color: Buffer,
-    _jobs: Buffer,
-    _shown: Buffer,
+    jobs: Buffer,
+    shown: Buffer,
     counters: Buffer,
     /// Indirect dispatch of the tracing passes, sized by their job lists.
     args: Buffer,
@@ -294,18 +294,9 @@ impl Reprojector {
                 (crate::interface::BINDING_RAY_BACKEND, ray_binding),
                 (BINDING_FRAME, Binding::UniformBuffer),
                 (BINDING_RP_PARAMS, Binding::UniformBuffer),
-                (BINDING_RP_CACHE_PREV, storage),
-                (BINDING_RP_CACHE_NEXT, storage),
                 (BINDING_RP_KEY_WINNER, storage),
-                (BINDING_RP_STATES, storage),
-                (BINDING_RP_COLORS, storage),
-                (BINDING_RP_JOBS, storage),
                 (BINDING_RP_COUNTERS, storage),
                 (BINDING_RP_DISPATCH_ARGS, storage),
-                (BINDING_RP_SHOWN, storage),
-                (BINDING_RP_RGBA8, storage),
-                (BINDING_RP_ANCHORS_PREV, storage),
-                (BINDING_RP_ANCHORS_NEXT, storage),
             ];
             b.extend(
                 (0..GBUFFER_FORMATS.len() as u32)
@@ -356,46 +347,39 @@ impl Reprojector {
         } else {
             None
         };
-        let mut sets = Vec::with_capacity(2);
-        let mut scatter64_sets = Vec::with_capacity(2);
-        for parity in 0..2 {
-            let make = |pipeline: &ComputePipeline, rays: bool| -> VkResult<DescriptorSet> {
-                let set = pipeline.allocate_set()?;
-                if rays {
-                    pass.bind_scene(&set);
-                } else {
-                    pass.scene.bind(&set);
-                    set.sampled_images(BINDING_TEXTURES, pass.textures);
-                }
-                let storage = Binding::StorageBuffer;
-                set.buffer(BINDING_FRAME, &frame, Binding::UniformBuffer)
-                    .buffer(BINDING_RP_PARAMS, &params, Binding::UniformBuffer)
-                    .buffer(BINDING_RP_CACHE_PREV, &caches[parity], storage)
-                    .buffer(BINDING_RP_CACHE_NEXT, &caches[1 - parity], storage)
-                    .buffer(BINDING_RP_KEY_WINNER, &key_winner, storage)
-                    .buffer(BINDING_RP_STATES, &state, storage)
-                    .buffer(BINDING_RP_COLORS, &color, storage)
-                    .buffer(BINDING_RP_JOBS, &jobs, storage)
-                    .buffer(BINDING_RP_COUNTERS, &counters, storage)
-                    .buffer(BINDING_RP_DISPATCH_ARGS, &args, storage)
-                    .buffer(BINDING_RP_SHOWN, &shown, storage)
-                    .buffer(BINDING_RP_RGBA8, &display, storage)
-                    .buffer(BINDING_RP_ANCHORS_PREV, &anchors[parity], storage)
-                    .buffer(BINDING_RP_ANCHORS_NEXT, &anchors[1 - parity], storage);
-                for (i, image) in visibility.images().iter().enumerate() {
-                    set.storage_image(BINDING_RP_GBUFFER + i as u32, image.view());
-                }
-                Ok(set)
-            };
-            sets.push([
-                make(&stages[0], false)?,
-                make(&primary, true)?,
-                make(&trace, true)?,
-            ]);
-            if let Some(p) = &scatter64 {
-                scatter64_sets.push(make(p, false)?);
+        // One set per pipeline: the buffers that alternate between frames (the caches and
+        // anchors) are reached through the addresses in the params, written every frame.
+        let make = |pipeline: &ComputePipeline, rays: bool| -> VkResult<DescriptorSet> {
+            let set = pipeline.allocate_set()?;
+            if rays {
+                pass.bind_scene(&set);
+            } else {
+                pass.scene.bind(&set);
+                set.sampled_images(BINDING_TEXTURES, pass.textures);
             }
-        }
+            let storage = Binding::StorageBuffer;
+            set.buffer(BINDING_FRAME, &frame, Binding::UniformBuffer)
+                .buffer(BINDING_RP_PARAMS, &params, Binding::UniformBuffer)
+                .buffer(BINDING_RP_KEY_WINNER, &key_winner, storage)
+                .buffer(BINDING_RP_COUNTERS, &counters, storage)
+                .buffer(BINDING_RP_DISPATCH_ARGS, &args, storage);
+            for (i, image) in visibility.images().iter().enumerate() {
+                set.storage_image(BINDING_RP_GBUFFER + i as u32, image.view());
+            }
+            Ok(set)
+        };
+        let sets = [
+            make(&stages[0], false)?,
+            make(&primary, true)?,
+            make(&trace, true)?,
+        ];
+        let scatter64 = match scatter64 {
+            Some(p) => {
+                let set = make(&p, false)?;
+                Some((p, set))
+            }
+            None => None,
+        };
         let readback = FrameRing::new(
             ctx,
             "reproject readback",
@@ -421,15 +405,15 @@ impl Reprojector {
             sets,
             frame,
             params,
-            _caches: caches,
+            caches,
             anchors,
             moving: false,
             key_winner,
-            scatter64: scatter64.map(|p| (p, scatter64_sets)),
+            scatter64,
             state,
             color,
-            _jobs: jobs,
-            _shown: shown,
+            jobs,
+            shown,
             counters,
             args,
             visibility,
@@ -542,15 +526,6 @@ impl Reprojector {
             storage("reproject anchors 0")?,
             storage("reproject anchors 1")?,
         ];
-        // Each parity's sets read that parity's anchors and write the other's.
-        let storage = Binding::StorageBuffer;
-        for parity in 0..2 {
-            let scatter = self.scatter64.as_ref().map(|(_, sets)| &sets[parity]);
-            for set in self.sets[parity].iter().chain(scatter) {
-                set.buffer(BINDING_RP_ANCHORS_PREV, &self.anchors[parity], storage)
-                    .buffer(BINDING_RP_ANCHORS_NEXT, &self.anchors[1 - parity], storage);
-            }
-        }
         self.moving = true;
         self.reset();
         Ok(())
@@ -566,10 +541,9 @@ impl Reprojector {
     /// kept.
     pub fn update_scene(&mut self, renderer: &Renderer) {
         self.scene_scale = renderer.scene_scale();
-        for [_, primary, trace] in &self.sets {
-            renderer.pass_context().bind_scene(primary);
-            renderer.pass_context().bind_scene(trace);
-        }
+        let [_, primary, trace] = &self.sets;
+        renderer.pass_context().bind_scene(primary);
+        renderer.pass_context().bind_scene(trace);
     }
 
     /// Empties the cache: the next frame traces every pixel (the start of a frame range).

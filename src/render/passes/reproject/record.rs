@@ -64,9 +64,20 @@ impl Reprojector {
             fill_radius: FILL_RADIUS,
             max_hops: MAX_FILL_HOPS,
             tonemap_scale: s.exposure.exp2(),
+            pad0: 0,
+            cache_prev: self.caches[self.parity].address(),
+            cache_next: self.caches[1 - self.parity].address(),
+            key_winner: self.key_winner.address(),
+            states: self.state.address(),
+            colors: self.color.address(),
+            display: self.display.address(),
+            shown: self.shown.address(),
+            jobs: self.jobs.address(),
+            anchors_prev: self.anchors[self.parity].address(),
+            anchors_next: self.anchors[1 - self.parity].address(),
         };
         let tiles = [s.width.div_ceil(TILE), s.height.div_ceil(TILE), 1];
-        let [stages_set, primary_set, trace_set] = &self.sets[self.parity];
+        let [stages_set, primary_set, trace_set] = &self.sets;
         let device = ctx.device();
         // One pass of reproject.comp; `gather` names the level whose pixels to trace it lists.
         let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, gather: u32| {
@@ -148,8 +159,8 @@ impl Reprojector {
         if reuse {
             scope(&mut profiler, "scatter");
             match &self.scatter64 {
-                Some((pipeline, sets)) => {
-                    pipeline.dispatch(cmd, Some(&sets[self.parity]), &[], tiles);
+                Some((pipeline, set)) => {
+                    pipeline.dispatch(cmd, Some(set), &[], tiles);
                     memory_barrier(device, cmd);
                 }
                 None => {
