@@ -11,8 +11,8 @@
 //! - `pub const NAME: u32 = VALUE;` (also `usize`, `u64` below 2^32, `i32`, `f32`) with VALUE a literal, a hex
 //!   literal, `u32::MAX` or `A << B` of literals: `#define NAME VALUEu`;
 //! - `pub struct Name {`, then one `pub field: TYPE,` per line, then `}`: a GLSL `struct` with
-//!   the same fields in the same order (types: `u32`, `u64` (`uint64_t`: the including shader
-//!   enables the int64 extension), `i32`, `f32`, `[f32; 2|3|4|16]`,
+//!   the same fields in the same order (types: `u32`, `u64` (`uint64_t`: a header with one
+//!   enables the int64 extension itself), `i32`, `f32`, `[f32; 2|3|4|16]`,
 //!   `[u32; 2|3|4]`, `[i32; 2|3|4]`), plus, under `#ifdef RQR_LAYOUT_PUT`, a
 //!   `put_Name(Name)` function that writes every field as 32-bit words (for layout tests).
 
@@ -192,6 +192,18 @@ pub fn translate(rel: &str, source: &str, guard: &str) -> Result<String, String>
         return Err(format!("{rel}: struct not closed"));
     }
     out.push_str("#endif\n");
+    // A header with 64-bit fields enables the 64-bit types itself, so that every shader that
+    // includes it compiles whether or not it uses them.
+    if out.contains("uint64_t ") {
+        let guard_line = format!("#define {guard}\n");
+        out = out.replacen(
+            &guard_line,
+            &format!(
+                "{guard_line}#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require\n"
+            ),
+            1,
+        );
+    }
     Ok(out)
 }
 

@@ -1,8 +1,9 @@
 // variants: hw bvh
 #version 460
 // Pure ray-traced path: one thread per pixel, all of its samples; Whitted trace/shade.
-// Bindings (src/interface/passes.rs): the shared ones, BINDING_RT_COLOR out, _AOV, _COUNTERS,
-// _CORNERS (adaptive corner samples, (w+1) x (h+1)).
+// Bindings (src/interface/passes.rs): the shared ones, BINDING_RT_AOV, _COUNTERS,
+// _CORNERS (adaptive corner samples, (w+1) x (h+1)); the colour out through a buffer reference
+// (RaytracePush::color).
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "trace.glsl"
@@ -17,7 +18,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // FLAG_ADAPTIVE_CORNERS selects the corner pass; FLAG_WRITE_AOV enables AOV output.
 layout(push_constant) uniform Push { RaytracePush pc; };
 
-layout(set = 0, binding = BINDING_RT_COLOR, scalar) writeonly buffer ColorOut { vec4 color_out[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer ColorOut { vec4 v[]; };
 layout(set = 0, binding = BINDING_RT_AOV, scalar) writeonly buffer AovOut { Aov aov_out[]; };
 layout(set = 0, binding = BINDING_RT_COUNTERS, std430) buffer Counters { uint counters[]; };  // by RAY_* kind, then samples
 layout(set = 0, binding = BINDING_RT_CORNERS, scalar) buffer Corners { vec4 corners[]; };
@@ -159,7 +160,7 @@ void main() {
 
     if (!corner_pass) {
         uint index = pix.y * frame.width + pix.x;
-        color_out[index] = vec4(adaptive ? sum : (weight_sum > 0.0 ? sum / weight_sum : vec3(0.0)), 1.0);
+        ColorOut(pc.color).v[index] = vec4(adaptive ? sum : (weight_sum > 0.0 ? sum / weight_sum : vec3(0.0)), 1.0);
         if ((pc.flags & FLAG_WRITE_AOV) != 0u) {
             aov_out[index] = primary_aov(info, samples);
         }

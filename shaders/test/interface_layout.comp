@@ -38,10 +38,10 @@ layout(set = 0, binding = 4, std430) readonly buffer Pushes {
     BvhRelocatePush bvh_relocate;
     BvhTlasLinksPush bvh_tlas_links;
     RaytracePush raytrace;
+    TonemapPush tonemap;
     HybridPush hybrid;
     DrawPush draw;
     RasterPush raster;
-    TonemapPush tonemap;
     RaybenchPush raybench;
     ReprojectPush reproject;
     VisibilityPush visibility;
@@ -67,10 +67,10 @@ void main() {
     put_BvhRelocatePush(pushes.bvh_relocate);
     put_BvhTlasLinksPush(pushes.bvh_tlas_links);
     put_RaytracePush(pushes.raytrace);
+    put_TonemapPush(pushes.tonemap);
     put_HybridPush(pushes.hybrid);
     put_DrawPush(pushes.draw);
     put_RasterPush(pushes.raster);
-    put_TonemapPush(pushes.tonemap);
     put_RaybenchPush(pushes.raybench);
     put_ReprojectPush(pushes.reproject);
     put_VisibilityPush(pushes.visibility);

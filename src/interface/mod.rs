@@ -91,16 +91,16 @@ mod tests {
     #[test]
     fn bindings_place_entries_at_their_numbers() {
         let table = bindings(&[
-            (BINDING_RT_COLOR, Binding::StorageBuffer),
+            (BINDING_RT_AOV, Binding::StorageBuffer),
             (BINDING_FRAME, Binding::UniformBuffer),
         ]);
-        assert_eq!(table.len(), BINDING_RT_COLOR as usize + 1);
+        assert_eq!(table.len(), BINDING_RT_AOV as usize + 1);
         assert!(matches!(
             table[BINDING_FRAME as usize],
             Binding::UniformBuffer
         ));
         assert!(matches!(
-            table[BINDING_RT_COLOR as usize],
+            table[BINDING_RT_AOV as usize],
             Binding::StorageBuffer
         ));
         assert!(matches!(table[0], Binding::Unused));
@@ -110,8 +110,8 @@ mod tests {
     #[should_panic(expected = "declared twice")]
     fn bindings_reject_a_number_used_twice() {
         bindings(&[
-            (BINDING_HYBRID_ACCUM, Binding::StorageBuffer),
-            (BINDING_RT_COLOR, Binding::StorageBuffer),
+            (BINDING_HYBRID_AOV, Binding::StorageBuffer),
+            (BINDING_RT_AOV, Binding::StorageBuffer),
         ]);
     }
 

@@ -17,8 +17,6 @@ pub struct Aov {
     pub bary_prim: [f32; 4],
 }
 
-/// raytrace.comp: linear HDR colour out, `vec4` per pixel.
-pub const BINDING_RT_COLOR: u32 = 4;
 /// raytrace.comp: [`Aov`] per pixel (written under `FLAG_WRITE_AOV`).
 pub const BINDING_RT_AOV: u32 = 5;
 /// raytrace.comp: ray counters (`COUNTER_SLOTS`).
@@ -32,6 +30,12 @@ pub const BINDING_RT_CORNERS: u32 = 7;
 pub struct RaytracePush {
     /// `FLAG_ADAPTIVE_CORNERS` (the corner pass) and `FLAG_WRITE_AOV`.
     pub flags: u32,
+    /// Aligns `color` (8 bytes).
+    pub pad0: u32,
+    /// Device address of the linear HDR colour out, `vec4` per pixel (a buffer reference: a
+    /// CPU device (lavapipe) stores through one with a vector scatter, where it stores into a
+    /// descriptor-bound buffer lane by lane).
+    pub color: u64,
 }
 
 /// Hybrid shading: accumulation (rgb sum, weight sum) per pixel.
@@ -134,10 +138,6 @@ pub struct RasterPush {
     pub pass_kind: u32,
 }
 
-/// tonemap.comp: linear colour in, `vec4` per pixel.
-pub const BINDING_TONEMAP_IN: u32 = 0;
-/// tonemap.comp: RGBA8 out, one `uint` per pixel.
-pub const BINDING_TONEMAP_OUT: u32 = 1;
 /// Tonemap operator: clamp only.
 pub const TONEMAP_NONE: u32 = 0;
 /// Tonemap operator: ACES filmic (Narkowicz fit).
@@ -155,6 +155,13 @@ pub struct TonemapPush {
     pub op: u32,
     /// Exposure scale (2^EV).
     pub scale: f32,
+    /// Aligns the addresses (8 bytes).
+    pub pad0: u32,
+    /// Device address of the linear colour in, `vec4` per pixel (buffer references, as in
+    /// [`RaytracePush`]).
+    pub color_in: u64,
+    /// Device address of the RGBA8 out, one `uint` per pixel.
+    pub pixels_out: u64,
 }
 
 /// raybench.comp: per pixel (hit position, instance bits), (primary direction, primitive bits).

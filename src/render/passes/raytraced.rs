@@ -58,7 +58,6 @@ impl RaytracedPass {
             &[
                 &scene_bindings(pass.texture_capacity(), pass.backend.binding())[..],
                 &[
-                    (io::BINDING_RT_COLOR, Binding::StorageBuffer),
                     (io::BINDING_RT_AOV, Binding::StorageBuffer),
                     (io::BINDING_RT_COUNTERS, Binding::StorageBuffer),
                     (io::BINDING_RT_CORNERS, Binding::StorageBuffer),
@@ -106,7 +105,6 @@ impl RaytracedPass {
         let set = pipeline.allocate_set()?;
         pass.bind_scene(&set);
         set.buffer(io::BINDING_FRAME, &frame_buf, Binding::UniformBuffer)
-            .buffer(io::BINDING_RT_COLOR, &color, Binding::StorageBuffer)
             .buffer(io::BINDING_RT_AOV, &aov, Binding::StorageBuffer)
             .buffer(io::BINDING_RT_COUNTERS, &counters, Binding::StorageBuffer)
             .buffer(io::BINDING_RT_CORNERS, &corners, Binding::StorageBuffer);
@@ -152,6 +150,8 @@ impl RaytracedPass {
         if f.sampler_kind == SamplerKind::Adaptive.code() {
             let push = RaytracePush {
                 flags: FLAG_ADAPTIVE_CORNERS,
+                pad0: 0,
+                color: self.color.address(),
             };
             let groups = [(f.width + 1).div_ceil(8), (f.height + 1).div_ceil(8), 1];
             self.pipeline
@@ -160,6 +160,8 @@ impl RaytracedPass {
         }
         let push = RaytracePush {
             flags: if self.write_aov { FLAG_WRITE_AOV } else { 0 },
+            pad0: 0,
+            color: self.color.address(),
         };
         self.pipeline.dispatch(
             cmd,

@@ -6,9 +6,7 @@ use ash::vk;
 
 use crate::interface::{self as io, bindings, push_bytes, TonemapPush};
 use crate::render::Tonemap;
-use crate::vk::{
-    Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, MemoryLocation, VkResult,
-};
+use crate::vk::{Buffer, ComputePipeline, Context, GpuProfiler, MemoryLocation, VkResult};
 
 /// The shaders' `TONEMAP_*` code of `op` (`shaders/common/tonemap.glsl`).
 pub fn operator_code(op: Tonemap) -> u32 {
@@ -22,7 +20,8 @@ pub fn operator_code(op: Tonemap) -> u32 {
 /// Pipeline and output buffer of the tonemap pass.
 pub struct TonemapPass {
     pipeline: Arc<ComputePipeline>,
-    set: DescriptorSet,
+    /// Device address of the linear colour it reads.
+    input: vk::DeviceAddress,
     /// RGBA8 pixels, one `u32` each.
     pub output: Buffer,
     count: u32,
@@ -35,10 +34,7 @@ impl TonemapPass {
             ctx,
             "tonemap",
             crate::shaders::TONEMAP_COMP,
-            &bindings(&[
-                (io::BINDING_TONEMAP_IN, Binding::StorageBuffer),
-                (io::BINDING_TONEMAP_OUT, Binding::StorageBuffer),
-            ]),
+            &bindings(&[]),
             std::mem::size_of::<TonemapPush>() as u32,
         )?;
         let output = Buffer::new(
@@ -48,12 +44,9 @@ impl TonemapPass {
             vk::BufferUsageFlags::empty(),
             MemoryLocation::GpuOnly,
         )?;
-        let set = pipeline.allocate_set()?;
-        set.buffer(io::BINDING_TONEMAP_IN, color, Binding::StorageBuffer)
-            .buffer(io::BINDING_TONEMAP_OUT, &output, Binding::StorageBuffer);
         Ok(Self {
             pipeline,
-            set,
+            input: color.address(),
             output,
             count,
         })
@@ -71,6 +64,9 @@ impl TonemapPass {
             count: self.count,
             op: operator_code(op),
             scale: exposure.exp2(),
+            pad0: 0,
+            color_in: self.input,
+            pixels_out: self.output.address(),
         };
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
@@ -78,7 +74,7 @@ impl TonemapPass {
         }
         self.pipeline.dispatch(
             cmd,
-            Some(&self.set),
+            None,
             push_bytes(&push),
             [self.count.div_ceil(64), 1, 1],
         );
