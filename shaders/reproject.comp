@@ -309,6 +309,40 @@ float tent(float u, float c) {
     return u <= c ? (c > 0.0 ? u / c : 1.0) : (c < 1.0 ? (1.0 - u) / (1.0 - c) : 1.0);
 }
 
+// Whether the samples of an interpolated block (its corners and centre, cached this frame)
+// lie on one smooth opaque surface: the centre's tangent plane within the plane threshold,
+// normals within the normal threshold, one material, none a miss or view-dependent. Then
+// `entry` is pixel `pix`'s entry on that plane (where its ray meets it), one hop from where
+// colour was computed, so fills do not copy it. On the rt path an interpolated pixel has no
+// primary hit; this spares the caching pass's ray for it. Moving geometry needs the hit's
+// anchor, so it always takes the ray.
+bool block_on_one_plane(uvec2 sx, uvec2 sy, uvec2 centre, uvec2 pix, out CacheEntry entry) {
+    entry = CACHE_NEXT(centre.y * frame.width + centre.x);
+    uint required = CACHE_VALID | CACHE_MISS | CACHE_VIEW_DEPENDENT;
+    if (tracks_motion() || (entry.meta & required) != CACHE_VALID) {
+        return false;
+    }
+    vec3 n = unpack_normal(entry.normal);
+    float limit = params.plane_threshold * max(view_depth(entry.position), 1e-6);
+    uint material = cache_material(entry);
+    bool planar = true;
+    [[unroll]] for (uint k = 0u; k < 4u; ++k) {
+        uvec2 corner = uvec2((k & 1u) != 0u ? sx.y : sx.x, (k & 2u) != 0u ? sy.y : sy.x);
+        CacheEntry o = CACHE_NEXT(corner.y * frame.width + corner.x);
+        planar = planar && (o.meta & required) == CACHE_VALID && cache_material(o) == material
+            && abs(dot(o.position - entry.position, n)) <= limit && dot(unpack_normal(o.normal), n) >= params.normal_threshold;
+    }
+    Ray r = camera_ray(vec2(pix) + 0.5);
+    float denom = dot(r.dir, n);
+    float t = dot(entry.position - r.origin, n) / (abs(denom) > 1e-4 ? denom : 1.0);
+    if (!planar || abs(denom) <= 1e-4 || !(t > 0.0)) {
+        return false;
+    }
+    entry.position = r.origin + t * r.dir;
+    entry.meta = with_hops(CACHE_VALID, 1u) | (material << CACHE_MATERIAL_SHIFT);
+    return true;
+}
+
 // Adaptive sub-sampling (the seed's): a block whose four corners and centre differ by at most
 // the threshold is filled by interpolation: bilinear between the corners plus the centre's
 // deviation from it, fading out towards the block edges (quincunx). Other blocks stay for the
@@ -343,7 +377,14 @@ bool interpolate(uint q, out bool uncached) {
     store_color(q, c);
     STATE(q) = (st & ~PX_KIND_MASK) | PX_INTERP;
     uncached = (params.flags & RP_GBUFFER) == 0u && (st & PX_VERIFIED) == 0u;
-    if (uncached) {
+    CacheEntry planar;
+    if (uncached && block_on_one_plane(sx, sy, centre, pix, planar)) {
+        // The block's samples lie on one plane: cached where this pixel's ray meets it, as
+        // the caching pass would find it, without its primary ray.
+        planar.color = c;
+        CACHE_NEXT(q) = planar;
+        uncached = false;
+    } else if (uncached) {
         // For the next level's interpolation and the caching pass, which completes the entry.
         CACHE_NEXT(q).color = c;
     } else {

@@ -449,6 +449,45 @@ fn disocclusions_on(ctx: &Context, scene: &Scene, r: &Renderer) {
     }
 }
 
+/// rt path: an interpolated pixel on a block whose samples lie on one plane is cached where
+/// its ray meets that plane, without the caching pass's primary ray; the cached samples then
+/// reproject like traced ones (a static camera's next frame reuses them and matches the full
+/// render).
+#[test]
+fn adaptive_subsampling_caches_planar_blocks_without_rays() {
+    let ctx = common::gpu();
+    let scene = cornell();
+    let r = renderer(&ctx, &scene);
+    let reuse = ReuseOptions {
+        reproject: true,
+        adaptive_subsample: true,
+        subsample_threshold: 0.1,
+        ..Default::default()
+    };
+    let mut seq = sequence(&ctx, &r, &scene, 96, CameraPath::Static, MODES[0], reuse);
+    let first = seq.render_frame(&ctx, 0).unwrap();
+    assert_stats_add_up(&first);
+    let (traced, interpolated) = (first.stats.traced, first.stats.interpolated);
+    assert!(interpolated > 96 * 96 / 4, "{:?}", first.stats);
+    // Every traced pixel has its primary ray; most interpolated ones (the Cornell box is
+    // walls and blocks) need none.
+    let primary = first.output.rays.primary;
+    assert!(
+        primary >= traced && primary < traced + interpolated / 4,
+        "primary rays {primary}, traced {traced}, interpolated {interpolated}"
+    );
+    let next = seq.render_frame(&ctx, 1).unwrap();
+    assert_stats_add_up(&next);
+    assert!(
+        next.stats.reused_fraction() > 0.8,
+        "static camera: {:?}",
+        next.stats
+    );
+    let rc = next.reference.as_ref().unwrap();
+    assert!(rc.diff.flip_mean < 0.05, "FLIP {}", rc.diff.flip_mean);
+    common::assert_validation_clean(&ctx);
+}
+
 #[test]
 fn adaptive_subsampling_interpolates_smooth_blocks() {
     let ctx = common::gpu();
