@@ -339,7 +339,7 @@ bool block_on_one_plane(uvec2 sx, uvec2 sy, uvec2 centre, uvec2 pix, out CacheEn
         return false;
     }
     entry.position = r.origin + t * r.dir;
-    entry.meta = with_hops(CACHE_VALID, 1u) | (material << CACHE_MATERIAL_SHIFT);
+    entry.meta = new_cache_meta(CACHE_VALID, 1u, material);
     return true;
 }
 
@@ -406,7 +406,7 @@ bool interpolate(uint q, out bool uncached) {
             bool vd = surface_view_dependent(ng.w, n.w, uintBitsToFloat(ids.w), scene_material(material).alpha_mode, base.a);
             e.position = imageLoad(g_position, ip).xyz;
             e.normal = pack_normal(ng.xyz);
-            e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u) | (material << CACHE_MATERIAL_SHIFT);
+            e.meta = new_cache_meta(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u, material);
         }
         CACHE_NEXT(q) = e;
         anchor_from_gbuffer(q, ip);

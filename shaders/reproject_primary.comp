@@ -34,7 +34,7 @@ void cache_interpolated(uint q) {
         bool vd = surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha);
         e.position = s.position;
         e.normal = pack_normal(s.ng_front);
-        e.meta = with_hops(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u) | (s.material << CACHE_MATERIAL_SHIFT);
+        e.meta = new_cache_meta(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u, s.material);
         anchor_store(q, uint(h.instance), uint(h.primitive), h.barycentrics);
     } else {
         e.position = r.dir;

@@ -82,7 +82,7 @@ void main() {
             : material_view_dependent(material));
         e.position = info.position;
         e.normal = pack_normal(info.normal);
-        e.meta = CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u) | (material << CACHE_MATERIAL_SHIFT);
+        e.meta = new_cache_meta(CACHE_VALID | (view_dependent ? CACHE_VIEW_DEPENDENT : 0u), 0u, material);
         // The G-buffer's barycentrics where the primary hit came from there.
         anchor_store(q, uint(info.instance), uint(info.primitive), known ? imageLoad(g_bary, pix).xy : info.bary);
     } else {

@@ -29,6 +29,9 @@ uint cache_age(uint meta) { return (meta >> CACHE_AGE_SHIFT) & MAX_CACHE_AGE; }
 // One frame older (saturating).
 uint aged(uint meta) { return cache_age(meta) < MAX_CACHE_AGE ? meta + (1u << CACHE_AGE_SHIFT) : meta; }
 uint cache_material(CacheEntry e) { return e.meta >> CACHE_MATERIAL_SHIFT; }
+// The meta word of a new sample of `material`, `hops` fills away from computed colour (an
+// interpolated colour counts as one), age 0.
+uint new_cache_meta(uint flags, uint hops, uint material) { return with_hops(flags, hops) | (material << CACHE_MATERIAL_SHIFT); }
 bool cache_miss(CacheEntry e) { return (e.meta & CACHE_MISS) != 0u; }
 
 // Unit normals in one word: octahedral coordinates (Cigolle et al. 2014), 14 bits each in
