@@ -54,9 +54,9 @@ float differ(vec3 x, vec3 y) {
 
 void flush_counters(uint samples) {
     for (uint k = 0u; k < 4u; ++k) {
-        COUNTER_ADD(counters[k], rays_by_kind[k]);
+        COUNTER_ADD(counters[ray_counter_slot(k)], rays_by_kind[k]);
     }
-    COUNTER_ADD(counters[COUNTER_SAMPLES], samples);
+    COUNTER_ADD(counters[ray_counter_slot(COUNTER_SAMPLES)], samples);
 }
 
 void main() {

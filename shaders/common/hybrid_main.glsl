@@ -98,7 +98,7 @@ void main() {
         aov_out[index] = primary_aov(info, 1u);
     }
     for (uint k = 0u; k < 4u; ++k) {
-        COUNTER_ADD(counters[k], rays_by_kind[k]);
+        COUNTER_ADD(counters[ray_counter_slot(k)], rays_by_kind[k]);
     }
-    COUNTER_ADD(counters[COUNTER_SAMPLES], 1u);
+    COUNTER_ADD(counters[ray_counter_slot(COUNTER_SAMPLES)], 1u);
 }

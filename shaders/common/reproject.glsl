@@ -132,19 +132,9 @@ uint list_counter(uint list) {
 }
 
 // The counter slot of statistic `slot` (ray kinds, C_SAMPLES, the pixel counts) for this
-// workgroup: its stripe's copy (COUNTER_STRIPES in src/interface/reproject.rs). Runs of
-// consecutive workgroups share a stripe, so on a CPU device, whose threads each run a
-// contiguous range of workgroups, the threads count on different cache lines. Runs are a
-// power of two long (shifts, not divisions: a CPU device divides lane by lane), so that at most
-// COUNTER_STRIPES of them cover the dispatch.
-uint workgroup_count() { return gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumWorkGroups.z; }
-uint workgroup_index() { return (gl_WorkGroupID.z * gl_NumWorkGroups.y + gl_WorkGroupID.y) * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
-uint stripe_shift() {
-    uint groups = workgroup_count();
-    // ceil(log2(groups)) - log2(COUNTER_STRIPES), at least 0.
-    return groups <= COUNTER_STRIPES ? 0u : uint(findMSB(groups - 1u)) + 1u - uint(findMSB(COUNTER_STRIPES));
-}
-uint stripe() { return workgroup_index() >> stripe_shift(); }
+// workgroup: its stripe's copy (COUNTER_STRIPES in src/interface/reproject.rs; counters.glsl).
+uint stripe_shift() { return stripe_shift_for(COUNTER_STRIPES); }
+uint stripe() { return stripe_of(COUNTER_STRIPES); }
 uint stat_slot(uint slot) { return (stripe() + 1u) * COUNTER_STRIPE_WORDS + slot; }
 
 // After every append of the dispatch (`leader`: one elected lane of each subgroup): the last

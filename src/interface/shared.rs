@@ -51,8 +51,14 @@ pub const RAY_REFLECTION: u32 = 2;
 pub const RAY_REFRACTION: u32 = 3;
 /// Counter slot after the four ray kinds: camera samples traced.
 pub const COUNTER_SAMPLES: u32 = 4;
-/// Counter slots of the ray-traced and hybrid passes (ray kinds, then samples).
+/// Counter slots of the ray-traced and hybrid passes (ray kinds, then samples), per stripe.
 pub const COUNTER_SLOTS: u32 = 5;
+/// Copies of those counters: a run of consecutive workgroups counts into one copy, so that a
+/// CPU device's threads (each runs a contiguous range of workgroups) do not share their cache
+/// lines; a count is the sum over copies (as reprojection's `COUNTER_STRIPES`).
+pub const RAY_COUNTER_STRIPES: u32 = 8;
+/// Words from one copy of the ray counters to the next (128 bytes).
+pub const RAY_COUNTER_STRIDE: u32 = 32;
 
 /// The `Frame` uniform (binding [`BINDING_FRAME`], scalar layout).
 #[repr(C)]

@@ -14,9 +14,9 @@ use ash::vk;
 use crate::render::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
 use crate::render::passes::gbuffer::{Draw, GbufferPass};
 use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
-use crate::render::passes::raytraced::{RaytracedPass, COUNTER_SLOTS};
+use crate::render::passes::raytraced::{ray_counts, RaytracedPass, COUNTER_WORDS};
 use crate::render::passes::tonemap::TonemapPass;
-use crate::render::{merge_scopes, sampling, Aov, RayCounts, RenderOutput, Renderer};
+use crate::render::{merge_scopes, sampling, Aov, RenderOutput, Renderer};
 use crate::scene::Camera;
 use crate::vk::{
     host_read_barrier, memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkError,
@@ -42,6 +42,7 @@ pub struct RingContents {
 
 /// Counter words every ring slot holds (rays by kind, samples, reprojection statistics).
 pub const RING_COUNTERS: usize = crate::interface::reproject::C_HISTOGRAM as usize;
+const _: () = assert!(COUNTER_WORDS <= RING_COUNTERS);
 const AOV_BYTES: u64 = std::mem::size_of::<Aov>() as u64;
 
 /// Host-visible slots that frames copy their outputs into with their own commands: one slot
@@ -321,7 +322,7 @@ impl FrameTargets {
                 let counters = Buffer::new(
                     ctx,
                     "hybrid counters",
-                    COUNTER_SLOTS as u64 * 4,
+                    COUNTER_WORDS as u64 * 4,
                     none,
                     MemoryLocation::GpuOnly,
                 )?;
@@ -531,7 +532,7 @@ impl FrameTargets {
     /// The image, AOVs and ray counts a frame copied into `ring`'s slot `slot`, after its
     /// submission completed (`gpu_ms` is left empty: timing belongs to the caller).
     pub fn output(&self, ring: &FrameRing, slot: u32) -> VkResult<RenderOutput> {
-        let c = ring.counters(slot)?;
+        let (rays, samples) = ray_counts(&ring.counters(slot)?);
         let rgba8 = ring.rgba8(slot)?;
         let color = ring.color(slot)?;
         let aov = ring.aov(slot)?;
@@ -555,13 +556,8 @@ impl FrameTargets {
             color,
             rgba8,
             aov,
-            rays: RayCounts {
-                primary: u64::from(c[0]),
-                shadow: u64::from(c[1]),
-                reflection: u64::from(c[2]),
-                refraction: u64::from(c[3]),
-            },
-            samples: u64::from(c[4]),
+            rays,
+            samples,
             gpu_ms: Vec::new(),
         })
     }

@@ -16,8 +16,34 @@ use crate::vk::{
     MemoryLocation, VkResult,
 };
 
-/// Ray counter slots: primary, shadow, reflection, refraction, samples.
-pub const COUNTER_SLOTS: usize = io::COUNTER_SLOTS as usize;
+/// Words of the ray-traced and hybrid passes' counter buffers: per stripe
+/// (`RAY_COUNTER_STRIPES`, `RAY_COUNTER_STRIDE` words apart) primary, shadow, reflection,
+/// refraction, samples.
+pub const COUNTER_WORDS: usize = (io::RAY_COUNTER_STRIPES * io::RAY_COUNTER_STRIDE) as usize;
+
+/// Ray counts and samples from a ray-traced or hybrid frame's counters (the sums over stripes).
+pub fn ray_counts(c: &[u32]) -> (crate::render::RayCounts, u64) {
+    let count = |k: u32| {
+        (0..io::RAY_COUNTER_STRIPES)
+            .map(|s| {
+                u64::from(
+                    c.get((s * io::RAY_COUNTER_STRIDE + k) as usize)
+                        .copied()
+                        .unwrap_or(0),
+                )
+            })
+            .sum::<u64>()
+    };
+    (
+        crate::render::RayCounts {
+            primary: count(io::RAY_PRIMARY),
+            shadow: count(io::RAY_SHADOW),
+            reflection: count(io::RAY_REFLECTION),
+            refraction: count(io::RAY_REFRACTION),
+        },
+        count(io::COUNTER_SAMPLES),
+    )
+}
 
 /// Pipeline and per-resolution buffers of the ray-traced pass.
 pub struct RaytracedPass {
@@ -90,7 +116,7 @@ impl RaytracedPass {
         let counters = Buffer::new(
             ctx,
             "rt counters",
-            COUNTER_SLOTS as u64 * 4,
+            COUNTER_WORDS as u64 * 4,
             none,
             MemoryLocation::GpuOnly,
         )?;
