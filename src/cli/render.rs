@@ -93,7 +93,7 @@ pub struct SequenceArgs {
     #[arg(long)]
     adaptive_subsample: bool,
     /// Adaptive sub-sampling: interpolate a block when its samples differ by at most this
-    /// (largest channel difference of the colours as displayed: x/(1+x), gamma 1/2.2).
+    /// (largest channel difference of the colours as displayed: x/(1+x), then a square root).
     #[arg(long, default_value_t = DEFAULT_SUBSAMPLE_THRESHOLD)]
     subsample_threshold: f32,
     /// Re-trace samples older than K frames (default: no limit).

@@ -56,7 +56,7 @@ pub struct ReuseOptions {
     /// Adaptive sub-sampling of the pixels that need new colour (`--adaptive-subsample`).
     pub adaptive_subsample: bool,
     /// Interpolate a block when its samples differ by at most this: the largest channel
-    /// difference of the colours as displayed (x / (1 + x), then gamma 1/2.2).
+    /// difference of the colours as displayed (x / (1 + x), then a square root).
     pub subsample_threshold: f32,
     /// Re-trace samples older than this many frames (`None`: no limit).
     pub max_age: Option<u32>,
