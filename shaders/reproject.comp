@@ -335,13 +335,11 @@ bool block_on_one_plane(uvec2 sx, uvec2 sy, uvec2 centre, uvec2 pix, out CacheEn
         planar = planar && (o.meta & required) == CACHE_VALID && cache_material(o) == material
             && abs(dot(o.position - entry.position, n)) <= limit && dot(unpack_normal(o.normal), n) >= params.normal_threshold;
     }
-    Ray r = camera_ray(vec2(pix) + 0.5);
-    float denom = dot(r.dir, n);
-    float t = dot(entry.position - r.origin, n) / (abs(denom) > 1e-4 ? denom : 1.0);
-    if (!planar || abs(denom) <= 1e-4 || !(t > 0.0)) {
+    vec3 hit;
+    if (!planar || !pixel_ray_meets_plane(pix, entry.position, n, hit)) {
         return false;
     }
-    entry.position = r.origin + t * r.dir;
+    entry.position = hit;
     entry.meta = new_cache_meta(CACHE_VALID, 1u, material);
     return true;
 }

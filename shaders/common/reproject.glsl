@@ -269,6 +269,17 @@ void clear_entry(uint q) { CACHE_NEXT(q).meta = 0u; }
 
 vec3 camera_forward() { return normalize(-frame.camera_to_world[2].xyz); }
 
+// Where the ray through pixel `pix`'s centre meets the plane through `point` with normal `n`,
+// in front of the camera: false where it runs (nearly) parallel to the plane or meets it
+// behind. For samples cached on a neighbour's plane (fills, interpolated blocks).
+bool pixel_ray_meets_plane(uvec2 pix, vec3 point, vec3 n, out vec3 hit) {
+    Ray r = camera_ray(vec2(pix) + 0.5);
+    float denom = dot(r.dir, n);
+    float t = dot(point - r.origin, n) / (abs(denom) > 1e-4 ? denom : 1.0);
+    hit = r.origin + t * r.dir;
+    return abs(denom) > 1e-4 && t > 0.0;
+}
+
 // Distance along the view axis (the "view z" of the rejection test).
 float view_depth(vec3 p) { return dot(p - frame.camera_pos, camera_forward()); }
 
@@ -392,14 +403,9 @@ void commit_entry(uint q, uint st, CacheEntry e) {
             e.position = imageLoad(g_position, pix).xyz;
             e.normal = pack_normal(imageLoad(g_geometric, pix).xyz);
         } else {
-            Ray r = camera_ray(vec2(pix) + 0.5);
-            vec3 n = unpack_normal(e.normal);
-            float denom = dot(r.dir, n);
-            if (abs(denom) > 1e-4) {
-                float t = dot(e.position - r.origin, n) / denom;
-                if (t > 0.0) {
-                    e.position = r.origin + t * r.dir;
-                }
+            vec3 hit;
+            if (pixel_ray_meets_plane(uvec2(pix), e.position, unpack_normal(e.normal), hit)) {
+                e.position = hit;
             }
         }
         e.meta = with_hops(e.meta, cache_hops(e) + 1u);

@@ -70,6 +70,12 @@ pub fn push_bytes<T: bytemuck::Pod>(push: &T) -> &[u8] {
 
 // Relations between constants the GLSL side relies on.
 const _: () = assert!(reproject::C_SAMPLES == COUNTER_SAMPLES);
+// Reprojection's statistics stripes (after its shared slots) have the full frame's ray-counter
+// layout, so the host sums both alike (`render::passes::raytraced::striped_sum`).
+const _: () = assert!(
+    reproject::COUNTER_STRIPES == RAY_COUNTER_STRIPES
+        && reproject::COUNTER_STRIPE_WORDS == RAY_COUNTER_STRIDE
+);
 const _: () =
     assert!(COUNTER_SAMPLES == RAY_REFRACTION + 1 && COUNTER_SLOTS == COUNTER_SAMPLES + 1);
 const _: () = assert!(reproject::HISTOGRAM_BINS == reproject::AGE_LEVELS * reproject::RANK_LEVELS);

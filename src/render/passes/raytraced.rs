@@ -21,19 +21,18 @@ use crate::vk::{
 /// refraction, samples.
 pub const COUNTER_WORDS: usize = (io::RAY_COUNTER_STRIPES * io::RAY_COUNTER_STRIDE) as usize;
 
+/// Counter `k` of striped counters `c`: the sum of word `k` of each of the
+/// `RAY_COUNTER_STRIPES` copies, `RAY_COUNTER_STRIDE` words apart (words past the end count 0).
+pub fn striped_sum(c: &[u32], k: u32) -> u64 {
+    (0..io::RAY_COUNTER_STRIPES)
+        .map(|s| (s * io::RAY_COUNTER_STRIDE + k) as usize)
+        .map(|i| u64::from(c.get(i).copied().unwrap_or(0)))
+        .sum()
+}
+
 /// Ray counts and samples from a ray-traced or hybrid frame's counters (the sums over stripes).
 pub fn ray_counts(c: &[u32]) -> (crate::render::RayCounts, u64) {
-    let count = |k: u32| {
-        (0..io::RAY_COUNTER_STRIPES)
-            .map(|s| {
-                u64::from(
-                    c.get((s * io::RAY_COUNTER_STRIDE + k) as usize)
-                        .copied()
-                        .unwrap_or(0),
-                )
-            })
-            .sum::<u64>()
-    };
+    let count = |k: u32| striped_sum(c, k);
     (
         crate::render::RayCounts {
             primary: count(io::RAY_PRIMARY),

@@ -4,6 +4,7 @@
 use serde::Serialize;
 
 use crate::interface::reproject::*;
+use crate::render::passes::raytraced::{ray_counts, striped_sum};
 use crate::render::{RayCounts, RenderOutput};
 
 /// Rejection: |dot(cached − new position, new normal)| / view depth above this (ReBLUR, Bevy
@@ -186,21 +187,14 @@ pub struct ReprojectedFrame {
 
 /// Rays, samples and pixel statistics from a reprojected frame's counters.
 pub(super) fn counts(c: &[u32], pixels: u64) -> (RayCounts, u64, ReuseStats) {
-    // A statistic is the sum of its stripes (COUNTER_STRIPES of interface/reproject.rs).
-    let count = |i: u32| {
-        (1..=COUNTER_STRIPES)
-            .map(|s| (s * COUNTER_STRIPE_WORDS + i) as usize)
-            .map(|slot| u64::from(c.get(slot).copied().unwrap_or(0)))
-            .sum::<u64>()
-    };
+    // A statistic is the sum of its stripes, which start after the shared slots and are laid out
+    // as the full frame's ray counters (interface/mod.rs checks), rays and samples first.
+    let stats = c.get(COUNTER_STRIPE_WORDS as usize..).unwrap_or(&[]);
+    let count = |i: u32| striped_sum(stats, i);
+    let (rays, samples) = ray_counts(stats);
     (
-        RayCounts {
-            primary: count(0),
-            shadow: count(1),
-            reflection: count(2),
-            refraction: count(3),
-        },
-        count(C_SAMPLES),
+        rays,
+        samples,
         ReuseStats {
             pixels,
             reused: count(C_REUSED),
