@@ -375,7 +375,7 @@ bool interpolate(uint q, out bool uncached) {
     vec3 bil = mix(mix(c00, c10, uv.x), mix(c01, c11, uv.x), uv.y);
     vec3 c = bil + (cc - bil_c) * tent(uv.x, uvc.x) * tent(uv.y, uvc.y);
     c = max(c, vec3(0.0));
-    store_color(q, c);
+    uint display = store_color(q, c);
     STATE(q) = (st & ~PX_KIND_MASK) | PX_INTERP;
     uncached = (params.flags & RP_GBUFFER) == 0u && (st & PX_VERIFIED) == 0u;
     CacheEntry planar;
@@ -383,11 +383,13 @@ bool interpolate(uint q, out bool uncached) {
         // The block's samples lie on one plane: cached where this pixel's ray meets it, as
         // the caching pass would find it, without its primary ray.
         planar.color = c;
+        planar.display = display;
         CACHE_NEXT(q) = planar;
         uncached = false;
     } else if (uncached) {
         // For the next level's interpolation and the caching pass, which completes the entry.
         CACHE_NEXT(q).color = c;
+        CACHE_NEXT(q).display = display;
     } else {
         // Cached at the pixel's primary hit, flagged so that fills do not copy it (the rt
         // path's pixels without a look at their hit go to the caching pass instead).
@@ -395,6 +397,7 @@ bool interpolate(uint q, out bool uncached) {
         uvec4 ids = imageLoad(g_ids, ip);
         CacheEntry e;
         e.color = c;
+        e.display = display;
         if (ids.x == 0xFFFFFFFFu) {
             e.position = camera_ray(vec2(pix) + 0.5).dir;
             e.normal = 0u;

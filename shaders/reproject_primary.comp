@@ -28,7 +28,8 @@ void cache_interpolated(uint q) {
     Ray r = camera_ray(vec2(pixel_of(q)) + 0.5);
     Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
     CacheEntry e;
-    e.color = CACHE_NEXT(q).color; // written by the interpolation
+    e.color = CACHE_NEXT(q).color; // written by the interpolation, with its display value
+    e.display = CACHE_NEXT(q).display;
     if (hit_found(h)) {
         Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
         bool vd = surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha);

@@ -67,11 +67,12 @@ void main() {
         at.t = t;
         c = whitted(camera, known ? PRIMARY_SURFACE : PRIMARY_TRACE, s, at, info);
     }
-    store_color(q, c);
+    uint display = store_color(q, c);
     STATE(q) = (st & ~PX_KIND_MASK) | PX_TRACED;
 
     CacheEntry e;
     e.color = c;
+    e.display = display;
     if (info.hit) {
         uint material = known ? s.material : scene_geometry(scene_instance(uint(info.instance)).geometry).material;
         // A path that spawned reflection or refraction rays (Fresnel at grazing angles, glass,

@@ -348,19 +348,19 @@ fn sequence_options(reproject: bool) -> SequenceOptions {
 fn reprojection_cache_is_checked_with_the_full_render() {
     let ctx = gpu();
     let mut info = lavapipe_storage_range(&ctx);
-    // The sample caches hold 32 bytes per pixel: 2100² needs 135 MiB per cache, while the
+    // The sample caches hold 36 bytes per pixel: 2100² needs 152 MiB per cache, while the
     // full render's largest buffer (16 bytes per pixel) fits.
     let entry = std::mem::size_of::<rqr::interface::reproject::CacheEntry>() as u64;
-    assert_eq!(entry, 32);
+    assert_eq!(entry, 36);
     let s = settings(2100, 2100, 1);
     assert_eq!(Reprojector::largest_buffer_bytes(&s), 2100 * 2100 * entry);
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
         s.check_device(&info, path, false, 0).unwrap();
         let err = Reprojector::check_device(&s, &info, path, 0)
-            .expect_err("a 135 MiB cache in a 128 MiB storage range")
+            .expect_err("a 152 MiB cache in a 128 MiB storage range")
             .to_string();
         for needle in [
-            "resolution 2100x2100 with reuse between frames needs a 135 MiB sample cache",
+            "resolution 2100x2100 with reuse between frames needs a 152 MiB sample cache",
             "(maxStorageBufferRange)",
             "--reproject",
         ] {
@@ -369,7 +369,7 @@ fn reprojection_cache_is_checked_with_the_full_render() {
         Reprojector::check_device(&settings(1024, 1024, 1), &info, path, 0).unwrap();
     }
 
-    // The heap: the cache and its per-pixel buffers (two 32-byte caches and more per pixel)
+    // The heap: the cache and its per-pixel buffers (two 36-byte caches and more per pixel)
     // come on top of the full render.
     let s = settings(512, 512, 1);
     let full = s.estimate_bytes(RenderPath::RayTraced, false);

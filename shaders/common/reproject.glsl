@@ -109,13 +109,21 @@ layout(set = 0, binding = BINDING_RP_DISPATCH_ARGS, std430) buffer DispatchArgs 
 
 uint pixel_count() { return frame.width * frame.height; }
 
-// Pixel q's display value (tonemapped here: a separate pass would read every colour back),
-// and its linear colour where a reader wants it.
-void store_color(uint q, vec3 c) {
+// Shows colour `c` at pixel q: its display value, and its linear colour where a reader
+// wants it.
+void show_color(uint q, vec3 c, uint display) {
     if ((params.flags & RP_LINEAR_COLOR) != 0u) {
         LINEAR_COLOR(q) = vec4(c, 1.0);
     }
-    DISPLAY(q) = tonemap_rgba8(c, params.tonemap_op, params.tonemap_scale);
+    DISPLAY(q) = display;
+}
+
+// Shows new colour `c` at pixel q, tonemapped here (a separate pass would read every colour
+// back). Returns the display value, for the pixel's cache entry.
+uint store_color(uint q, vec3 c) {
+    uint display = tonemap_rgba8(c, params.tonemap_op, params.tonemap_scale);
+    show_color(q, c, display);
+    return display;
 }
 
 // Job lists. The stage that settles the pixels lists those the visibility pass looks at (list
@@ -380,13 +388,14 @@ void commit_entry(uint q, uint st, CacheEntry e) {
         clear_entry(q);
         return;
     }
-    vec3 c = e.color;
     if (cache_miss(e)) {
-        c = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
         // The entry holds the colour the pixel shows (adaptive sub-sampling reads it).
-        e.color = c;
+        e.color = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
+        e.display = store_color(q, e.color);
+    } else {
+        // Shown as computed: no tonemapping per reused pixel.
+        show_color(q, e.color, e.display);
     }
-    store_color(q, c);
     e.meta = aged(e.meta);
     if ((st & PX_FILLED) != 0u && cache_miss(e)) {
         // A miss's colour is recomputed per pixel: the copy simply becomes this pixel's.

@@ -200,7 +200,7 @@ pub const HISTOGRAM_COPIES: u32 = 2;
 /// Counter slots in all (`C_HISTOGRAM` + `HISTOGRAM_COPIES` x `AGE_LEVELS` x `RANK_LEVELS`).
 pub const RP_COUNTER_SLOTS: u32 = 8480;
 
-/// A cached sample: the colour of one primary hit and where it was. Eight words, not sixteen:
+/// A cached sample: the colour of one primary hit and where it was. Nine words, not sixteen:
 /// every reprojected frame moves each pixel's entry about three times (scatter, fill,
 /// commit), and on a CPU device (lavapipe) every word gathered from a per-pixel address
 /// costs alike, so the entry carries only what a stage reads.
@@ -209,6 +209,12 @@ pub const RP_COUNTER_SLOTS: u32 = 8480;
 pub struct CacheEntry {
     /// Linear radiance.
     pub color: [f32; 3],
+    /// `color` as displayed: RGBA8 after the sequence's tonemap operator and exposure
+    /// (`tonemap_rgba8` of tonemap.glsl), computed once where the colour is. A reused sample
+    /// is shown as it is: tonemapping every reused pixel again took 15 % of the stage that
+    /// commits them on lavapipe. (Misses are shown per pixel: their colour is the
+    /// background seen through the pixel.)
+    pub display: u32,
     /// World position of the primary hit (a miss: unit direction).
     pub position: [f32; 3],
     /// Geometric normal of the glTF front face, octahedral (`pack_normal` of reproject.glsl:

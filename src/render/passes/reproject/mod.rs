@@ -1,9 +1,10 @@
 //! Temporal reprojection, frameless rendering and adaptive sub-sampling over a sequence of
 //! camera positions (issue #7; `shaders/reproject*.comp`).
 //!
-//! A [`Reprojector`] keeps a per-pixel cache of the last frame's samples: linear colour,
-//! world position of the primary hit (or the ray direction of a miss), geometric normal
-//! (octahedral, one word), and flags, age and material in one word: eight words per pixel
+//! A [`Reprojector`] keeps a per-pixel cache of the last frame's samples: linear colour and
+//! its display value, world position of the primary hit (or the ray direction of a miss),
+//! geometric normal (octahedral, one word), and flags, age and material in one word: nine
+//! words per pixel
 //! (`interface::reproject::CacheEntry`). Each frame:
 //!
 //! 1. **Scatter**: every cached sample is projected into the new camera. The nearest sample
@@ -453,7 +454,7 @@ impl Reprojector {
     }
 
     /// The largest buffer the reprojection binds as one storage buffer (either sample cache:
-    /// `size_of::<CacheEntry>()`, 32 bytes per pixel), to compare with
+    /// `size_of::<CacheEntry>()`, 36 bytes per pixel), to compare with
     /// `maxStorageBufferRange`.
     pub fn largest_buffer_bytes(settings: &RenderSettings) -> u64 {
         settings.pixels().saturating_mul(CACHE_ENTRY_BYTES)
