@@ -227,7 +227,7 @@ uint classify(uint q, ivec2 pix) {
         STATE(q) = st;
     }
     if (kind != PX_VERIFY) {
-        commit_entry(q, st, e);
+        commit_entry(q, st, e, unknown_pixel_hit());
     }
     return st;
 }
@@ -377,7 +377,9 @@ bool interpolate(uint q, out bool uncached) {
     c = max(c, vec3(0.0));
     uint display = store_color(q, c);
     STATE(q) = (st & ~PX_KIND_MASK) | PX_INTERP;
-    uncached = (params.flags & RP_GBUFFER) == 0u && (st & PX_VERIFIED) == 0u;
+    // (The rt path keeps no primary hits: its interpolated pixels are cached on their block's
+    // plane or get a ray in the caching pass.)
+    uncached = (params.flags & RP_GBUFFER) == 0u;
     CacheEntry planar;
     if (uncached && block_on_one_plane(sx, sy, centre, pix, planar)) {
         // The block's samples lie on one plane: cached where this pixel's ray meets it, as
@@ -391,8 +393,8 @@ bool interpolate(uint q, out bool uncached) {
         CACHE_NEXT(q).color = c;
         CACHE_NEXT(q).display = display;
     } else {
-        // Cached at the pixel's primary hit, flagged so that fills do not copy it (the rt
-        // path's pixels without a look at their hit go to the caching pass instead).
+        // Hybrid path: cached at the pixel's primary hit in the G-buffer, flagged so that
+        // fills do not copy it.
         ivec2 ip = ivec2(pix);
         uvec4 ids = imageLoad(g_ids, ip);
         CacheEntry e;

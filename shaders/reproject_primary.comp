@@ -3,9 +3,10 @@
 // Temporal reprojection, rt path: primary visibility for the pixels that hold a candidate
 // sample but cannot trust it without a look (all candidates, or those next to a depth edge,
 // per --rt-visibility; and, with adaptive sub-sampling, every pixel that needs new colour).
-// One primary ray per listed pixel; its hit goes to the G-buffer images (gbuffer.frag's
-// layout, so the tracing pass shades it without a second primary ray) and decides between
-// reusing the sample (committed here) and tracing the pixel (listed here for the tracing pass).
+// One primary ray per listed pixel; its hit decides between reusing the sample (committed
+// here; a fill is cached at that hit) and tracing the pixel (listed here for the tracing pass,
+// which traces the primary ray again: storing every hit for it in G-buffer images took this
+// pass a quarter of its time on lavapipe, while only the rejected few need it).
 //
 // With push constant `cache` = 1 the same pipeline is the caching pass of adaptive
 // sub-sampling: one primary ray per interpolated pixel that has no hit yet (job list 3), and
@@ -72,46 +73,29 @@ void main() {
         uint w = resolved_winner(q);
         CacheEntry e = CACHE_PREV(w == NO_SAMPLE ? 0u : w);
         uint st = STATE(q);
-        // Pixels already bound for tracing (adaptive sub-sampling on the rt path) only record
-        // their hit; candidates are judged.
+        // Candidates are judged; a pixel listed already bound for tracing keeps its state.
         bool candidate = (st & PX_KIND_MASK) == PX_VERIFY;
         bool hit = hit_found(h);
-        Surface s;
+        PixelHit ph = unknown_pixel_hit();
+        ph.known = true;
+        ph.found = hit;
         uint verdict;
         if (hit) {
-            s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
+            Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
             verdict = judge_primary(e, true, s.position, s.ng_front, s.material, s.metallic, s.roughness, s.transmission, s.alpha);
+            ph.position = s.position;
+            ph.ng_front = s.ng_front;
+            ph.instance = uint(h.instance);
+            ph.primitive = uint(h.primitive);
+            ph.bary = h.barycentrics;
         } else {
             verdict = judge_primary(e, false, vec3(0.0), vec3(0.0), 0u, 0.0, 1.0, 0.0, 1.0);
         }
         st = candidate ? verdict | PX_VERIFIED | (st & PX_FILLED) : st | PX_VERIFIED;
         STATE(q) = st;
-        // The hit goes to the G-buffer images for the passes that read it: all of it for a
-        // pixel that will be shaded (the tracing pass, the interpolation), only where it is
-        // (and, for moving geometry, its anchor) for a reused fill (commit). Most candidates
-        // are reused as they are and write nothing (on lavapipe this pass took 2.0 ms instead
-        // of 1.3-1.5 ms per 256x256 CornellBox_kajiya frame when every candidate stored all
-        // seven texels).
-        bool reused = (st & PX_KIND_MASK) == PX_REUSE;
-        if (!reused || (st & PX_FILLED) != 0u) {
-            if (hit) {
-                imageStore(g_position, pix, vec4(s.position, h.t));
-                imageStore(g_geometric, pix, vec4(s.ng_front, s.metallic));
-                imageStore(g_ids, pix, uvec4(uint(h.instance), uint(h.primitive), s.material | (s.front_face ? 0x80000000u : 0u), floatBitsToUint(s.transmission)));
-                imageStore(g_bary, pix, vec4(h.barycentrics, 0.0, 0.0));
-            } else {
-                imageStore(g_ids, pix, uvec4(0xFFFFFFFFu));
-            }
-            if (!reused && hit) {
-                imageStore(g_normal, pix, vec4(s.n, s.roughness));
-                imageStore(g_base, pix, vec4(s.base_color, s.alpha));
-                imageStore(g_emissive, pix, vec4(s.emissive, s.occlusion));
-            }
-        }
         if (candidate) {
-            // The stage before settled every other pixel; this pass settles the candidates
-            // (commit reads this invocation's own G-buffer writes at the pixel).
-            commit(q, st);
+            // The stage before settled every other pixel; this pass settles the candidates.
+            commit_entry(q, st, e, ph);
             settled = st;
             rejected = (st & PX_KIND_MASK) == PX_TRACE;
         }

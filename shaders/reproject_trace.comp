@@ -3,8 +3,7 @@
 // Temporal reprojection: traces the pixels on the job list (every pixel that needs new colour,
 // or one level of adaptive sub-sampling's samples) with the shared Whitted loop, writes their
 // colour and caches the new sample for the next frame. The primary hit comes from the
-// G-buffer where there is one (hybrid path; rt pixels the visibility pass already looked at),
-// otherwise whitted() traces the primary ray.
+// G-buffer on the hybrid path; on the rt path whitted() traces the primary ray.
 //
 // ONE whitted() call site: lavapipe's JIT time grows with every inlined copy of the loop.
 #extension GL_GOOGLE_include_directive : require
@@ -34,7 +33,9 @@ void main() {
     ivec2 pix = ivec2(pixel_of(q));
     uint st = STATE(q);
     Ray camera = camera_ray(vec2(pix) + 0.5);
-    bool known = (params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u;
+    // The rt path traces its own primary ray, also for a candidate the visibility pass
+    // rejected (a second ray for a few pixels costs less than a G-buffer round trip for all).
+    bool known = (params.flags & RP_GBUFFER) != 0u;
 
     PrimaryInfo info = primary_miss();
     Surface s = unused_surface;

@@ -374,7 +374,43 @@ uint judge_against_gbuffer(ivec2 pix, CacheEntry e) {
     return judge_primary(e, true, p.xyz, ng.xyz, ids.z & 0x7FFFFFFFu, ng.w, n.w, uintBitsToFloat(ids.w), base.a);
 }
 
+// A pixel's own primary hit, where the pass that commits the pixel knows it: the G-buffer's
+// (hybrid path), or the ray the rt visibility pass has just traced, kept in registers (that
+// pass stored it in G-buffer images for its readers once: a quarter of its time on lavapipe).
+struct PixelHit {
+    bool known;
+    bool found;
+    vec3 position;
+    vec3 ng_front;
+    uint instance;
+    uint primitive;
+    vec2 bary;
+};
+
+// For passes that traced no primary ray for the pixel.
+PixelHit unknown_pixel_hit() {
+    return PixelHit(false, false, vec3(0.0), vec3(0.0), 0u, 0u, vec2(0.0));
+}
+
 #include "reproject_anchor.glsl"
+
+// The G-buffer's primary hit at `pix` (hybrid path), as far as commit_entry() reads it: the
+// triangle and barycentrics only for moving geometry (the anchor).
+PixelHit gbuffer_pixel_hit(ivec2 pix) {
+    PixelHit h = unknown_pixel_hit();
+    h.known = true;
+    h.found = true;
+    h.position = imageLoad(g_position, pix).xyz;
+    h.ng_front = imageLoad(g_geometric, pix).xyz;
+    if (tracks_motion()) {
+        uvec4 ids = imageLoad(g_ids, pix);
+        h.found = ids.x != 0xFFFFFFFFu;
+        h.instance = ids.x;
+        h.primitive = ids.y;
+        h.bary = imageLoad(g_bary, pix).xy;
+    }
+    return h;
+}
 
 #ifndef RQR_KEY_WINNER_64
 // Reused pixels take their sample's colour (a miss: the background seen along this pixel's
@@ -382,8 +418,9 @@ uint judge_against_gbuffer(ivec2 pix, CacheEntry e) {
 // starts the next cache empty; the tracing pass fills the ones it traces. Run by the pass
 // that settles pixel q (state `st`).
 // `e` is the sample the pixel shows (CACHE_PREV(resolved_winner(q))), read by the caller,
-// which has usually read it already for its own tests.
-void commit_entry(uint q, uint st, CacheEntry e) {
+// which has usually read it already for its own tests; `hit` the pixel's primary hit where
+// the caller traced it (a fill is cached there).
+void commit_entry(uint q, uint st, CacheEntry e, PixelHit hit) {
     if ((st & PX_KIND_MASK) != PX_REUSE) {
         clear_entry(q);
         return;
@@ -404,31 +441,26 @@ void commit_entry(uint q, uint st, CacheEntry e) {
         // A fill carries a copy of a neighbour's colour. Cached as it is, the copy would
         // collide with its original next frame and leave the pixel empty again, so the
         // sample density of a surface seen larger and larger would only fall. Instead it
-        // becomes this pixel's sample at this pixel's primary hit: the G-buffer's where
-        // there is one, else where this pixel's ray meets the copied sample's plane (the
-        // neighbourhood passed the edge test, so it is that smooth surface).
-        ivec2 pix = ivec2(pixel_of(q));
-        if ((params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u) {
-            e.position = imageLoad(g_position, pix).xyz;
-            e.normal = pack_normal(imageLoad(g_geometric, pix).xyz);
+        // becomes this pixel's sample at this pixel's primary hit: the G-buffer's or the
+        // visibility pass's where there is one, else where this pixel's ray meets the copied
+        // sample's plane (the neighbourhood passed the edge test, so it is that smooth
+        // surface).
+        if ((params.flags & RP_GBUFFER) != 0u) {
+            hit = gbuffer_pixel_hit(ivec2(pixel_of(q)));
+        }
+        if (hit.known) {
+            e.position = hit.position;
+            e.normal = pack_normal(hit.ng_front);
         } else {
-            vec3 hit;
-            if (pixel_ray_meets_plane(uvec2(pix), e.position, unpack_normal(e.normal), hit)) {
-                e.position = hit;
+            vec3 p;
+            if (pixel_ray_meets_plane(pixel_of(q), e.position, unpack_normal(e.normal), p)) {
+                e.position = p;
             }
         }
         e.meta = with_hops(e.meta, cache_hops(e) + 1u);
     }
-    anchor_commit(q, resolved_winner(q), st, e);
+    anchor_commit(q, resolved_winner(q), st, e, hit);
     CACHE_NEXT(q) = e;
-}
-
-void commit(uint q, uint st) {
-    CacheEntry e;
-    if ((st & PX_KIND_MASK) == PX_REUSE) {
-        e = CACHE_PREV(resolved_winner(q));
-    }
-    commit_entry(q, st, e);
 }
 
 #endif

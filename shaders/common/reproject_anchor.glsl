@@ -126,11 +126,11 @@ CacheEntry moved_entry(uint q) {
     return e;
 }
 
-// The anchor of the entry `e` that commit() caches at slot q of the next cache for a pixel in
-// state `st` reusing the previous cache's slot w: the source's anchor, or for a fill (whose
-// entry commit() moved to this pixel's primary hit) the G-buffer's hit or the point on the
-// copied sample's triangle plane.
-void anchor_commit(uint q, uint w, uint st, CacheEntry e) {
+// The anchor of the entry `e` that commit_entry() caches at slot q of the next cache for a
+// pixel in state `st` reusing the previous cache's slot w: the source's anchor, or for a fill
+// (whose entry commit_entry() moved to this pixel's primary hit) that hit, where known, or
+// the point on the copied sample's triangle plane.
+void anchor_commit(uint q, uint w, uint st, CacheEntry e, PixelHit hit) {
     if (!tracks_motion()) {
         return;
     }
@@ -139,8 +139,10 @@ void anchor_commit(uint q, uint w, uint st, CacheEntry e) {
     } else if ((st & PX_FILLED) == 0u) {
         Anchor a = ANCHOR_PREV(w);
         anchor_store(q, a.instance, a.primitive, a.bary);
-    } else if ((params.flags & RP_GBUFFER) != 0u || (st & PX_VERIFIED) != 0u) {
-        anchor_from_gbuffer(q, ivec2(pixel_of(q)));
+    } else if (hit.known && hit.found) {
+        anchor_store(q, hit.instance, hit.primitive, hit.bary);
+    } else if (hit.known) {
+        anchor_clear(q);
     } else {
         Anchor a = ANCHOR_PREV(w);
         if (a.instance != NO_ANCHOR) {

@@ -111,7 +111,8 @@ fn trace_spirv(backend: Backend) -> &'static [u8] {
     }
 }
 
-/// G-buffer images: the raster pass's (hybrid) or written by the visibility pass (rt).
+/// G-buffer images: the raster pass's (hybrid) or placeholders (rt, which keeps its primary
+/// hits in registers).
 enum Visibility {
     Raster(Box<GbufferPass>),
     Traced(Vec<Image>),
@@ -267,6 +268,8 @@ impl Reprojector {
                     gbuffer::GbufferLayout::Full,
                 )?))
             }
+            // The rt path keeps its primary hits in registers (reproject_primary.comp): 1x1
+            // placeholders for the bindings the passes share with the hybrid path.
             RenderPath::RayTraced => Visibility::Traced(
                 GBUFFER_FORMATS
                     .iter()
@@ -274,8 +277,11 @@ impl Reprojector {
                     .map(|(i, &f)| {
                         Image::new(
                             ctx,
-                            &format!("reproject visibility {i}"),
-                            extent,
+                            &format!("reproject G-buffer placeholder {i}"),
+                            vk::Extent2D {
+                                width: 1,
+                                height: 1,
+                            },
                             f,
                             vk::ImageUsageFlags::STORAGE,
                             1,
@@ -429,8 +435,9 @@ impl Reprojector {
     }
 
     /// Device memory of the reprojection buffers and images for `settings` (two caches,
-    /// per-pixel keys, winners, states, colour, jobs, tonemapped output, and the rt path's
-    /// G-buffer images).
+    /// per-pixel keys, winners, states, colour, jobs, tonemapped output, and G-buffer images:
+    /// the hybrid path's raster pass needs them; for the rt path, whose are 1x1, the estimate
+    /// stays an upper bound).
     pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
         let pixels = u64::from(settings.width) * u64::from(settings.height);
         let gbuffer: u64 = GBUFFER_FORMATS
@@ -441,7 +448,7 @@ impl Reprojector {
             })
             .sum();
         // Per pixel: two caches, the shown records, winner + depth key, state, colour, display
-        // pixel, one word per job list, the visibility images.
+        // pixel, one word per job list, the G-buffer images.
         let per_pixel = 2 * CACHE_ENTRY_BYTES
             + SHOWN_BYTES
             + 8
