@@ -2,15 +2,11 @@
 #version 460
 // Temporal reprojection, rt path: primary visibility for the pixels that hold a candidate
 // sample but cannot trust it without a look (all candidates, or those next to a depth edge,
-// per --rt-visibility; and, with adaptive sub-sampling, every pixel that needs new colour).
+// per --rt-visibility).
 // One primary ray per listed pixel; its hit decides between reusing the sample (committed
 // here; a fill is cached at that hit) and tracing the pixel (listed here for the tracing pass,
 // which traces the primary ray again: storing every hit for it in G-buffer images took this
 // pass a quarter of its time on lavapipe, while only the rejected few need it).
-//
-// With push constant `cache` = 1 the same pipeline is the caching pass of adaptive
-// sub-sampling: one primary ray per interpolated pixel that has no hit yet (job list 3), and
-// its interpolated colour cached at that hit.
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "trace.glsl"
@@ -23,41 +19,7 @@ layout(local_size_x = 64) in;
 // VisibilityPush: the adaptive level (1, 2, 4) whose pixels to trace this pass lists.
 layout(push_constant) uniform Push { VisibilityPush pc; };
 
-// The caching pass: the interpolated colour of pixel q, cached at the pixel's own primary hit,
-// flagged one hop from where colour was computed, so that fills do not copy it.
-void cache_interpolated(uint q) {
-    Ray r = camera_ray(vec2(pixel_of(q)) + 0.5);
-    Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
-    CacheEntry e;
-    e.color = CACHE_NEXT(q).color; // written by the interpolation, with its display value
-    e.display = CACHE_NEXT(q).display;
-    if (hit_found(h)) {
-        Surface s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t);
-        bool vd = surface_view_dependent(s.metallic, s.roughness, s.transmission, s.alpha_mode, s.alpha);
-        e.position = s.position;
-        e.normal = pack_normal(s.ng_front);
-        e.meta = new_cache_meta(CACHE_VALID | (vd ? CACHE_VIEW_DEPENDENT : 0u), 1u, s.material);
-        anchor_store(q, uint(h.instance), uint(h.primitive), h.barycentrics);
-    } else {
-        e.position = r.dir;
-        e.normal = 0u;
-        e.meta = CACHE_VALID | CACHE_MISS;
-        anchor_clear(q);
-    }
-    CACHE_NEXT(q) = e;
-}
-
 void main() {
-    if (pc.cache != 0u) {
-        uint i = gl_GlobalInvocationID.x;
-        bool listed = i < job_count(LIST_CACHE);
-        if (listed) {
-            cache_interpolated(job_at(LIST_CACHE, i));
-        }
-        COUNTER_ADD(counters[stat_slot(0u)], listed ? 1u : 0u);
-        COUNTER_ADD(counters[stat_slot(C_VERIFY_RAYS)], listed ? 1u : 0u);
-        return;
-    }
     uint i = gl_GlobalInvocationID.x;
     bool listed = i < job_count(LIST_VERIFY);
     uint q = listed ? job_at(LIST_VERIFY, i) : 0u;

@@ -136,7 +136,7 @@ uint job_at(uint list, uint i) { return JOBS(list * pixel_count() + i); }
 
 // The counter slot that holds list `list`'s length while stages append to it.
 uint list_counter(uint list) {
-    return list == LIST_VERIFY ? C_JOBS : (list == LIST_TRACE ? C_TRACE_JOBS : (list == LIST_PENDING ? C_PENDING_JOBS : C_CACHE_JOBS));
+    return list == LIST_VERIFY ? C_JOBS : (list == LIST_TRACE ? C_TRACE_JOBS : C_PENDING_JOBS);
 }
 
 // The counter slot of statistic `slot` (ray kinds, C_SAMPLES, the pixel counts) for this

@@ -60,11 +60,8 @@ pub const LIST_TRACE: u32 = 1;
 /// stage's and the visibility pass's), which the interpolation passes work through instead of
 /// the whole image.
 pub const LIST_PENDING: u32 = 2;
-/// Job list 3, adaptive sub-sampling on the rt path: interpolated pixels without a primary
-/// hit yet, which the visibility pipeline's caching pass gives one and caches.
-pub const LIST_CACHE: u32 = 3;
 /// Job lists in the jobs buffer (and indirect dispatches in the arguments buffer).
-pub const JOB_LISTS: u32 = 4;
+pub const JOB_LISTS: u32 = 3;
 
 /// Pixel state: mask of the kind.
 pub const PX_KIND_MASK: u32 = 15;
@@ -168,11 +165,9 @@ pub const C_TILES_DONE: u32 = 20;
 pub const C_TRACE_JOBS: u32 = 21;
 /// Counter slot: length of job list 2 (two passes append to it).
 pub const C_PENDING_JOBS: u32 = 22;
-/// Counter slot: length of job list 3 (both interpolation passes append to it).
-pub const C_CACHE_JOBS: u32 = 23;
 /// Counter slot: subgroups of one stripe that finished appending to the current job lists
 /// (per stripe, like the statistics; `lists_done` of reproject.glsl).
-pub const C_STRIPE_DONE: u32 = 24;
+pub const C_STRIPE_DONE: u32 = 23;
 /// The statistics counters (ray kinds, `C_SAMPLES`, `C_REUSED` .. `C_FILLED` but the frameless
 /// and job-list slots) come in this many stripes: a workgroup counts into the stripe of its
 /// share of the dispatch (consecutive workgroups share one). A CPU device (lavapipe) hands each
@@ -272,9 +267,6 @@ pub struct ReprojectPush {
 pub struct VisibilityPush {
     /// The adaptive level (1, 2, 4) whose pixels to trace it lists.
     pub level: u32,
-    /// 1: the caching pass (job list [`LIST_CACHE`]: primary hits of interpolated pixels, for
-    /// their cache entries); 0: the visibility pass (job list [`LIST_VERIFY`]).
-    pub cache: u32,
 }
 
 /// reproject_trace.comp's push constant.

@@ -27,11 +27,12 @@
 //! 4. **Trace** the rest with the shared Whitted loop, or with **adaptive sub-sampling**
 //!    (optional): trace every 4×4 block's corners and centre, interpolate the blocks whose
 //!    samples are similar, recurse into 2×2 blocks, then trace what is left. On the rt path,
-//!    interpolated pixels then get a primary ray each (the caching pass) for their cache
-//!    entry; traced pixels trace their own.
+//!    an interpolated pixel is cached only where its block's samples lie on one plane (where
+//!    its ray meets that plane); otherwise its entry stays empty, and next frame the pixel is
+//!    filled from a neighbour's sample or traced.
 //!
 //! Every pass after the decision works through a job list in tile order (pixels to verify,
-//! to trace, pending interpolation, to cache), dispatched indirectly by its length, so its
+//! to trace, pending interpolation), dispatched indirectly by its length, so its
 //! cost follows its jobs.
 //!
 //! On a scene whose geometry moves between frames ([`Reprojector::track_moving_geometry`];

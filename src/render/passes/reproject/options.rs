@@ -154,9 +154,8 @@ pub struct ReuseStats {
     pub expired: u64,
     /// Samples re-traced by the frameless refresh.
     pub frameless: u64,
-    /// Primary rays of the rt path's visibility pipeline (included in the primary ray count):
-    /// checks of reprojected samples and, with adaptive sub-sampling, the primary hits of
-    /// interpolated pixels (the caching pass, so that they can be cached).
+    /// Primary rays of the rt path's visibility pass (included in the primary ray count):
+    /// checks of reprojected samples.
     pub verify_rays: u64,
 }
 

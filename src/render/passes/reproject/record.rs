@@ -186,10 +186,7 @@ impl Reprojector {
                 &self.primary,
                 primary_set,
                 "visibility",
-                push_bytes(&VisibilityPush {
-                    level: levels[0],
-                    cache: 0,
-                }),
+                push_bytes(&VisibilityPush { level: levels[0] }),
                 LIST_VERIFY,
                 profiler.as_deref_mut(),
             );
@@ -225,18 +222,6 @@ impl Reprojector {
                     profiler.as_deref_mut(),
                 );
             }
-        }
-        if o.adaptive_subsample && self.path == RenderPath::RayTraced {
-            // Interpolated pixels that never had a primary ray get one, for their cache entry.
-            traced(
-                cmd,
-                &self.primary,
-                primary_set,
-                "cache",
-                push_bytes(&VisibilityPush { level: 0, cache: 1 }),
-                LIST_CACHE,
-                profiler.as_deref_mut(),
-            );
         }
         if let Some(p) = profiler {
             p.end(cmd);
