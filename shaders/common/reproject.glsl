@@ -425,8 +425,9 @@ void commit_entry(uint q, uint st, CacheEntry e, PixelHit hit) {
         clear_entry(q);
         return;
     }
-    if (cache_miss(e)) {
-        // The entry holds the colour the pixel shows (adaptive sub-sampling reads it).
+    if (cache_miss(e) && (frame.flags & FLAG_SKY) != 0u) {
+        // The sky seen through this pixel. (A uniform background needs no recomputing.) The
+        // entry holds the colour the pixel shows (adaptive sub-sampling reads it).
         e.color = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
         e.display = store_color(q, e.color);
     } else {
