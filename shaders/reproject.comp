@@ -31,11 +31,9 @@ layout(push_constant) uniform Push { ReprojectPush pc; };
 vec3 color_at(uint x, uint y) { return CACHE_NEXT(y * frame.width + x).color; }
 
 // A pixel's 4 edge-sharing neighbours, in pixel order: the records of the samples they show
-// (Shown, written by the previous stage), and their pixel indices (NO_SAMPLE outside the
-// image). The edge test and the fill both look at these, so classify loads them once.
+// (Shown, written by the previous stage; empty outside the image), for the edge test.
 struct Neighbours {
     Shown shown[4];
-    uint pixel[4];
 };
 
 const ivec2 EDGE_NEIGHBOURS[4] = ivec2[4](ivec2(0, -1), ivec2(-1, 0), ivec2(1, 0), ivec2(0, 1));
@@ -45,10 +43,9 @@ Neighbours load_neighbours(ivec2 pix) {
     [[unroll]] for (uint k = 0u; k < 4u; ++k) {
         ivec2 n = pix + EDGE_NEIGHBOURS[k];
         bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
-        nb.pixel[k] = inside ? uint(n.y) * frame.width + uint(n.x) : NO_SAMPLE;
         nb.shown[k] = Shown(0.0, 0u);
         if (inside) {
-            nb.shown[k] = SHOWN(nb.pixel[k]);
+            nb.shown[k] = SHOWN(uint(n.y) * frame.width + uint(n.x));
         }
     }
     return nb;
@@ -100,23 +97,33 @@ bool near_edge(CacheEntry e, Neighbours nb) {
 // fill radius. The pixel still goes through the visibility tests (the G-buffer; on the rt
 // path the edge test or a primary ray), so a disocclusion is not filled with whatever lies
 // next to it. Returns the chosen sample's index, NO_SAMPLE when none qualifies.
-uint fill(ivec2 pix, Neighbours nb) {
+//
+// The shown stage fills (the neighbours' winners are final after the scatter), so that the
+// frameless threshold, computed before classify, knows which empty pixels stay holes: they
+// are traced, and count toward the budget.
+uint fill(ivec2 pix) {
     vec2 centre = vec2(pix) + 0.5;
     uint best = NO_SAMPLE;
     // Squared distances: no square roots.
     float best_d2 = params.fill_radius * params.fill_radius;
     [[unroll]] for (uint k = 0u; k < 4u; ++k) {
-        uint bits = nb.shown[k].normal;
-        if ((bits & (SHOWN_SAMPLE | SHOWN_COPYABLE)) == (SHOWN_SAMPLE | SHOWN_COPYABLE)) {
-            // Only empty pixels fill, so gathering the candidates' positions here costs less
-            // than keeping them in Shown for every pixel. A shown sample projected into the
-            // image this frame (it won its pixel), so only where it falls is computed.
-            uint w = WINNER(nb.pixel[k]);
-            vec2 d = film_of(clip_of(CACHE_PREV(w).position, (bits & SHOWN_MISS) != 0u)) - centre;
-            float d2 = dot(d, d);
-            if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
-                best_d2 = d2;
-                best = w;
+        ivec2 n = pix + EDGE_NEIGHBOURS[k];
+        bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
+        uint w = NO_SAMPLE;
+        if (inside) {
+            w = WINNER(uint(n.y) * frame.width + uint(n.x));
+        }
+        if (w != NO_SAMPLE) {
+            CacheEntry e = CACHE_PREV(w);
+            if (cache_hops(e) < params.max_hops) {
+                // A shown sample projected into the image this frame (it won its pixel), so
+                // only where it falls is computed.
+                vec2 d = film_of(clip_of(e.position, cache_miss(e))) - centre;
+                float d2 = dot(d, d);
+                if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
+                    best_d2 = d2;
+                    best = w;
+                }
             }
         }
     }
@@ -143,8 +150,17 @@ bool frameless_candidate(CacheEntry e) {
 void record_shown(uint q, uvec2 pix) {
     uint w = WINNER(q);
     bool candidate = false;
+    bool filled = false;
     if (w == NO_SAMPLE) {
+        // The edge test sees a filled pixel as empty too (its sample is a neighbour's).
         SHOWN(q).normal = 0u;
+        uint f = fill(ivec2(pix));
+        if (f != NO_SAMPLE) {
+            // Later stages read the choice through resolved_winner(): the depth key is free
+            // on a pixel no sample landed on (and fills read only the winners).
+            DEPTH_KEY(q) = FILLED_KEY | f;
+            filled = true;
+        }
     } else {
         CacheEntry e = CACHE_PREV(w);
         uint bits = SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u) | (cache_hops(e) < params.max_hops ? SHOWN_COPYABLE : 0u);
@@ -158,9 +174,9 @@ void record_shown(uint q, uvec2 pix) {
         }
     }
     if ((params.flags & RP_FRAMELESS) != 0u) {
-        // Candidates, and empty pixels (C_FORCED holds their count until the threshold stage
+        // Candidates, and filled pixels (C_FORCED holds their count until the threshold stage
         // turns it into the forced count): a fill keeps an empty pixel out of both.
-        uvec2 sums = subgroupAdd(uvec2(candidate ? 1u : 0u, w == NO_SAMPLE ? 1u : 0u));
+        uvec2 sums = subgroupAdd(uvec2(candidate ? 1u : 0u, filled ? 1u : 0u));
         if (subgroupElect()) {
             atomicAdd(counters[C_CANDIDATES], sums.x);
             atomicAdd(counters[C_FORCED], sums.y);
@@ -173,22 +189,18 @@ void record_shown(uint q, uvec2 pix) {
 uint classify(uint q, ivec2 pix) {
     uint w = WINNER(q);
     bool reuse = (params.flags & RP_REUSE) != 0u;
-    // The neighbours are needed by a pixel to fill, and by the edge test (rt path).
+    // The neighbours are needed by the edge test (rt path).
     bool edge_test = (params.flags & (RP_GBUFFER | RP_VERIFY_ALL)) == 0u;
     Neighbours nb;
-    if (reuse && (w == NO_SAMPLE || edge_test)) {
+    if (reuse && edge_test) {
         nb = load_neighbours(pix);
     }
     bool filled = false;
     bool frameless = (params.flags & RP_FRAMELESS) != 0u;
     if (reuse && w == NO_SAMPLE) {
-        w = fill(pix, nb);
-        if (w != NO_SAMPLE) {
-            // Later stages read the choice through resolved_winner(): the depth key is free
-            // on a pixel no sample landed on.
-            DEPTH_KEY(q) = FILLED_KEY | w;
-            filled = true;
-        }
+        // The shown stage's fill.
+        w = resolved_winner(q);
+        filled = w != NO_SAMPLE;
     }
     uint st;
     uint age = 0u;
@@ -250,11 +262,11 @@ uint refresh_bin(uint age, float rank) {
 // the bin where the budget runs out and the share of that bin to take.
 void threshold() {
     uint budget = uint(ceil(params.frameless_fraction * float(pixel_count())));
-    // Every pixel that showed a sample and is no candidate must be traced. Empty pixels are
-    // left out: filled, they keep a neighbour's fresh copy; unfilled, they are traced on top
-    // of the budget, so at least the budget is refreshed either way.
-    uint empty = counters[C_FORCED];
-    uint forced = pixel_count() - counters[C_CANDIDATES] - empty;
+    // Every pixel that showed a sample and is no candidate must be traced, and so must every
+    // empty pixel no neighbour filled (a hole): they count first. Filled pixels keep a
+    // neighbour's copy, outside the budget.
+    uint filled = counters[C_FORCED];
+    uint forced = pixel_count() - counters[C_CANDIDATES] - filled;
     counters[C_FORCED] = forced;
     uint extra = budget > forced ? budget - forced : 0u;
     uint bin = NO_SAMPLE;

@@ -586,6 +586,52 @@ fn frameless_refreshes_the_oldest_samples() {
     common::assert_validation_clean(&ctx);
 }
 
+/// A moving camera leaves holes (empty pixels no neighbour fills), which are traced anyway:
+/// they count toward the frameless budget like the other pixels that must be traced, so a
+/// frame traces the budget (plus what the visibility tests reject), not the budget plus its
+/// holes.
+#[test]
+fn frameless_counts_holes_toward_its_budget() {
+    let ctx = common::gpu();
+    let scene = cornell();
+    let r = renderer(&ctx, &scene);
+    let reuse = ReuseOptions {
+        frameless_percent: Some(20.0),
+        ..Default::default()
+    };
+    let path = CameraPath::Orbit {
+        degrees_per_frame: 2.0,
+        pivot: Vec3::new(0.0, 2.0, 0.0),
+    };
+    for mode in [MODES[0], MODES[2]] {
+        let mut seq = sequence(&ctx, &r, &scene, 64, path.clone(), mode, reuse);
+        let mut holes = 0;
+        for k in 0..5 {
+            let f = seq.render_frame(&ctx, k).unwrap();
+            assert_stats_add_up(&f);
+            if k == 0 {
+                continue;
+            }
+            let s = &f.stats;
+            let budget = (s.pixels as f64 * 0.2).ceil() as u64;
+            assert!(s.traced >= budget, "{mode:?} frame {k}: {s:?}");
+            // Selected by age only where the pixels that must be traced leave room (the
+            // threshold bin is split by rank, so allow 1 % over).
+            let forced = s.holes + s.view_dependent + s.expired;
+            assert!(
+                s.frameless + forced <= budget.max(forced) + s.pixels / 100,
+                "{mode:?} frame {k}: {s:?}"
+            );
+            holes += s.holes;
+        }
+        assert!(
+            holes > 64 * 64 / 100,
+            "{mode:?}: the orbit left {holes} holes"
+        );
+    }
+    common::assert_validation_clean(&ctx);
+}
+
 #[test]
 fn max_age_and_frame_ranges() {
     let ctx = common::gpu();
