@@ -31,9 +31,11 @@ layout(push_constant) uniform Push { ReprojectPush pc; };
 vec3 color_at(uint x, uint y) { return CACHE_NEXT(y * frame.width + x).color; }
 
 // A pixel's 4 edge-sharing neighbours, in pixel order: the records of the samples they show
-// (Shown, written by the previous stage; empty outside the image), for the edge test.
+// (Shown, written by the previous stage), and their pixel indices (NO_SAMPLE outside the
+// image). The edge test and the fill both look at these, so classify loads them once.
 struct Neighbours {
     Shown shown[4];
+    uint pixel[4];
 };
 
 const ivec2 EDGE_NEIGHBOURS[4] = ivec2[4](ivec2(0, -1), ivec2(-1, 0), ivec2(1, 0), ivec2(0, 1));
@@ -43,9 +45,10 @@ Neighbours load_neighbours(ivec2 pix) {
     [[unroll]] for (uint k = 0u; k < 4u; ++k) {
         ivec2 n = pix + EDGE_NEIGHBOURS[k];
         bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
+        nb.pixel[k] = inside ? uint(n.y) * frame.width + uint(n.x) : NO_SAMPLE;
         nb.shown[k] = Shown(0.0, 0u);
         if (inside) {
-            nb.shown[k] = SHOWN(uint(n.y) * frame.width + uint(n.x));
+            nb.shown[k] = SHOWN(nb.pixel[k]);
         }
     }
     return nb;
@@ -96,15 +99,47 @@ bool near_edge(CacheEntry e, Neighbours nb) {
 // colour was computed are copied (not fills or interpolations), so a colour moves at most one
 // fill radius. The pixel still goes through the visibility tests (the G-buffer; on the rt
 // path the edge test or a primary ray), so a disocclusion is not filled with whatever lies
-// next to it. Returns the chosen sample's index, NO_SAMPLE when none qualifies.
-//
-// The shown stage fills (the neighbours' winners are final after the scatter), so that the
-// frameless threshold, computed before classify, knows which empty pixels stay holes: they
-// are traced, and count toward the budget.
-uint fill(ivec2 pix) {
+// next to it. The fills below return the chosen sample's index, NO_SAMPLE when none
+// qualifies.
+
+// The fill's choice so far (`best`, at squared distance `best_d2` in pixels) against the
+// shown sample w at `position` (a miss: its direction): nearest to `centre` first, then the
+// lowest index. A shown sample projected into the image this frame (it won its pixel), so
+// only where it falls is computed.
+void nearer_fill(uint w, vec3 position, bool miss, vec2 centre, inout uint best, inout float best_d2) {
+    vec2 d = film_of(clip_of(position, miss)) - centre;
+    float d2 = dot(d, d);
+    if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
+        best_d2 = d2;
+        best = w;
+    }
+}
+
+// Classify's fill, from the neighbours' Shown records it has loaded for the edge test.
+uint fill(ivec2 pix, Neighbours nb) {
     vec2 centre = vec2(pix) + 0.5;
     uint best = NO_SAMPLE;
     // Squared distances: no square roots.
+    float best_d2 = params.fill_radius * params.fill_radius;
+    [[unroll]] for (uint k = 0u; k < 4u; ++k) {
+        uint bits = nb.shown[k].normal;
+        if ((bits & (SHOWN_SAMPLE | SHOWN_COPYABLE)) == (SHOWN_SAMPLE | SHOWN_COPYABLE)) {
+            // Only empty pixels fill, so gathering the candidates' positions here costs less
+            // than keeping them in Shown for every pixel.
+            uint w = WINNER(nb.pixel[k]);
+            nearer_fill(w, CACHE_PREV(w).position, (bits & SHOWN_MISS) != 0u, centre, best, best_d2);
+        }
+    }
+    return best;
+}
+
+// The same fill in the shown stage, from the neighbours' winners (their Shown records are
+// being written): with --frameless, so that the threshold, computed before classify, knows
+// which empty pixels stay holes. They are traced anyway and count toward the budget. (Without
+// frameless, classify fills: it has the neighbours' records at hand, which spares gathers.)
+uint fill_from_winners(ivec2 pix) {
+    vec2 centre = vec2(pix) + 0.5;
+    uint best = NO_SAMPLE;
     float best_d2 = params.fill_radius * params.fill_radius;
     [[unroll]] for (uint k = 0u; k < 4u; ++k) {
         ivec2 n = pix + EDGE_NEIGHBOURS[k];
@@ -116,14 +151,7 @@ uint fill(ivec2 pix) {
         if (w != NO_SAMPLE) {
             CacheEntry e = CACHE_PREV(w);
             if (cache_hops(e) < params.max_hops) {
-                // A shown sample projected into the image this frame (it won its pixel), so
-                // only where it falls is computed.
-                vec2 d = film_of(clip_of(e.position, cache_miss(e))) - centre;
-                float d2 = dot(d, d);
-                if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
-                    best_d2 = d2;
-                    best = w;
-                }
+                nearer_fill(w, e.position, cache_miss(e), centre, best, best_d2);
             }
         }
     }
@@ -151,10 +179,11 @@ void record_shown(uint q, uvec2 pix) {
     uint w = WINNER(q);
     bool candidate = false;
     bool filled = false;
+    bool frameless = (params.flags & RP_FRAMELESS) != 0u;
     if (w == NO_SAMPLE) {
         // The edge test sees a filled pixel as empty too (its sample is a neighbour's).
         SHOWN(q).normal = 0u;
-        uint f = fill(ivec2(pix));
+        uint f = frameless ? fill_from_winners(ivec2(pix)) : NO_SAMPLE;
         if (f != NO_SAMPLE) {
             // Later stages read the choice through resolved_winner(): the depth key is free
             // on a pixel no sample landed on (and fills read only the winners).
@@ -173,7 +202,7 @@ void record_shown(uint q, uvec2 pix) {
             atomicAdd(counters[C_HISTOGRAM + copy * HISTOGRAM_BINS + refresh_bin(cache_age(e.meta), refresh_rank(pix))], 1u);
         }
     }
-    if ((params.flags & RP_FRAMELESS) != 0u) {
+    if (frameless) {
         // Candidates, and filled pixels (C_FORCED holds their count until the threshold stage
         // turns it into the forced count): a fill keeps an empty pixel out of both.
         uvec2 sums = subgroupAdd(uvec2(candidate ? 1u : 0u, filled ? 1u : 0u));
@@ -189,18 +218,23 @@ void record_shown(uint q, uvec2 pix) {
 uint classify(uint q, ivec2 pix) {
     uint w = WINNER(q);
     bool reuse = (params.flags & RP_REUSE) != 0u;
-    // The neighbours are needed by the edge test (rt path).
+    bool frameless = (params.flags & RP_FRAMELESS) != 0u;
+    // The neighbours are needed by a pixel to fill (unless the shown stage filled), and by the
+    // edge test (rt path).
     bool edge_test = (params.flags & (RP_GBUFFER | RP_VERIFY_ALL)) == 0u;
     Neighbours nb;
-    if (reuse && edge_test) {
+    if (reuse && ((w == NO_SAMPLE && !frameless) || edge_test)) {
         nb = load_neighbours(pix);
     }
     bool filled = false;
-    bool frameless = (params.flags & RP_FRAMELESS) != 0u;
     if (reuse && w == NO_SAMPLE) {
-        // The shown stage's fill.
-        w = resolved_winner(q);
+        w = frameless ? resolved_winner(q) : fill(pix, nb);
         filled = w != NO_SAMPLE;
+        if (filled && !frameless) {
+            // Later stages read the choice through resolved_winner(): the depth key is free
+            // on a pixel no sample landed on.
+            DEPTH_KEY(q) = FILLED_KEY | w;
+        }
     }
     uint st;
     uint age = 0u;
