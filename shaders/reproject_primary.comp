@@ -34,9 +34,8 @@ void main() {
         COUNTER_ADD(counters[stat_slot(C_VERIFY_RAYS)], 1u);
         uint w = resolved_winner(q);
         CacheEntry e = CACHE_PREV(w == NO_SAMPLE ? 0u : w);
+        // Every listed pixel is a candidate (wants_visibility() of reproject.comp).
         uint st = STATE(q);
-        // Candidates are judged; a pixel listed already bound for tracing keeps its state.
-        bool candidate = (st & PX_KIND_MASK) == PX_VERIFY;
         bool hit = hit_found(h);
         PixelHit ph = unknown_pixel_hit();
         ph.known = true;
@@ -53,14 +52,12 @@ void main() {
         } else {
             verdict = judge_primary(e, false, vec3(0.0), vec3(0.0), 0u, 0.0, 1.0, 0.0, 1.0);
         }
-        st = candidate ? verdict | PX_VERIFIED | (st & PX_FILLED) : st | PX_VERIFIED;
+        st = verdict | (st & PX_FILLED);
         STATE(q) = st;
-        if (candidate) {
-            // The stage before settled every other pixel; this pass settles the candidates.
-            commit_entry(q, st, e, ph);
-            settled = st;
-            rejected = (st & PX_KIND_MASK) == PX_TRACE;
-        }
+        // The stage before settled every other pixel; this pass settles the candidates.
+        commit_entry(q, st, e, ph);
+        settled = st;
+        rejected = (st & PX_KIND_MASK) == PX_TRACE;
         trace = traced_at(st, uvec2(pix), pc.level);
     }
     // Rejected candidates join the pixels the interpolation passes look at.

@@ -85,8 +85,6 @@ pub const PX_VIEW_DEPENDENT: u32 = 1 << 6;
 pub const PX_EXPIRED: u32 = 1 << 7;
 /// Pixel reason: picked by the frameless refresh.
 pub const PX_FRAMELESS: u32 = 1 << 8;
-/// Pixel reason: the rt visibility pass traced this pixel's primary ray.
-pub const PX_VERIFIED: u32 = 1 << 9;
 /// Pixel reason: the sample is a neighbour's, filling an empty pixel.
 pub const PX_FILLED: u32 = 1 << 10;
 
