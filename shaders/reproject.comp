@@ -15,6 +15,7 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_clustered : require
 
 layout(local_size_x = 8, local_size_y = 8) in;
 // The stage that runs (STAGE_* of src/interface/reproject.rs): a specialization constant, so
@@ -30,12 +31,10 @@ layout(push_constant) uniform Push { ReprojectPush pc; };
 // colour buffer.
 vec3 color_at(uint x, uint y) { return CACHE_NEXT(y * frame.width + x).color; }
 
-// A pixel's 4 edge-sharing neighbours, in pixel order: the records of the samples they show
-// (Shown, written by the previous stage), and their pixel indices (NO_SAMPLE outside the
-// image). The edge test and the fill both look at these, so classify loads them once.
+// The records of the samples a pixel's 4 edge-sharing neighbours show (Shown, written by the
+// previous stage; empty outside the image), in pixel order, for the edge test.
 struct Neighbours {
     Shown shown[4];
-    uint pixel[4];
 };
 
 const ivec2 EDGE_NEIGHBOURS[4] = ivec2[4](ivec2(0, -1), ivec2(-1, 0), ivec2(1, 0), ivec2(0, 1));
@@ -45,10 +44,9 @@ Neighbours load_neighbours(ivec2 pix) {
     [[unroll]] for (uint k = 0u; k < 4u; ++k) {
         ivec2 n = pix + EDGE_NEIGHBOURS[k];
         bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
-        nb.pixel[k] = inside ? uint(n.y) * frame.width + uint(n.x) : NO_SAMPLE;
         nb.shown[k] = Shown(0.0, 0u);
         if (inside) {
-            nb.shown[k] = SHOWN(nb.pixel[k]);
+            nb.shown[k] = SHOWN(uint(n.y) * frame.width + uint(n.x));
         }
     }
     return nb;
@@ -94,76 +92,49 @@ bool near_edge(CacheEntry e, Neighbours nb) {
 // (samples keep the world position their colour belongs to). Left alone, each such pixel is
 // traced at its centre, starts a region with yet another offset, and empty pixels multiply
 // frame after frame. So an empty pixel takes the sample of an edge-sharing neighbour that
-// projects nearest to its centre, within fill_radius pixels (nearest first, then the lowest
+// falls nearest to its centre, within fill_radius pixels (nearest first, then the lowest
 // source index): a splat footprint, as in the Render Cache. Only samples that sit where their
 // colour was computed are copied (not fills or interpolations), so a colour moves at most one
 // fill radius. The pixel still goes through the visibility tests (the G-buffer; on the rt
 // path the edge test or a primary ray), so a disocclusion is not filled with whatever lies
-// next to it. The fills below return the chosen sample's index, NO_SAMPLE when none
-// qualifies.
-
-// The fill's choice so far (`best`, at squared distance `best_d2` in pixels) against the
-// shown sample w at `position` (a miss: its direction): nearest to `centre` first, then the
-// lowest index. A shown sample projected into the image this frame (it won its pixel), so
-// only where it falls is computed.
-void nearer_fill(uint w, vec3 position, bool miss, vec2 centre, inout uint best, inout float best_d2) {
-    vec2 d = film_of(clip_of(position, miss)) - centre;
-    float d2 = dot(d, d);
-    if (d2 < best_d2 || (d2 == best_d2 && w < best)) {
-        best_d2 = d2;
-        best = w;
-    }
-}
-
-// Classify's fill, from the neighbours' Shown records it has loaded for the edge test.
-uint fill(ivec2 pix, Neighbours nb) {
+// next to it. Returns the chosen sample's index, NO_SAMPLE when none qualifies.
+//
+// Run by the shown stage, so that classify (and the frameless threshold before it: the holes
+// left count toward the budget) knows every pixel's sample. The neighbours' samples are read
+// from their depth keys (where each falls, whether it may be copied): a fill gathers and
+// projects nothing.
+uint fill(ivec2 pix) {
     vec2 centre = vec2(pix) + 0.5;
     uint best = NO_SAMPLE;
     // Squared distances: no square roots.
     float best_d2 = params.fill_radius * params.fill_radius;
     [[unroll]] for (uint k = 0u; k < 4u; ++k) {
-        uint bits = nb.shown[k].normal;
-        if ((bits & (SHOWN_SAMPLE | SHOWN_COPYABLE)) == (SHOWN_SAMPLE | SHOWN_COPYABLE)) {
-            // Only empty pixels fill, so gathering the candidates' positions here costs less
-            // than keeping them in Shown for every pixel.
-            uint w = WINNER(nb.pixel[k]);
-            nearer_fill(w, CACHE_PREV(w).position, (bits & SHOWN_MISS) != 0u, centre, best, best_d2);
-        }
-    }
-    return best;
-}
-
-// The same fill in the shown stage, from the neighbours' winners (their Shown records are
-// being written): with --frameless, so that the threshold, computed before classify, knows
-// which empty pixels stay holes. They are traced anyway and count toward the budget. (Without
-// frameless, classify fills: it has the neighbours' records at hand, which spares gathers.)
-uint fill_from_winners(ivec2 pix) {
-    vec2 centre = vec2(pix) + 0.5;
-    uint best = NO_SAMPLE;
-    float best_d2 = params.fill_radius * params.fill_radius;
-    [[unroll]] for (uint k = 0u; k < 4u; ++k) {
         ivec2 n = pix + EDGE_NEIGHBOURS[k];
         bool inside = n.x >= 0 && n.y >= 0 && n.x < int(frame.width) && n.y < int(frame.height);
+        uint q = uint(n.y) * frame.width + uint(n.x);
         uint w = NO_SAMPLE;
         if (inside) {
-            w = WINNER(uint(n.y) * frame.width + uint(n.x));
+            w = WINNER(q);
         }
         if (w != NO_SAMPLE) {
-            CacheEntry e = CACHE_PREV(w);
-            if (cache_hops(e) < params.max_hops) {
-                nearer_fill(w, e.position, cache_miss(e), centre, best, best_d2);
+            // (Read only where a sample won: an empty neighbour's key is being rewritten.)
+            uint key = DEPTH_KEY(q);
+            vec2 d = key_film(uvec2(n), key) - centre;
+            float d2 = dot(d, d);
+            if ((key & KEY_NOT_COPYABLE) == 0u && (d2 < best_d2 || (d2 == best_d2 && w < best))) {
+                best_d2 = d2;
+                best = w;
             }
         }
     }
     return best;
 }
 
-float refresh_rank(uvec2 pix);
-uint refresh_bin(uint age, float rank);
-bool frameless_selects(uvec2 pix, uint age);
+uint refresh_bin(uvec2 pix);
+bool frameless_selects(uvec2 pix);
 
 // Frameless rendering: whether a pixel showing sample `e` may keep it this frame (the
-// refresh order decides), as opposed to pixels that must be traced anyway. The samples that
+// refresh sweep decides), as opposed to pixels that must be traced anyway. The samples that
 // classify then rejects (G-buffer, visibility) are traced on top of the budget.
 bool frameless_candidate(CacheEntry e) {
     uint age = cache_age(e.meta);
@@ -172,43 +143,46 @@ bool frameless_candidate(CacheEntry e) {
 }
 
 // Records the sample pixel q shows (the scatter's winner) in pixel order, for the stage that
-// looks at neighbours. With frameless rendering it also builds the histogram of the
-// candidates' refresh order, so that the threshold is known before classify, which then
-// selects the pixels to refresh itself (one pass over the image, not two).
+// looks at neighbours, and fills an empty pixel from its neighbours' samples. With frameless
+// rendering it also counts the candidates and the filled pixels, so that the budget's refresh
+// window is known before classify, which then selects the pixels to refresh itself (one pass
+// over the image, not two).
 void record_shown(uint q, uvec2 pix) {
     uint w = WINNER(q);
     bool candidate = false;
     bool filled = false;
-    bool frameless = (params.flags & RP_FRAMELESS) != 0u;
     if (w == NO_SAMPLE) {
         // The edge test sees a filled pixel as empty too (its sample is a neighbour's).
         SHOWN(q).normal = 0u;
-        uint f = frameless ? fill_from_winners(ivec2(pix)) : NO_SAMPLE;
+        uint f = fill(ivec2(pix));
         if (f != NO_SAMPLE) {
             // Later stages read the choice through resolved_winner(): the depth key is free
-            // on a pixel no sample landed on (and fills read only the winners).
+            // on a pixel no sample landed on (and fills read the keys of winners only).
             DEPTH_KEY(q) = FILLED_KEY | f;
             filled = true;
         }
     } else {
         CacheEntry e = CACHE_PREV(w);
-        uint bits = SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u) | (cache_hops(e) < params.max_hops ? SHOWN_COPYABLE : 0u);
+        uint bits = SHOWN_SAMPLE | (cache_miss(e) ? SHOWN_MISS : 0u);
         float plane = cache_miss(e) ? 0.0 : dot(e.position - frame.camera_pos, unpack_normal(e.normal));
         SHOWN(q) = Shown(plane, e.normal | bits);
         candidate = frameless_candidate(e);
-        if (candidate) {
-            // This stripe's copy of the histogram (HISTOGRAM_COPIES).
-            uint copy = stripe() / (COUNTER_STRIPES / HISTOGRAM_COPIES);
-            atomicAdd(counters[C_HISTOGRAM + copy * HISTOGRAM_BINS + refresh_bin(cache_age(e.meta), refresh_rank(pix))], 1u);
-        }
     }
-    if (frameless) {
-        // Candidates, and filled pixels (C_FORCED holds their count until the threshold stage
-        // turns it into the forced count): a fill keeps an empty pixel out of both.
-        uvec2 sums = subgroupAdd(uvec2(candidate ? 1u : 0u, filled ? 1u : 0u));
-        if (subgroupElect()) {
-            atomicAdd(counters[C_CANDIDATES], sums.x);
-            atomicAdd(counters[C_FORCED], sums.y);
+    if ((params.flags & RP_FRAMELESS) != 0u) {
+        // The candidates of this row segment (which shares a refresh bin) go into the
+        // histogram, and the filled pixels (kept out of both the candidates and the pixels
+        // that must be traced) into this workgroup's stripe: one reduction (8-bit fields; a
+        // segment has 8 pixels) and one or two atomics per segment. Invocations of a subgroup
+        // cover the workgroup's rows in order (lavapipe: a subgroup is one row; NVIDIA: four),
+        // so a cluster of REFRESH_SEGMENT invocations is one segment.
+        uint sums = subgroupClusteredAdd((candidate ? 1u : 0u) | (filled ? 256u : 0u), REFRESH_SEGMENT);
+        if ((gl_SubgroupInvocationID & (REFRESH_SEGMENT - 1u)) == 0u) {
+            if ((sums & 255u) != 0u) {
+                atomicAdd(counters[C_HISTOGRAM + refresh_bin(pix)], sums & 255u);
+            }
+            if ((sums >> 8) != 0u) {
+                atomicAdd(counters[stat_slot(C_SHOWN_FILLED)], sums >> 8);
+            }
         }
     }
 }
@@ -219,22 +193,16 @@ uint classify(uint q, ivec2 pix) {
     uint w = WINNER(q);
     bool reuse = (params.flags & RP_REUSE) != 0u;
     bool frameless = (params.flags & RP_FRAMELESS) != 0u;
-    // The neighbours are needed by a pixel to fill (unless the shown stage filled), and by the
-    // edge test (rt path).
-    bool edge_test = (params.flags & (RP_GBUFFER | RP_VERIFY_ALL)) == 0u;
+    // The edge test (rt path) looks at the neighbours.
     Neighbours nb;
-    if (reuse && ((w == NO_SAMPLE && !frameless) || edge_test)) {
+    if (reuse && (params.flags & (RP_GBUFFER | RP_VERIFY_ALL)) == 0u) {
         nb = load_neighbours(pix);
     }
+    // An empty pixel shows the sample the shown stage's fill chose, if any.
     bool filled = false;
     if (reuse && w == NO_SAMPLE) {
-        w = frameless ? resolved_winner(q) : fill(pix, nb);
+        w = resolved_winner(q);
         filled = w != NO_SAMPLE;
-        if (filled && !frameless) {
-            // Later stages read the choice through resolved_winner(): the depth key is free
-            // on a pixel no sample landed on.
-            DEPTH_KEY(q) = FILLED_KEY | w;
-        }
     }
     uint st;
     uint age = 0u;
@@ -262,9 +230,9 @@ uint classify(uint q, ivec2 pix) {
         st |= PX_FILLED;
     }
     uint kind = st & PX_KIND_MASK;
-    // Frameless: a filled pixel was an empty one in the histogram's count, outside the
-    // budget (kept, or traced on top of it), so only samples that landed are selected.
-    if (frameless && !filled && (kind == PX_REUSE || kind == PX_VERIFY) && frameless_selects(uvec2(pix), age)) {
+    // Frameless: a filled pixel is outside the budget's count (kept, or traced on top of it),
+    // so only samples that landed are selected.
+    if (frameless && !filled && (kind == PX_REUSE || kind == PX_VERIFY) && frameless_selects(uvec2(pix))) {
         st = PX_TRACE | PX_FRAMELESS;
         kind = PX_TRACE;
     }
@@ -278,64 +246,55 @@ uint classify(uint q, ivec2 pix) {
     return st;
 }
 
-// Frameless refresh order: oldest first, and among samples of one age by a fixed
-// interleaved-gradient-noise rank of the pixel (Jimenez 2014). A fixed rank makes the refresh
-// sweep through a stratified permutation of the image: what one frame refreshes is spread
-// evenly, and the next frame continues where it stopped.
-float refresh_rank(uvec2 pix) {
-    return fract(52.9829189 * fract(0.06711056 * float(pix.x) + 0.00583715 * float(pix.y)));
-}
-
-// Histogram bin of a candidate: lower bins are refreshed first.
-uint refresh_bin(uint age, float rank) {
-    return (AGE_LEVELS - 1u - min(age, AGE_LEVELS - 1u)) * RANK_LEVELS + min(uint(rank * float(RANK_LEVELS)), RANK_LEVELS - 1u);
+// Frameless refresh order: a fixed interleaved-gradient-noise rank (Jimenez 2014) of the
+// pixel's row segment (REFRESH_SEGMENT pixels), quantized to REFRESH_BINS bins: a stratified
+// permutation of the image. Each frame refreshes the candidates in a window of bins that
+// starts where the previous frame's ended (a sweep, as in Bishop et al.'s frameless
+// rendering, but stratified instead of random): what one frame refreshes is spread evenly, and
+// every candidate is refreshed once per pass of the sweep. Segments, not pixels: the shown
+// stage counts a segment's candidates with one atomic (a per-pixel atomic cost 0.7 ms of a
+// 13 ms frame on lavapipe), and the tracing pass traces neighbouring pixels together. (Oldest
+// first by an age x rank histogram chose the same pixels on a still camera.)
+uint refresh_bin(uvec2 pix) {
+    vec2 segment = vec2(pix.x / REFRESH_SEGMENT, pix.y);
+    float rank = fract(52.9829189 * fract(0.06711056 * segment.x + 0.00583715 * segment.y));
+    return min(uint(int(rank * float(REFRESH_BINS))), REFRESH_BINS - 1u);
 }
 
 // Frameless budget: re-trace frameless_fraction of all pixels per frame. Pixels that must be
-// traced anyway count first; the rest of the budget goes to candidates in refresh order. Finds
-// the bin where the budget runs out and the share of that bin to take.
+// traced anyway count first; the rest of the budget goes to candidates in the sweep's window,
+// whole bins from where the sweep stands until the window holds the rest (so at least the
+// budget is traced, and at most one bin more).
 void threshold() {
     uint budget = uint(ceil(params.frameless_fraction * float(pixel_count())));
+    uint candidates = 0u;
+    for (uint b = 0u; b < REFRESH_BINS; ++b) {
+        candidates += counters[C_HISTOGRAM + b];
+    }
+    uint filled = 0u;
+    for (uint s = 0u; s < COUNTER_STRIPES; ++s) {
+        filled += counters[(s + 1u) * COUNTER_STRIPE_WORDS + C_SHOWN_FILLED];
+    }
     // Every pixel that showed a sample and is no candidate must be traced, and so must every
     // empty pixel no neighbour filled (a hole): they count first. Filled pixels keep a
     // neighbour's copy, outside the budget.
-    uint filled = counters[C_FORCED];
-    uint forced = pixel_count() - counters[C_CANDIDATES] - filled;
+    uint forced = pixel_count() - candidates - filled;
     counters[C_FORCED] = forced;
     uint extra = budget > forced ? budget - forced : 0u;
-    uint bin = NO_SAMPLE;
-    float fraction = 0.0;
-    if (extra > 0u) {
-        uint acc = 0u;
-        bin = HISTOGRAM_BINS;
-        for (uint b = 0u; b < HISTOGRAM_BINS; ++b) {
-            uint h = 0u;
-            for (uint c = 0u; c < HISTOGRAM_COPIES; ++c) {
-                h += counters[C_HISTOGRAM + c * HISTOGRAM_BINS + b];
-            }
-            if (h > 0u && acc + h >= extra) {
-                bin = b;
-                fraction = float(extra - acc) / float(h);
-                break;
-            }
-            acc += h;
-        }
+    uint start = counters[C_SWEEP];
+    uint bins = 0u;
+    for (uint taken = 0u; taken < extra && bins < REFRESH_BINS; ++bins) {
+        taken += counters[C_HISTOGRAM + ((start + bins) & (REFRESH_BINS - 1u))];
     }
-    counters[C_THRESHOLD_BIN] = bin;
-    counters[C_THRESHOLD_FRACTION] = floatBitsToUint(fraction);
+    counters[C_WINDOW_START] = start;
+    counters[C_WINDOW_BINS] = bins;
+    counters[C_SWEEP] = (start + bins) & (REFRESH_BINS - 1u);
 }
 
-// Whether the frameless budget refreshes a candidate pixel whose sample is `age` frames old:
-// below the threshold bin, or in it, by the rank's finer digits.
-bool frameless_selects(uvec2 pix, uint age) {
-    uint limit = counters[C_THRESHOLD_BIN];
-    if (limit == NO_SAMPLE) {
-        return false;
-    }
-    float rank = refresh_rank(pix);
-    uint bin = refresh_bin(age, rank);
-    float within = fract(rank * float(RANK_LEVELS));
-    return bin < limit || (bin == limit && within < uintBitsToFloat(counters[C_THRESHOLD_FRACTION]));
+// Whether the frameless budget refreshes a candidate pixel: its bin lies in this frame's
+// window (which wraps around).
+bool frameless_selects(uvec2 pix) {
+    return ((refresh_bin(pix) - counters[C_WINDOW_START]) & (REFRESH_BINS - 1u)) < counters[C_WINDOW_BINS];
 }
 
 // Compared as displayed, roughly (Reinhard, gamma 2): a linear difference that is invisible
@@ -515,8 +474,7 @@ void main() {
                 e = CACHE_PREV(q);
             }
             uint target, key;
-            vec2 film;
-            if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
+            if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key)) {
                 if (STAGE == STAGE_SCATTER) {
                     atomicMin(DEPTH_KEY(target), key);
                 } else if (DEPTH_KEY(target) == key) {

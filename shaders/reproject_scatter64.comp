@@ -25,8 +25,7 @@ void main() {
     // Samples on moving geometry move with their objects first (reproject_anchor.glsl).
     CacheEntry e = moved_entry(q);
     uint target, key;
-    vec2 film;
-    if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key, film)) {
+    if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key)) {
         atomicMin(key_winner64[target], (uint64_t(key) << 32) | uint64_t(q));
     }
 }

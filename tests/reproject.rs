@@ -535,7 +535,7 @@ fn adaptive_subsampling_interpolates_smooth_blocks() {
 }
 
 #[test]
-fn frameless_refreshes_the_oldest_samples() {
+fn frameless_sweeps_over_every_pixel() {
     let ctx = common::gpu();
     let scene = cornell();
     let r = renderer(&ctx, &scene);
@@ -574,8 +574,8 @@ fn frameless_refreshes_the_oldest_samples() {
             assert!(d < 2e-3, "frame {k}: static frameless differs by {d}");
         }
         if k >= 4 {
-            // Oldest first: 25 % a frame reaches every pixel within 4 frames (plus one for
-            // the share the specular pixels take every frame).
+            // The sweep: 25 % a frame reaches every pixel within 4 frames (plus one for the
+            // share the specular pixels take every frame).
             let stale = last_traced.iter().filter(|&&t| t + 5 < k).count();
             assert_eq!(
                 stale, 0,
@@ -615,8 +615,8 @@ fn frameless_counts_holes_toward_its_budget() {
             let s = &f.stats;
             let budget = (s.pixels as f64 * 0.2).ceil() as u64;
             assert!(s.traced >= budget, "{mode:?} frame {k}: {s:?}");
-            // Selected by age only where the pixels that must be traced leave room (the
-            // threshold bin is split by rank, so allow 1 % over).
+            // Selected by the sweep only where the pixels that must be traced leave room (the
+            // window takes whole refresh bins, so allow 1 % over).
             let forced = s.holes + s.view_dependent + s.expired;
             assert!(
                 s.frameless + forced <= budget.max(forced) + s.pixels / 100,

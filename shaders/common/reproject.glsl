@@ -294,17 +294,19 @@ float view_depth(vec3 p) { return dot(p - frame.camera_pos, camera_forward()); }
 // Projects a cached sample into the current camera. Returns false when it falls outside the
 // image or behind the camera; otherwise the pixel index and a depth key where the nearest
 // sample has the smallest key (positive float bits order like the floats; misses, points at
-// infinity, lose to every hit). Misses are not reprojected by orthographic cameras, whose
-// rays all share one direction.
+// infinity, lose to every hit). The key's KEY_LOW_MASK bits, the depth's lowest mantissa bits
+// (depths within 2^-16 of each other count as equal), hold where in the pixel the sample falls
+// and whether a fill may copy it: what the fill needs of a neighbour's sample, without a
+// gather. Misses are not reprojected by orthographic cameras, whose rays all share one
+// direction.
 // A cached sample in clip space (a miss, a direction: a point at infinity).
 vec4 clip_of(vec3 position, bool miss) { return frame.view_proj * vec4(position, miss ? 0.0 : 1.0); }
 // Where on the film, in pixels, a point in clip space in front of the camera falls.
 vec2 film_of(vec4 clip) { return (clip.xy / clip.w * 0.5 + 0.5) * vec2(frame.width, frame.height); }
 
-bool project_sample(CacheEntry e, out uint pixel, out uint key, out vec2 film) {
+bool project_sample(CacheEntry e, out uint pixel, out uint key) {
     pixel = NO_SAMPLE;
     key = NO_SAMPLE;
-    film = vec2(-1.0);
     bool miss = cache_miss(e);
     if (miss && frame.ortho != 0u) {
         return false;
@@ -314,14 +316,28 @@ bool project_sample(CacheEntry e, out uint pixel, out uint key, out vec2 film) {
     if (!(clip.w > 0.0) || !(z > 0.0)) {
         return false;
     }
-    film = film_of(clip);
+    vec2 film = film_of(clip);
     if (!(film.x >= 0.0 && film.y >= 0.0 && film.x < float(frame.width) && film.y < float(frame.height))) {
         return false;
     }
-    uvec2 p = min(uvec2(film), uvec2(frame.width - 1u, frame.height - 1u));
+    // The film position in places (eighths of a pixel), whose high bits are the pixel and low
+    // bits the place: one conversion per axis, and a signed one (a CPU device converts floats
+    // to unsigned integers lane by lane). Clamped: film * 8 may round up to the image's edge.
+    const uint places = 1u << KEY_PLACE_BITS;
+    uvec2 at = min(uvec2(ivec2(film * float(places))), uvec2(frame.width, frame.height) * places - 1u);
+    uvec2 p = at >> KEY_PLACE_BITS;
     pixel = p.y * frame.width + p.x;
-    key = miss ? 0x7F800000u : floatBitsToUint(z);
+    key = ((miss ? 0x7F800000u : floatBitsToUint(z)) & ~KEY_LOW_MASK) | (cache_hops(e) >= params.max_hops ? KEY_NOT_COPYABLE : 0u)
+        | ((at.x & (places - 1u)) << KEY_PLACE_BITS) | (at.y & (places - 1u));
     return true;
+}
+
+// Where in the film, in pixels, the sample with depth key `key` that won pixel `pix` falls (to
+// an eighth of a pixel: the centre of its place).
+vec2 key_film(uvec2 pix, uint key) {
+    const float places = float(1u << KEY_PLACE_BITS);
+    uvec2 place = uvec2((key >> KEY_PLACE_BITS) & ((1u << KEY_PLACE_BITS) - 1u), key & ((1u << KEY_PLACE_BITS) - 1u));
+    return vec2(pix) + (vec2(place) + 0.5) / places;
 }
 
 // Whether a surface looks different from another viewpoint: transmissive, metal, see-through

@@ -84,8 +84,8 @@ pub struct SequenceArgs {
     /// view-dependent (mirror, metal, glass) and expired pixels.
     #[arg(long)]
     reproject: bool,
-    /// Frameless rendering: re-trace at least P % of the pixels per frame, oldest samples
-    /// first (implies --reproject).
+    /// Frameless rendering: re-trace at least P % of the pixels per frame, sweeping over the
+    /// image in a fixed stratified order (implies --reproject).
     #[arg(long, value_name = "P")]
     frameless: Option<f32>,
     /// Adaptive sub-sampling of the pixels that need new colour: trace 4x4 blocks' corners

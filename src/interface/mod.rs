@@ -78,15 +78,17 @@ const _: () = assert!(
 );
 const _: () =
     assert!(COUNTER_SAMPLES == RAY_REFRACTION + 1 && COUNTER_SLOTS == COUNTER_SAMPLES + 1);
-const _: () = assert!(reproject::HISTOGRAM_BINS == reproject::AGE_LEVELS * reproject::RANK_LEVELS);
-const _: () = assert!(
-    reproject::RP_COUNTER_SLOTS
-        == reproject::C_HISTOGRAM + reproject::HISTOGRAM_COPIES * reproject::HISTOGRAM_BINS
-);
-const _: () = assert!(reproject::COUNTER_STRIPES % reproject::HISTOGRAM_COPIES == 0);
 const _: () = assert!(reproject::C_STRIPE_DONE < reproject::COUNTER_STRIPE_WORDS);
 const _: () = assert!(
     reproject::C_HISTOGRAM == (reproject::COUNTER_STRIPES + 1) * reproject::COUNTER_STRIPE_WORDS
+);
+const _: () = assert!(reproject::C_SWEEP == reproject::C_HISTOGRAM + reproject::REFRESH_BINS);
+const _: () = assert!(reproject::REFRESH_BINS.is_power_of_two());
+const _: () = assert!(reproject::RP_COUNTER_SLOTS == reproject::C_SWEEP + 1);
+const _: () = assert!(
+    reproject::KEY_LOW_MASK
+        == reproject::KEY_NOT_COPYABLE | ((1 << (2 * reproject::KEY_PLACE_BITS)) - 1)
+        && reproject::KEY_NOT_COPYABLE == 1 << (2 * reproject::KEY_PLACE_BITS)
 );
 const _: () = assert!(GBUFFER_BARY + 1 == GBUFFER_IMAGES);
 

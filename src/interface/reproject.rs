@@ -23,7 +23,7 @@ pub const RP_REUSE: u32 = 1;
 pub const RP_GBUFFER: u32 = 2;
 /// Params flag: rt path, verify every candidate with a primary ray.
 pub const RP_VERIFY_ALL: u32 = 4;
-/// Params flag: frameless refresh of the oldest samples.
+/// Params flag: frameless refresh (a sweep over the pixels at the budget's rate).
 pub const RP_FRAMELESS: u32 = 8;
 /// Params flag: adaptive sub-sampling of the pixels that need new colour.
 pub const RP_ADAPTIVE: u32 = 16;
@@ -118,8 +118,6 @@ pub const MAX_CACHE_MATERIALS: u32 = 65536;
 pub const SHOWN_SAMPLE: u32 = 1;
 /// [`Shown::normal`] bit: the sample is a miss.
 pub const SHOWN_MISS: u32 = 2;
-/// [`Shown::normal`] bit: a fill may copy the sample (fewer hops than `max_hops`).
-pub const SHOWN_COPYABLE: u32 = 4;
 /// No sample.
 pub const NO_SAMPLE: u32 = 0xFFFF_FFFF;
 /// A depth key with this bit marks an empty pixel filled from a neighbour.
@@ -147,14 +145,15 @@ pub const C_EXPIRED: u32 = 12;
 pub const C_FRAMELESS: u32 = 13;
 /// Counter slot: verification rays.
 pub const C_VERIFY_RAYS: u32 = 14;
-/// Counter slot: frameless candidates.
-pub const C_CANDIDATES: u32 = 15;
-/// Counter slot: forced refreshes.
+/// Counter slot (per stripe): pixels the shown stage filled, for the frameless budget.
+pub const C_SHOWN_FILLED: u32 = 15;
+/// Counter slot: pixels that must be traced (the frameless threshold stage's count).
 pub const C_FORCED: u32 = 16;
-/// Counter slot: frameless threshold bin.
-pub const C_THRESHOLD_BIN: u32 = 17;
-/// Counter slot: frameless threshold fraction.
-pub const C_THRESHOLD_FRACTION: u32 = 18;
+/// Counter slot: the first refresh bin of this frame's frameless window.
+pub const C_WINDOW_START: u32 = 17;
+/// Counter slot: how many refresh bins this frame's frameless window spans (from
+/// `C_WINDOW_START`, wrapping around at `REFRESH_BINS`).
+pub const C_WINDOW_BINS: u32 = 18;
 /// Counter slot: filled pixels.
 pub const C_FILLED: u32 = 19;
 /// Counter slot: subgroups that finished appending to the current job lists.
@@ -177,21 +176,28 @@ pub const COUNTER_STRIPES: u32 = 8;
 /// the statistics starts at `(s + 1) * COUNTER_STRIPE_WORDS`, and a statistic is the sum over
 /// stripes.
 pub const COUNTER_STRIPE_WORDS: u32 = 32;
-/// Counter slot: first of the age x rank histogram (after the shared slots and the stripes).
+/// Counter slot: first of the frameless candidates' histogram over their refresh bins (after
+/// the shared slots and the stripes).
 pub const C_HISTOGRAM: u32 = 288;
-/// Histogram: age levels.
-pub const AGE_LEVELS: u32 = 64;
-/// Histogram: rank levels.
-pub const RANK_LEVELS: u32 = 64;
-/// Histogram bins (`AGE_LEVELS` x `RANK_LEVELS`).
-pub const HISTOGRAM_BINS: u32 = 4096;
-/// Copies of the histogram: the workgroups of the first half of a dispatch (by stripe) count
-/// into the first, the others into the second, so that a CPU device's two threads do not
-/// bounce the bins' cache lines between them on every candidate pixel. The threshold stage
-/// adds the copies.
-pub const HISTOGRAM_COPIES: u32 = 2;
-/// Counter slots in all (`C_HISTOGRAM` + `HISTOGRAM_COPIES` x `AGE_LEVELS` x `RANK_LEVELS`).
-pub const RP_COUNTER_SLOTS: u32 = 8480;
+/// Frameless refresh bins: the refresh order's ranks, quantized. A power of two.
+pub const REFRESH_BINS: u32 = 1024;
+/// Pixels of one row that share a refresh rank (a row of an 8x8 workgroup: one cluster of
+/// subgroup invocations counts them with one atomic).
+pub const REFRESH_SEGMENT: u32 = 8;
+/// Counter slot: the refresh bin where the frameless sweep stands. Not cleared between frames
+/// (the frame clears the slots before it); cleared when a sequence starts.
+pub const C_SWEEP: u32 = 1312;
+/// Counter slots in all (`C_SWEEP` + 1).
+pub const RP_COUNTER_SLOTS: u32 = 1313;
+/// Depth keys (the scatter's) keep where in its pixel a sample falls in their low bits: this
+/// many bits per axis (eighths of a pixel), so that a fill reads a neighbour's sample place
+/// from the key instead of gathering and projecting the sample.
+pub const KEY_PLACE_BITS: u32 = 3;
+/// Depth key bit: a fill may not copy the sample (`max_hops` fills or more from where its
+/// colour was computed).
+pub const KEY_NOT_COPYABLE: u32 = 64;
+/// The depth key bits that are not depth (`KEY_NOT_COPYABLE` and the place).
+pub const KEY_LOW_MASK: u32 = 127;
 
 /// A cached sample: the colour of one primary hit and where it was. Nine words, not sixteen:
 /// every reprojected frame moves each pixel's entry about three times (scatter, fill,

@@ -73,10 +73,12 @@ impl DeviceSupport {
         let on = |b: vk::Bool32| b == vk::TRUE;
         // Ray and sample counters are summed per subgroup before one atomic per subgroup
         // (shaders/common/counters.glsl); reprojection's job lists are compacted per subgroup
-        // (shaders/reproject.comp: prefix sums and a broadcast).
+        // (shaders/reproject.comp: prefix sums and a broadcast), and frameless rendering counts
+        // its candidates per row segment (clustered sums).
         let subgroup_ops = vk::SubgroupFeatureFlags::BASIC
             | vk::SubgroupFeatureFlags::ARITHMETIC
-            | vk::SubgroupFeatureFlags::BALLOT;
+            | vk::SubgroupFeatureFlags::BALLOT
+            | vk::SubgroupFeatureFlags::CLUSTERED;
         Self {
             api_version,
             buffer_device_address: on(f12.buffer_device_address),

@@ -9,11 +9,12 @@
 //!
 //! 1. **Scatter**: every cached sample is projected into the new camera. The nearest sample
 //!    per pixel wins (one 64-bit `atomicMin` of depth bits << 32 | source index, or two
-//!    32-bit passes without 64-bit atomics, so ties resolve deterministically). A pixel no
-//!    sample landed on takes the sample of an edge-sharing neighbour that projects nearest to
-//!    its centre within [`FILL_RADIUS`] (otherwise empty pixels multiply along the seams
-//!    between regions whose samples have different sub-pixel offsets); it is still checked
-//!    like any other.
+//!    32-bit passes without 64-bit atomics, so ties resolve deterministically; the depth key's
+//!    low bits say where in the pixel the sample fell). A pixel no sample landed on takes the
+//!    sample of an edge-sharing neighbour that falls nearest to its centre within
+//!    [`FILL_RADIUS`] (otherwise empty pixels multiply along the seams between regions whose
+//!    samples have different sub-pixel offsets), read from the neighbours' keys; it is still
+//!    checked like any other.
 //! 2. **Decide** per pixel: no sample (disocclusion, screen edge, first frame) → trace;
 //!    a view-dependent sample (mirror/metal, transmissive, blended, or a path that spawned
 //!    reflection/refraction rays) → trace; a sample older than `max_age` → trace; otherwise
@@ -21,9 +22,11 @@
 //!    rejected when the plane distance over the view depth exceeds
 //!    [`PLANE_DISTANCE_THRESHOLD`], the normals' dot is below [`NORMAL_DOT_THRESHOLD`], the
 //!    material differs, or the new surface is itself view-dependent.
-//! 3. **Frameless** (optional): re-trace at least a given share of all pixels per frame,
-//!    oldest samples first, and among equally old ones in a fixed stratified order
-//!    (interleaved gradient noise), so the refresh sweeps evenly over the image.
+//! 3. **Frameless** (optional): re-trace at least a given share of all pixels per frame: the
+//!    pixels that must be traced count first, and the rest of the budget sweeps through the
+//!    candidates in a fixed stratified order of 8-pixel row segments (interleaved gradient
+//!    noise), each frame continuing where the previous one stopped, so the refresh spreads
+//!    evenly over the image and reaches every pixel once per sweep.
 //! 4. **Trace** the rest with the shared Whitted loop, or with **adaptive sub-sampling**
 //!    (optional): trace every 4×4 block's corners and centre, interpolate the blocks whose
 //!    samples are similar, recurse into 2×2 blocks, then trace what is left. On the rt path,
@@ -202,6 +205,14 @@ impl Reprojector {
             return Err(VkError::Limit(
                 "reprojection, frameless rendering and adaptive sub-sampling cache one sample per pixel: use --spp 1 --sampler center".into(),
             )
+            .into());
+        }
+        let subgroup = ctx.info().subgroup_size;
+        if options.frameless_percent.is_some() && subgroup % REFRESH_SEGMENT != 0 {
+            return Err(VkError::Limit(format!(
+                "--frameless counts candidates per {REFRESH_SEGMENT}-pixel row segment with one cluster of subgroup invocations, but '{}' has subgroups of {subgroup}",
+                ctx.info().name
+            ))
             .into());
         }
         let pass = renderer.pass_context();

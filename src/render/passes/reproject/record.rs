@@ -130,7 +130,14 @@ impl Reprojector {
         // SAFETY: recording command buffer; the buffers are ours.
         unsafe {
             device.cmd_fill_buffer(cmd, self.key_winner.raw(), 0, vk::WHOLE_SIZE, !0);
-            device.cmd_fill_buffer(cmd, self.counters.raw(), 0, vk::WHOLE_SIZE, 0);
+            // The frameless sweep's position (C_SWEEP, the last slot) carries over from the
+            // previous frame of the sequence.
+            let cleared = if self.has_history {
+                u64::from(C_SWEEP) * 4
+            } else {
+                vk::WHOLE_SIZE
+            };
+            device.cmd_fill_buffer(cmd, self.counters.raw(), 0, cleared, 0);
             // Most pixels reuse their sample; the passes write the state of the others only
             // (a CPU device stores words lane by lane, and fills buffers with memset).
             device.cmd_fill_buffer(cmd, self.state.raw(), 0, vk::WHOLE_SIZE, PX_REUSE);
