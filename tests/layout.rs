@@ -312,7 +312,7 @@ fn hand_written_shader_constants_agree_with_the_interface() {
         }
         let text = std::fs::read_to_string(&path).unwrap();
         for (name, v) in parse(&text) {
-            // Expressions of other constants (HISTOGRAM_BINS) are not literals to compare.
+            // Expressions of other constants are not literals to compare.
             if let (Some(&expected), Some(got)) = (interface.get(&name), value(&v)) {
                 assert_eq!(
                     got,
