@@ -449,7 +449,7 @@ void main() {
     uint q = pix.y * frame.width + pix.x;
     if (STAGE == STAGE_INTERPOLATE) {
         // Dispatched over the pending pixels' job list (one job per invocation), not the image.
-        uint i = gl_WorkGroupID.x * (gl_WorkGroupSize.x * gl_WorkGroupSize.y) + gl_LocalInvocationIndex;
+        uint i = linear_invocation(gl_WorkGroupSize.x * gl_WorkGroupSize.y);
         inside = i < job_count(LIST_PENDING);
         q = inside ? job_at(LIST_PENDING, i) : 0u;
         pix = pixel_of(q);

@@ -20,7 +20,8 @@ layout(local_size_x = 64) in;
 layout(push_constant) uniform Push { VisibilityPush pc; };
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    // Job lists longer than a device launches in one dimension come in rows of workgroups.
+    uint i = linear_invocation(gl_WorkGroupSize.x);
     bool listed = i < job_count(LIST_VERIFY);
     uint q = listed ? job_at(LIST_VERIFY, i) : 0u;
     uint settled = 0u;

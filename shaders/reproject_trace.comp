@@ -25,7 +25,8 @@ layout(push_constant) uniform Push { TracePush pc; };
 Surface unused_surface;
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    // Job lists longer than a device launches in one dimension come in rows of workgroups.
+    uint i = linear_invocation(gl_WorkGroupSize.x);
     if (i >= job_count(pc.list)) {
         return;
     }

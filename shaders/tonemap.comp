@@ -7,6 +7,7 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 layout(local_size_x = 64) in;
 #include "interface_passes.glsl"
+#include "counters.glsl"
 // In and out through buffer references at the addresses in the push constant (a CPU device
 // gathers and scatters through them with vector instructions).
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer ColorIn { vec4 v[]; };
@@ -16,7 +17,8 @@ layout(push_constant) uniform Push { TonemapPush pc; };
 #include "tonemap.glsl"
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    // Rows of workgroups: a long image needs more than a device launches in one dimension.
+    uint i = linear_invocation(gl_WorkGroupSize.x);
     if (i >= pc.count) return;
     // Colour buffers may hold (weighted sum, weight sum) from accumulation: resolve first.
     vec4 v = ColorIn(pc.color_in).v[i];

@@ -13,6 +13,10 @@
 // lane), so that at most `stripes` (a power of two) of them cover the dispatch.
 uint workgroup_count() { return gl_NumWorkGroups.x * gl_NumWorkGroups.y * gl_NumWorkGroups.z; }
 uint workgroup_index() { return (gl_WorkGroupID.z * gl_NumWorkGroups.y + gl_WorkGroupID.y) * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
+// The invocation's number in a one-dimensional dispatch laid out in rows of workgroups
+// (GROUPS_PER_ROW; `rqr::vk::rows_of_groups`), for one-dimensional workgroups of
+// `group_size` invocations.
+uint linear_invocation(uint group_size) { return workgroup_index() * group_size + gl_LocalInvocationIndex; }
 uint stripe_shift_for(uint stripes) {
     uint groups = workgroup_count();
     // ceil(log2(groups)) - log2(stripes), at least 0.

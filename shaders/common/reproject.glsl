@@ -167,8 +167,11 @@ void lists_done(uint lists, bool leader) {
                 for (uint list = 0u; list < JOB_LISTS; ++list) {
                     if ((lists & (1u << list)) != 0u) {
                         uint n = list == LIST_VERIFY ? atomicExchange(counters[C_JOBS], 0u) : atomicAdd(counters[list_counter(list)], 0u);
-                        dispatch_args[4u * list] = (n + 63u) / 64u;
-                        dispatch_args[4u * list + 1u] = 1u;
+                        // Rows of workgroups (GROUPS_PER_ROW; rqr::vk::rows_of_groups).
+                        uint groups = (n + 63u) / 64u;
+                        uint row = min(groups, GROUPS_PER_ROW);
+                        dispatch_args[4u * list] = row;
+                        dispatch_args[4u * list + 1u] = row == 0u ? 1u : (groups + row - 1u) / row;
                         dispatch_args[4u * list + 2u] = 1u;
                         dispatch_args[4u * list + 3u] = n;
                     }

@@ -92,6 +92,14 @@ fn print_device(d: &DeviceInfo, selected: bool) -> Result<(), StdoutError> {
                 .join(", "),
         ),
         (
+            "largest buffer",
+            format!(
+                "{} MiB bound (maxStorageBufferRange), {} MiB allocated (maxMemoryAllocationSize)",
+                d.max_storage_buffer_range >> 20,
+                d.max_memory_allocation_size >> 20
+            ),
+        ),
+        (
             "required features",
             if d.missing_features.is_empty() {
                 "all present".into()

@@ -59,6 +59,11 @@ pub const COUNTER_SLOTS: u32 = 5;
 pub const RAY_COUNTER_STRIPES: u32 = 8;
 /// Words from one copy of the ray counters to the next (128 bytes).
 pub const RAY_COUNTER_STRIDE: u32 = 32;
+/// Workgroups per row of a one-dimensional dispatch that may need more than
+/// `maxComputeWorkGroupCount[0]` (at least 65 535; lavapipe's): longer ones take several rows
+/// (`crate::vk::rows_of_groups`, and `counters.glsl`'s `linear_invocation()` on the shader
+/// side). A power of two.
+pub const GROUPS_PER_ROW: u32 = 32768;
 
 /// The `Frame` uniform (binding [`BINDING_FRAME`], scalar layout).
 #[repr(C)]

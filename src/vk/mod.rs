@@ -18,8 +18,8 @@ pub use context::{Context, ContextOptions, Features, ABANDONED_WORK_GRACE, DEFAU
 pub use instance::{validation_layer_available, DeviceSelector};
 pub use memory::{host_read_barrier, Buffer, Image};
 pub use pipeline::{
-    memory_barrier, spirv_words, Binding, ComputePipeline, DescriptorSet, GraphicsPipeline,
-    GraphicsTargets,
+    memory_barrier, rows_of_groups, spirv_words, Binding, ComputePipeline, DescriptorSet,
+    GraphicsPipeline, GraphicsTargets,
 };
 pub use probe::{
     largest_device_heap, probe_devices, AsProperties, AutotuneMeasurement, BackendPolicy,

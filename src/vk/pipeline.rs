@@ -274,7 +274,8 @@ impl ComputePipeline {
         DescriptorSet::new(&self.shared, self.set_layout, &self.bindings)
     }
 
-    /// Records a dispatch of `groups` workgroups with `push` as push constants.
+    /// Records a dispatch of `groups` workgroups with `push` as push constants. (A long
+    /// one-dimensional dispatch goes through [`rows_of_groups`].)
     pub fn dispatch(
         &self,
         cmd: vk::CommandBuffer,
@@ -792,5 +793,36 @@ impl GraphicsPipeline {
 impl Drop for GraphicsPipeline {
     fn drop(&mut self) {
         retire_pipeline(&self.shared, self.pipeline, self.layout, self.set_layout);
+    }
+}
+
+/// A one-dimensional dispatch of `groups` workgroups as rows of at most
+/// [`crate::interface::GROUPS_PER_ROW`]: a device may launch no more than 65 535 in one
+/// dimension (`maxComputeWorkGroupCount`, lavapipe's limit), which 64-pixel workgroups reach at
+/// 2048×2048. Shaders number their invocations with `linear_invocation()`
+/// (`shaders/common/counters.glsl`) and skip those past their count.
+pub fn rows_of_groups(groups: u32) -> [u32; 3] {
+    let row = groups.min(crate::interface::GROUPS_PER_ROW);
+    [row, groups.div_ceil(row.max(1)).max(1), 1]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rows_of_groups;
+
+    #[test]
+    fn rows_of_groups_cover_the_dispatch_within_the_limit() {
+        for groups in [0, 1, 63, 32_768, 65_535, 65_536, 68_907, 129_600, 1 << 24] {
+            let [x, y, z] = rows_of_groups(groups);
+            assert!(x <= 65_535 && y <= 65_535 && z == 1, "{groups}: {x} x {y}");
+            let launched = u64::from(x) * u64::from(y);
+            assert!(launched >= u64::from(groups), "{groups}: {x} x {y}");
+            // At most one row's worth more than asked (the shaders skip past their count).
+            assert!(
+                launched < u64::from(groups) + u64::from(x.max(1)),
+                "{groups}: {x} x {y}"
+            );
+        }
+        assert_eq!(rows_of_groups(100), [100, 1, 1]);
     }
 }

@@ -117,8 +117,11 @@ pub struct DeviceInfo {
     pub max_image_dimension_2d: u32,
     /// `maxPushConstantsSize`.
     pub max_push_constants_size: u32,
-    /// `maxStorageBufferRange`.
+    /// `maxStorageBufferRange`: the most a storage-buffer descriptor binds.
     pub max_storage_buffer_range: u32,
+    /// `maxMemoryAllocationSize` (Vulkan 1.1): the largest single allocation, so the largest
+    /// buffer a shader reaches through a buffer reference rather than a descriptor.
+    pub max_memory_allocation_size: u64,
     /// Required features the device lacks (empty: rqr can run on it).
     pub missing_features: Vec<String>,
     /// Ray backend rqr would use (`hw` or `bvh`); `null` when the requested one is unavailable.
@@ -237,12 +240,14 @@ pub(crate) fn describe_device(
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
     let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
     let mut id_props = vk::PhysicalDeviceIDProperties::default();
+    let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
     let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
     let props = {
         let mut props2 = vk::PhysicalDeviceProperties2::default()
             .push_next(&mut driver)
             .push_next(&mut subgroup)
-            .push_next(&mut id_props);
+            .push_next(&mut id_props)
+            .push_next(&mut maintenance3);
         if has_as {
             props2 = props2.push_next(&mut as_props);
         }
@@ -348,6 +353,7 @@ pub(crate) fn describe_device(
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
         max_push_constants_size: props.limits.max_push_constants_size,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        max_memory_allocation_size: maintenance3.max_memory_allocation_size,
         missing_features: missing,
         backend: None,
         backend_reason: String::new(),

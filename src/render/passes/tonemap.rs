@@ -6,7 +6,9 @@ use ash::vk;
 
 use crate::interface::{self as io, bindings, push_bytes, TonemapPush};
 use crate::render::Tonemap;
-use crate::vk::{Buffer, ComputePipeline, Context, GpuProfiler, MemoryLocation, VkResult};
+use crate::vk::{
+    rows_of_groups, Buffer, ComputePipeline, Context, GpuProfiler, MemoryLocation, VkResult,
+};
 
 /// The shaders' `TONEMAP_*` code of `op` (`shaders/common/tonemap.glsl`).
 pub fn operator_code(op: Tonemap) -> u32 {
@@ -76,7 +78,7 @@ impl TonemapPass {
             cmd,
             None,
             push_bytes(&push),
-            [self.count.div_ceil(64), 1, 1],
+            rows_of_groups(self.count.div_ceil(64)),
         );
         if let Some(p) = profiler {
             p.end(cmd);

@@ -82,6 +82,8 @@ use crate::vk::{
 /// A cache entry's and a shown sample's size (`src/interface/reproject.rs`).
 const CACHE_ENTRY_BYTES: u64 = std::mem::size_of::<io::CacheEntry>() as u64;
 const SHOWN_BYTES: u64 = std::mem::size_of::<io::Shown>() as u64;
+/// Per pixel: the index of the sample that won it and its depth key.
+const KEY_WINNER_BYTES: u64 = 8;
 const ANCHOR_BYTES: u64 = std::mem::size_of::<io::Anchor>() as u64;
 
 /// The stages of `reproject.comp`, each its own pipeline.
@@ -254,7 +256,10 @@ impl Reprojector {
             storage("reproject anchors 0", ANCHOR_BYTES)?,
             storage("reproject anchors 1", ANCHOR_BYTES)?,
         ];
-        let key_winner = storage("reproject winners and depth keys", pixels * 8)?;
+        let key_winner = storage(
+            "reproject winners and depth keys",
+            pixels * KEY_WINNER_BYTES,
+        )?;
         let state = storage("reproject states", pixels * 4)?;
         let color = storage("reproject colour", pixels * 16)?;
         let display = storage("reproject display pixels", pixels * 4)?;
@@ -463,7 +468,7 @@ impl Reprojector {
         // pixel, one word per job list, the G-buffer images.
         let per_pixel = 2 * CACHE_ENTRY_BYTES
             + SHOWN_BYTES
-            + 8
+            + KEY_WINNER_BYTES
             + 4
             + 16
             + 4
@@ -472,20 +477,24 @@ impl Reprojector {
         pixels.saturating_mul(per_pixel)
     }
 
-    /// The largest buffer the reprojection binds as one storage buffer (either sample cache:
-    /// `size_of::<CacheEntry>()`, 36 bytes per pixel), to compare with
-    /// `maxStorageBufferRange`.
+    /// The largest buffer the reprojection reaches through a buffer reference (either sample
+    /// cache: `size_of::<CacheEntry>()`, 36 bytes per pixel), to compare with
+    /// `maxMemoryAllocationSize`. (The caches, states, shown records, job lists and colours are
+    /// not bound as descriptors, so `maxStorageBufferRange` does not limit them.)
     pub fn largest_buffer_bytes(settings: &RenderSettings) -> u64 {
         settings.pixels().saturating_mul(CACHE_ENTRY_BYTES)
     }
 
     /// Checks, before anything is allocated, that a reprojector for `settings` on `path` fits
     /// the device `info` with `in_use` bytes already allocated: the checks of a full render
-    /// of the same path ([`RenderSettings::check_device`], without AOVs), every reprojection
-    /// buffer against `maxStorageBufferRange`, and [`Self::estimate_bytes`] plus the full
-    /// render's estimate against the largest device heap (the cache and the full render live
-    /// together: a sequence with `--reference` makes one per frame). [`Self::new`] and
-    /// [`crate::render::drivers::sequence::Sequence::new`] run it first.
+    /// of the same path ([`RenderSettings::check_device`], without AOVs; it also covers the one
+    /// per-pixel buffer the reprojection binds as a descriptor, the depth keys and winners at
+    /// 8 bytes per pixel, smaller than the full render's bound 16-byte pixels), the buffers
+    /// reached through buffer references against `maxMemoryAllocationSize`, and
+    /// [`Self::estimate_bytes`] plus the full render's estimate against the largest device
+    /// heap (the cache and the full render live together: a sequence with `--reference` makes
+    /// one per frame). [`Self::new`] and [`crate::render::drivers::sequence::Sequence::new`]
+    /// run it first.
     pub fn check_device(
         settings: &RenderSettings,
         info: &crate::vk::DeviceInfo,
@@ -495,14 +504,15 @@ impl Reprojector {
         settings.check_device(info, path, false, in_use)?;
         let mib = |b: u64| b.div_ceil(1 << 20);
         let (w, h) = (settings.width, settings.height);
+        let fix = "lower the resolution or render without --reproject, --frameless and --adaptive-subsample";
         let largest = Self::largest_buffer_bytes(settings);
-        let range = u64::from(info.max_storage_buffer_range);
-        if largest > range {
+        let allocation = info.max_memory_allocation_size;
+        if largest > allocation {
             return Err(SettingsError(format!(
-                "resolution {w}x{h} with reuse between frames needs a {} MiB sample cache ({CACHE_ENTRY_BYTES} bytes per pixel), but '{}' binds at most {} MiB per storage buffer (maxStorageBufferRange); lower the resolution or render without --reproject, --frameless and --adaptive-subsample",
+                "resolution {w}x{h} with reuse between frames needs a {} MiB sample cache ({CACHE_ENTRY_BYTES} bytes per pixel), but '{}' allocates at most {} MiB at once (maxMemoryAllocationSize); {fix}",
                 mib(largest),
                 info.name,
-                mib(range)
+                mib(allocation)
             )));
         }
         let cache = Self::estimate_bytes(settings);
@@ -510,7 +520,7 @@ impl Reprojector {
         let heap = info.largest_device_heap();
         if cache.saturating_add(full).saturating_add(in_use) > heap {
             return Err(SettingsError(format!(
-                "{w}x{h} with reuse between frames needs about {} MiB of device memory for the sample cache and its per-pixel buffers plus {} MiB for a full render, on top of {} MiB in use, more than the {} MiB device heap of '{}'; lower the resolution or render without --reproject, --frameless and --adaptive-subsample",
+                "{w}x{h} with reuse between frames needs about {} MiB of device memory for the sample cache and its per-pixel buffers plus {} MiB for a full render, on top of {} MiB in use, more than the {} MiB device heap of '{}'; {fix}",
                 mib(cache),
                 mib(full),
                 mib(in_use),
