@@ -279,7 +279,6 @@ void threshold() {
     // empty pixel no neighbour filled (a hole): they count first. Filled pixels keep a
     // neighbour's copy, outside the budget.
     uint forced = pixel_count() - candidates - filled;
-    counters[C_FORCED] = forced;
     uint extra = budget > forced ? budget - forced : 0u;
     uint start = counters[C_SWEEP];
     uint bins = 0u;

@@ -147,8 +147,6 @@ pub const C_FRAMELESS: u32 = 13;
 pub const C_VERIFY_RAYS: u32 = 14;
 /// Counter slot (per stripe): pixels the shown stage filled, for the frameless budget.
 pub const C_SHOWN_FILLED: u32 = 15;
-/// Counter slot: pixels that must be traced (the frameless threshold stage's count).
-pub const C_FORCED: u32 = 16;
 /// Counter slot: the first refresh bin of this frame's frameless window.
 pub const C_WINDOW_START: u32 = 17;
 /// Counter slot: how many refresh bins this frame's frameless window spans (from
