@@ -63,7 +63,7 @@ void main() {
 
     vec3 c;
     if (known && !info.hit) {
-        c = background_radiance(camera.dir);
+        c = miss_radiance(camera.dir, true);
     } else {
         Hit at = miss_hit(BIG_FLOAT);
         at.t = t;

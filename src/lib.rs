@@ -10,6 +10,7 @@
 
 pub mod accel;
 pub mod autotune;
+pub mod environment;
 pub mod interface;
 pub mod render;
 pub mod scene;
@@ -39,6 +40,9 @@ pub enum Error {
     /// Building or uploading the compute BVH failed.
     #[error(transparent)]
     Bvh(#[from] accel::bvh::BvhError),
+    /// An environment map could not be loaded.
+    #[error(transparent)]
+    Environment(#[from] environment::EnvironmentError),
 }
 
 /// Result alias for the library.

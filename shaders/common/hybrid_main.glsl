@@ -88,7 +88,7 @@ void main() {
         info.normal = s.ng_front;
         info.position = s.position;
     } else {
-        c = background_radiance(camera.dir);
+        c = miss_radiance(camera.dir, true);
         info = primary_miss();
     }
 #endif

@@ -17,6 +17,7 @@
 #include "interface_passes.glsl"
 #include "tonemap.glsl"
 #include "interface_reproject.glsl"
+#include "environment.glsl"
 
 // CacheEntry: a cached sample, the colour of one primary hit and where it was. meta holds
 // CACHE_* flags in bits 0-3; bits 4-5 count how many fills away from where it was computed the
@@ -444,10 +445,11 @@ void commit_entry(uint q, uint st, CacheEntry e, PixelHit hit) {
         clear_entry(q);
         return;
     }
-    if (cache_miss(e) && (frame.flags & FLAG_SKY) != 0u) {
-        // The sky seen through this pixel. (A uniform background needs no recomputing.) The
-        // entry holds the colour the pixel shows (adaptive sub-sampling reads it).
-        e.color = background_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir);
+    if (cache_miss(e) && ((frame.flags & FLAG_SKY) != 0u || env_enabled())) {
+        // The sky or environment seen through this pixel. (A uniform background needs no
+        // recomputing.) The entry holds the colour the pixel shows (adaptive sub-sampling
+        // reads it).
+        e.color = miss_radiance(camera_ray(vec2(pixel_of(q)) + 0.5).dir, true);
         e.display = store_color(q, e.color);
     } else {
         // Shown as computed: no tonemapping per reused pixel.

@@ -141,7 +141,7 @@ layout(set = 0, binding = BINDING_SCENE, scalar) uniform SceneRefs {
     vec3 bounds_min;
     float scene_scale;
     vec3 bounds_max;
-    uint pad;
+    int environment;  // first of the environment's ENV_TEX_* textures, or -1
     // The previous frame of an animation (motion vectors): positions and instances, or the
     // same addresses as `positions` and `instances` when nothing moved.
     uint64_t prev_positions;

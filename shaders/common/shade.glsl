@@ -14,6 +14,7 @@
 #ifndef RQR_SHADE_GLSL
 #define RQR_SHADE_GLSL
 #include "surface.glsl"
+#include "environment.glsl"
 
 float eps_offset() { return frame.epsilon; }
 
@@ -139,6 +140,41 @@ PrimaryInfo primary_miss() {
 
 PathRay path_stack[STACK_SIZE];
 
+// The environment's light on surface `s` seen from `v` in the Whitted model (split sum, no
+// shadows). `traced` and `coat_traced` are the shares of the base layer's and the clearcoat's
+// mirror lobes that their reflection rays carry (their gloss when the ray is traced, else 0):
+// the prefiltered map gives the rest, so a mirror keeps its inter-reflections and the lookup
+// takes over as roughness grows.
+vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_traced) {
+    float n_dot_v = clamp(dot(s.n, v), 1e-4, 1.0);
+    float f0_ior = pow((s.ior - 1.0) / (s.ior + 1.0), 2.0);
+    vec3 f0_dielectric = s.layered ? min(vec3(f0_ior) * s.specular_color, vec3(1.0)) : vec3(f0_ior);
+    vec3 f0 = mix(f0_dielectric, s.base_color, s.metallic);
+    float specular_weight = s.layered ? mix(s.specular, 1.0, s.metallic) : 1.0;
+    vec3 ss, ms;
+    env_specular_energy(f0, specular_weight, n_dot_v, s.roughness, ss, ms);
+    if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
+        ss = vec3(0.0);
+        ms = vec3(0.0);
+    }
+    vec3 irradiance = env_irradiance(s.n);
+    vec3 diffuse_color = s.base_color * (1.0 - s.metallic) * (1.0 - s.transmission);
+    vec3 light = diffuse_color * max(vec3(1.0) - ss - ms, vec3(0.0)) * irradiance + ms * irradiance;
+    if (traced < 1.0) {
+        light += ss * (1.0 - traced) * env_specular(reflect_dir(-v, s.n), s.roughness);
+    }
+    light *= s.occlusion;
+    if (coat > 0.0) {
+        vec3 coat_ss, coat_ms;
+        float c_dot_v = clamp(dot(s.clearcoat_n, v), 1e-4, 1.0);
+        env_specular_energy(vec3(0.04), 1.0, c_dot_v, s.clearcoat_roughness, coat_ss, coat_ms);
+        light = light * (1.0 - coat)
+            + s.clearcoat * coat_ss.x * (1.0 - coat_traced) * s.occlusion
+                * env_specular(reflect_dir(-v, s.clearcoat_n), s.clearcoat_roughness);
+    }
+    return light;
+}
+
 // Shades surface `s` hit by `r` and pushes the reflection/refraction continuations.
 vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
     vec3 v = -r.dir;
@@ -152,6 +188,14 @@ vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
     }
     float coverage = s.alpha_mode == ALPHA_BLEND ? clamp(s.alpha, 0.0, 1.0) : 1.0;
     float cone = r.cone_width + frame.pixel_spread * t;
+    if (env_enabled()) {
+        // The environment replaces the ambient term; a lobe whose ray is not traced (last
+        // segment) is lit by the prefiltered map alone.
+        bool last = r.depth >= frame.max_depth;
+        float traced = last ? 0.0 : (1.0 - s.roughness) * (1.0 - s.roughness);
+        float coat_traced = last ? 0.0 : (1.0 - s.clearcoat_roughness) * (1.0 - s.clearcoat_roughness);
+        color = s.emissive * (1.0 - coat) + direct + environment_light(s, v, traced, coat, coat_traced);
+    }
     if (coverage < 1.0 && sp < STACK_SIZE) {
         PathRay through = PathRay(s.position - s.ng * eps_offset(), r.dir, r.weight * (1.0 - coverage), r.depth, RAY_REFRACTION, cone);
         if (max3(through.weight) >= frame.min_weight) {
@@ -253,7 +297,7 @@ vec3 whitted(Ray camera, uint primary, Surface primary_surface, Hit primary_hit,
                 info.bary = h.barycentrics;
             }
             if (!hit_found(h)) {
-                color += r.weight * background_radiance(r.dir);
+                color += r.weight * miss_radiance(r.dir, r.kind == RAY_PRIMARY);
                 first = false;
                 continue;
             }

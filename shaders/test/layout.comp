@@ -20,7 +20,7 @@ void main() {
     put64(scene.positions); put64(scene.attributes); put64(scene.indices); put64(scene.geometries);
     put64(scene.instances); put64(scene.materials); put64(scene.lights);
     put(scene.instance_count); put(scene.geometry_count); put(scene.light_count); put(scene.texture_count);
-    put3(scene.bounds_min); putf(scene.scene_scale); put3(scene.bounds_max); put(scene.pad);
+    put3(scene.bounds_min); putf(scene.scene_scale); put3(scene.bounds_max); put(uint(scene.environment));
     put64(scene.prev_positions); put64(scene.prev_instances);
 
     GpuVertex v = scene_vertex(0u);

@@ -7,6 +7,7 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
 use glam::Vec3;
+use rqr::environment::{EnvironmentMap, EnvironmentSource, GpuEnvironment};
 use rqr::accel::bvh::{BvhBuild, BvhBuildChoice};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::render::passes::gbuffer::GbufferLayout;
@@ -236,6 +237,37 @@ impl CameraArgs {
     }
 }
 
+fn parse_environment(s: &str) -> Result<EnvironmentSource, String> {
+    EnvironmentSource::parse(s).map_err(|e| match e {
+        rqr::environment::EnvironmentError::Argument { message, .. } => message,
+        other => other.to_string(),
+    })
+}
+
+impl ImageArgs {
+    /// Loads `--environment`'s map before any device work (a bad file fails fast).
+    pub fn load_environment(&self) -> Result<Option<EnvironmentMap>> {
+        Ok(self.environment.load()?)
+    }
+}
+
+/// Prepares `map` on the device and lights `renderer` with it; returns the preparation's
+/// milliseconds.
+pub fn light_with(
+    ctx: &Context,
+    renderer: &mut rqr::render::Renderer,
+    map: Option<&EnvironmentMap>,
+) -> Result<Option<f64>> {
+    let Some(map) = map else {
+        return Ok(None);
+    };
+    let env = GpuEnvironment::prepare(ctx, map)?;
+    let ms = env.prepare_ms;
+    log::info!("environment {}x{} prepared in {ms:.1} ms", map.width, map.height);
+    renderer.set_environment(ctx, Some(env))?;
+    Ok(Some(ms))
+}
+
 fn parse_background(s: &str) -> Result<(Vec3, bool), String> {
     if s.eq_ignore_ascii_case("sky") {
         return Ok((Vec3::ONE, true));
@@ -276,9 +308,21 @@ pub struct ImageArgs {
     /// Ambient radiance: r,g,b or one value.
     #[arg(long, value_parser = parse_vec3, default_value = "0.03")]
     pub ambient: Vec3,
-    /// Background: r,g,b, one value, `sky`, or `sky:r,g,b` (scaled gradient).
-    #[arg(long, value_parser = parse_background, default_value = "0.05")]
-    pub background: (Vec3, bool),
+    /// Background: r,g,b, one value, `sky`, or `sky:r,g,b` (scaled gradient) [default:
+    /// 0.05]. With `--environment`, what camera rays that miss see instead of the map (the
+    /// map still lights the scene).
+    #[arg(long, value_parser = parse_background)]
+    pub background: Option<(Vec3, bool)>,
+    /// Image-based lighting: an equirectangular Radiance `.hdr` or OpenEXR file (width = 2 ×
+    /// height, row 0 at the zenith, +Z at its centre), or `none`.
+    #[arg(long, value_parser = parse_environment, default_value = "none")]
+    pub environment: EnvironmentSource,
+    /// Turns the environment about +Y, degrees counter-clockwise seen from above.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub environment_rotation: f32,
+    /// Scales the environment's radiance.
+    #[arg(long, default_value_t = 1.0)]
+    pub environment_intensity: f32,
     /// Adaptive sampler: subdivide where two samples differ by more than this.
     #[arg(long, default_value_t = 0.1)]
     pub adaptive_threshold: f32,
@@ -313,8 +357,11 @@ impl ImageArgs {
             min_weight: self.min_weight,
             epsilon: self.epsilon,
             ambient: self.ambient,
-            background: self.background.0,
-            sky: self.background.1,
+            background: self.background.map_or(Vec3::splat(0.05), |b| b.0),
+            sky: self.background.is_some_and(|b| b.1),
+            environment_background: self.background.is_none(),
+            environment_rotation: self.environment_rotation,
+            environment_intensity: self.environment_intensity,
             adaptive_threshold: self.adaptive_threshold,
             adaptive_depth: self.adaptive_depth,
             no_specular: false,

@@ -164,7 +164,11 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let mut settings = args.image.settings()?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("cannot create output directory '{}'", args.output.display()))?;
-    let scene = args.scene.load()?;
+    let environment = args.image.load_environment()?;
+    let mut scene = args.scene.load()?;
+    if environment.is_some() {
+        scene.drop_default_lights();
+    }
     let camera = args
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
@@ -192,7 +196,16 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             "{} backend: warm-up and timed bursts",
             backend.as_str()
         ));
-        let (run, setup) = time_backend(args, &ctx, &scene, &draws, &settings, &camera, *backend)?;
+        let (run, setup) = time_backend(
+            args,
+            &ctx,
+            &scene,
+            &draws,
+            &settings,
+            &camera,
+            *backend,
+            environment.as_ref(),
+        )?;
         startup += setup;
         runs.push(run);
         bar.inc(1);
@@ -212,12 +225,14 @@ fn time_backend(
     settings: &RenderSettings,
     camera: &rqr::scene::Camera,
     backend: Backend,
+    environment: Option<&rqr::environment::EnvironmentMap>,
 ) -> Result<(BackendRun, Duration)> {
     let setup = Instant::now();
-    let renderer = {
+    let mut renderer = {
         let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
         Renderer::with_bvh_build(ctx, scene, backend, args.device.bvh_build(ctx))?
     };
+    super::common::light_with(ctx, &mut renderer, environment)?;
     // AOVs (primary ids) only where the backends are compared with each other.
     let aov = args.backends == Backends::All;
     let targets = |path: RenderPath, s: &RenderSettings, aov: bool| {

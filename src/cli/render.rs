@@ -238,7 +238,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         return run_sequence(args, &ext);
     }
     check_output_file(&args.output)?;
-    let scene = args.scene.load()?;
+    let environment = args.image.load_environment()?;
+    let mut scene = args.scene.load()?;
+    if environment.is_some() {
+        scene.drop_default_lights();
+    }
     let camera = args
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
@@ -250,10 +254,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         log::info!("visibility pass: {} ({raster_reason})", raster.as_str());
     }
     settings.raster = raster;
-    let renderer = {
+    let mut renderer = {
         let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
         Renderer::with_bvh_build(&ctx, &scene, backend, args.device.bvh_build(&ctx))?
     };
+    let environment_ms = super::common::light_with(&ctx, &mut renderer, environment.as_ref())?;
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
         RenderPath::RayTraced => renderer.render_rt(&ctx, &settings, &camera, write_aov)?,
@@ -289,6 +294,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "rays_total": out.rays.total(),
             "mrays_per_s": mrays_per_s(&out),
             "acceleration": renderer.backend.stats_json(),
+            "environment_prepare_ms": environment_ms,
             "output": args.output,
             "aovs": aovs,
         });
@@ -338,7 +344,11 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         }
     }
     check_output_file(&frame_path(&args.output, range.start))?;
-    let (rest, animations) = args.scene.load_rest()?;
+    let environment = args.image.load_environment()?;
+    let (mut rest, animations) = args.scene.load_rest()?;
+    if environment.is_some() {
+        rest.drop_default_lights();
+    }
     // A skinned or morphed scene is posed even without animation (the bind pose is not the
     // rest pose); it changes between frames only when an animation moves more than cameras.
     let deformable = rest.is_animated();
@@ -389,7 +399,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     // An animated scene keeps one renderer whose vertices and acceleration structures are
     // updated per frame; any other sequence renders every frame from one upload.
     let bvh_build = args.device.bvh_build(&ctx);
-    let (renderer, mut animated_frames) = {
+    let (renderer, animated_frames) = {
         let _spinner = super::progress::Spinner::start(super::progress::build_message(backend));
         match animated {
             true => (
@@ -409,6 +419,16 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
             ),
         }
     };
+    let prepared = match &environment {
+        Some(map) => Some(rqr::environment::GpuEnvironment::prepare(&ctx, map)?),
+        None => None,
+    };
+    let (mut renderer, mut animated_frames) = (renderer, animated_frames);
+    if let Some(r) = renderer.as_mut() {
+        r.set_environment(&ctx, prepared)?;
+    } else if let Some(a) = animated_frames.as_mut() {
+        a.set_environment(&ctx, prepared)?;
+    }
     let render_path = args.mode;
     let options = SequenceOptions {
         path: render_path,

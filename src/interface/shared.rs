@@ -20,6 +20,9 @@ pub const FLAG_SKY: u32 = 2;
 pub const FLAG_WRITE_AOV: u32 = 4;
 /// Frame flag (raytrace.comp push constant): the adaptive corner pass.
 pub const FLAG_ADAPTIVE_CORNERS: u32 = 8;
+/// Frame flag: camera rays that miss show the environment (cleared by `--background`, which
+/// then shows that colour while the environment still lights the scene).
+pub const FLAG_ENV_BACKGROUND: u32 = 16;
 
 /// `GpuFrame::sampler_kind`: pixel centres.
 pub const SAMPLER_CENTER: u32 = 0;
@@ -81,8 +84,8 @@ pub struct GpuFrame {
     pub prev_view_proj: [f32; 16],
     /// Sub-pixel offset of the raster pass, in pixels (sample position − pixel centre).
     pub jitter: [f32; 2],
-    /// Padding.
-    pub pad1: [f32; 2],
+    /// cos and sin of the environment's rotation about +Y (`--environment-rotation`).
+    pub env_rotation: [f32; 2],
     /// Camera position.
     pub camera_pos: [f32; 3],
     /// tan(yfov / 2).
@@ -123,6 +126,6 @@ pub struct GpuFrame {
     pub pixel_spread: f32,
     /// Background radiance.
     pub background: [f32; 3],
-    /// Padding.
-    pub pad0: f32,
+    /// Scale of the environment's radiance (`--environment-intensity`).
+    pub env_intensity: f32,
 }

@@ -10,7 +10,7 @@ pub use super::settings::RenderPath;
 pub(crate) use super::settings::{FilterKind, RenderSettings, SamplerKind, SettingsError};
 
 pub use crate::interface::{
-    GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_NO_SPECULAR, FLAG_SKY, FLAG_WRITE_AOV,
+    GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_ENV_BACKGROUND, FLAG_NO_SPECULAR, FLAG_SKY, FLAG_WRITE_AOV,
 };
 
 /// Near plane used when the camera has none that fits.
@@ -92,6 +92,10 @@ impl GpuFrame {
         if settings.sky {
             flags |= FLAG_SKY;
         }
+        if settings.environment_background {
+            flags |= FLAG_ENV_BACKGROUND;
+        }
+        let rotation = settings.environment_rotation.to_radians();
         Self {
             camera_to_world: camera.camera_to_world.to_cols_array(),
             view: view.to_cols_array(),
@@ -99,7 +103,7 @@ impl GpuFrame {
             view_proj: (camera.proj * view).to_cols_array(),
             prev_view_proj: (camera.proj * view).to_cols_array(),
             jitter: [0.0; 2],
-            pad1: [0.0; 2],
+            env_rotation: [rotation.cos(), rotation.sin()],
             camera_pos: camera.camera_to_world.w_axis.truncate().to_array(),
             tan_half_fov_y: camera.tan_half_fov_y,
             aspect: settings.width as f32 / settings.height as f32,
@@ -124,7 +128,7 @@ impl GpuFrame {
                 (2.0 * camera.tan_half_fov_y / settings.height as f32).atan()
             },
             background: settings.background.to_array(),
-            pad0: 0.0,
+            env_intensity: settings.environment_intensity,
         }
     }
 }

@@ -162,6 +162,9 @@ pub struct Renderer {
     pub backend: RayBackend,
     _textures: crate::scene::textures::GpuTextures,
     textures: Vec<(vk::ImageView, vk::Sampler)>,
+    /// How many entries of `textures` are the scene's (the environment's follow).
+    scene_texture_count: usize,
+    environment: Option<crate::environment::GpuEnvironment>,
     scene_scale: f32,
 }
 
@@ -184,13 +187,60 @@ impl Renderer {
         let textures = gpu_textures.descriptors();
         let gpu = GpuScene::upload(ctx, scene, textures.len() as u32)?;
         let backend = RayBackend::build(ctx, scene, &gpu, backend, bvh_build)?;
-        Ok(Self {
+        Ok(Self::from_parts(gpu, backend, gpu_textures, textures))
+    }
+
+    /// A renderer of an uploaded scene, its backend and textures (`textures` are
+    /// `gpu_textures`' descriptors), without an environment.
+    pub(crate) fn from_parts(
+        gpu: GpuScene,
+        backend: RayBackend,
+        gpu_textures: crate::scene::textures::GpuTextures,
+        textures: Vec<(vk::ImageView, vk::Sampler)>,
+    ) -> Self {
+        Self {
             scene_scale: gpu.refs_data.scene_scale,
             gpu,
             backend,
             _textures: gpu_textures,
+            scene_texture_count: textures.len(),
             textures,
-        })
+            environment: None,
+        }
+    }
+
+    /// Lights the scene with `environment` (or with none): its textures join the bindless
+    /// array after the scene's and `SceneRefs::environment` points at them. Passes and frame
+    /// targets made afterwards see it; the renderer keeps the environment alive.
+    pub fn set_environment(
+        &mut self,
+        ctx: &Context,
+        environment: Option<crate::environment::GpuEnvironment>,
+    ) -> crate::Result<()> {
+        self.textures.truncate(self.scene_texture_count);
+        let first = match &environment {
+            Some(env) => {
+                let first = self.textures.len() as i32;
+                self.textures.extend(env.descriptors());
+                first
+            }
+            None => -1,
+        };
+        self.gpu.set_environment(ctx, first)?;
+        self.environment = environment;
+        Ok(())
+    }
+
+    /// Removes the environment (the scene is then lit without one) and hands it back.
+    pub fn take_environment(&mut self) -> Option<crate::environment::GpuEnvironment> {
+        self.textures.truncate(self.scene_texture_count);
+        self.gpu.refs_data.environment = -1;
+        self.environment.take()
+    }
+
+    /// The environment lighting the scene, if any.
+    pub fn environment(&self) -> Option<&crate::environment::GpuEnvironment> {
+        self.environment.as_ref()
     }
 
     /// The set-0 inputs of every pass.

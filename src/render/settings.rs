@@ -99,6 +99,13 @@ pub struct RenderSettings {
     pub background: Vec3,
     /// Sky gradient instead of a constant background.
     pub sky: bool,
+    /// Camera rays that miss show the environment, when the renderer has one (false when
+    /// `--background` was given: a product shot on white, lit by the environment).
+    pub environment_background: bool,
+    /// Rotation of the environment about +Y in degrees, counter-clockwise seen from above.
+    pub environment_rotation: f32,
+    /// Scale of the environment's radiance.
+    pub environment_intensity: f32,
     /// Adaptive sampler: subdivide when two samples differ by more than this (per channel, clamped to 1).
     pub adaptive_threshold: f32,
     /// Adaptive sampler: maximum subdivision levels.
@@ -131,6 +138,9 @@ impl Default for RenderSettings {
             ambient: Vec3::splat(0.03),
             background: Vec3::splat(0.05),
             sky: false,
+            environment_background: true,
+            environment_rotation: 0.0,
+            environment_intensity: 1.0,
             adaptive_threshold: 0.1,
             adaptive_depth: 2,
             no_specular: false,
@@ -205,6 +215,18 @@ impl RenderSettings {
         }
         if !self.exposure.is_finite() {
             return bad(format!("--exposure {} must be finite", self.exposure));
+        }
+        if !self.environment_rotation.is_finite() {
+            return bad(format!(
+                "--environment-rotation {} must be finite",
+                self.environment_rotation
+            ));
+        }
+        if !(self.environment_intensity.is_finite() && self.environment_intensity >= 0.0) {
+            return bad(format!(
+                "--environment-intensity {} must be a finite non-negative number",
+                self.environment_intensity
+            ));
         }
         if !(self.adaptive_threshold.is_finite() && self.adaptive_threshold >= 0.0) {
             return bad(format!(

@@ -272,7 +272,7 @@ impl GpuScene {
             bounds_min: bounds.min.to_array(),
             scene_scale: bounds.diagonal().max(1e-3),
             bounds_max: bounds.max.to_array(),
-            pad: 0,
+            environment: -1,
             // No previous frame: nothing moved.
             prev_positions: positions_buf.address(),
             prev_instances: instances_buf.address(),
@@ -430,6 +430,12 @@ impl GpuScene {
                 &[instances],
             );
         }
+    }
+
+    /// Points `SceneRefs::environment` at the environment's first bindless texture (-1: none).
+    pub fn set_environment(&mut self, ctx: &Context, first_texture: i32) -> VkResult<()> {
+        self.refs_data.environment = first_texture;
+        self.refs.upload(ctx, bytemuck::bytes_of(&self.refs_data))
     }
 
     /// Writes set-0 binding 0 (`SceneRefs`) of a pass's descriptor set.

@@ -229,8 +229,9 @@ pub struct GpuSceneRefs {
     pub scene_scale: f32,
     /// World bounds, max corner.
     pub bounds_max: [f32; 3],
-    /// Padding.
-    pub pad: u32,
+    /// Index of the environment's first texture in the bindless array
+    /// (`crate::interface::environment::ENV_TEX_*` follow it), or -1 without an environment.
+    pub environment: i32,
     /// `vec3[]` positions of the previous frame of an animation (motion vectors); equal to
     /// `positions` when nothing moved.
     pub prev_positions: u64,

@@ -204,7 +204,8 @@ pub fn sampler_create_info(s: &SamplerState) -> vk::SamplerCreateInfo<'static> {
         .max_lod(if s.mipmaps { vk::LOD_CLAMP_NONE } else { 0.25 })
 }
 
-fn barrier(
+/// An image memory barrier over mip `levels` of `image` from one (stage, access, layout) to another.
+pub(crate) fn barrier(
     image: vk::Image,
     levels: std::ops::Range<u32>,
     (src_stage, src_access, old): (vk::PipelineStageFlags2, vk::AccessFlags2, vk::ImageLayout),
@@ -230,7 +231,7 @@ fn barrier(
 }
 
 /// Records `barriers` (synchronization2).
-fn pipeline_barrier(
+pub(crate) fn pipeline_barrier(
     device: &ash::Device,
     cmd: vk::CommandBuffer,
     barriers: &[vk::ImageMemoryBarrier2],

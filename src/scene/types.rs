@@ -535,6 +535,16 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Lights the scene by an environment alone: the default rig (added when the file has
+    /// no lights) goes, as the Khronos Sample Viewer turns its default lights off under IBL;
+    /// the file's own lights stay.
+    pub fn drop_default_lights(&mut self) {
+        if self.default_lights {
+            self.lights.clear();
+            self.default_lights = false;
+        }
+    }
+
     /// Triangles over every instance.
     pub fn triangle_count(&self) -> usize {
         self.instances

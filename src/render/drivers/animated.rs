@@ -249,13 +249,7 @@ impl AnimatedFrames {
             }
             _ => (0, 0),
         };
-        let renderer = Renderer {
-            scene_scale: gpu.refs_data.scene_scale,
-            gpu,
-            backend: ray_backend,
-            _textures: gpu_textures,
-            textures,
-        };
+        let renderer = Renderer::from_parts(gpu, ray_backend, gpu_textures, textures);
         log::info!(
             "animated frames: {} deformed instance(s) skinned on the GPU, {} backend updated per frame",
             deformers.len(),
@@ -279,6 +273,15 @@ impl AnimatedFrames {
                 ..Default::default()
             },
         })
+    }
+
+    /// Lights every frame with `environment` (kept across renderer rebuilds).
+    pub fn set_environment(
+        &mut self,
+        ctx: &Context,
+        environment: Option<crate::environment::GpuEnvironment>,
+    ) -> crate::Result<()> {
+        self.renderer.set_environment(ctx, environment)
     }
 
     /// The renderer of the frame of the last update.
@@ -460,7 +463,9 @@ impl AnimatedFrames {
         time: f32,
     ) -> crate::Result<(Scene, Vec<(String, f64)>)> {
         let posed = self.rest.posed(&self.animations, time);
+        let environment = self.renderer.take_environment();
         self.renderer = frame_renderer(ctx, &posed, self.backend, self.bvh_build)?;
+        self.renderer.set_environment(ctx, environment)?;
         self.counters.full_builds += 1;
         self.counters.updates += 1;
         let scopes = build_scopes(&self.renderer.backend);

@@ -1,0 +1,62 @@
+// Image-based lighting, shared by every path, backend and the temporal passes: the map's
+// radiance for rays that miss, and the Whitted model's split-sum environment light
+// (prefiltered specular, irradiance, BRDF table with Fdez-Agüera's multiple-scattering
+// compensation), unshadowed as in the Khronos glTF Sample Viewer. Include after scene.glsl and
+// frame.glsl. The textures are prepared by src/environment/gpu.rs.
+#ifndef RQR_ENVIRONMENT_GLSL
+#define RQR_ENVIRONMENT_GLSL
+#include "interface_environment.glsl"
+#include "env_mapping.glsl"
+
+bool env_enabled() { return scene.environment >= 0; }
+
+// World direction to the map's frame: the map turned by frame.env_rotation about +Y
+// (counter-clockwise seen from above) shows at d what the unturned map shows at R(-angle) d.
+vec3 env_map_direction(vec3 d) {
+    float c = frame.env_rotation.x, s = frame.env_rotation.y;
+    return vec3(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+}
+
+vec4 env_texture(uint which, vec3 d, float lod) {
+    return textureLod(textures[nonuniformEXT(uint(scene.environment) + which)], env_uv(env_map_direction(d)), lod);
+}
+
+// Radiance arriving along -d (seen looking towards d), at the map's full resolution.
+vec3 env_radiance(vec3 d) { return frame.env_intensity * env_texture(ENV_TEX_RADIANCE, d, 0.0).rgb; }
+
+// Cosine-weighted mean radiance around normal n (irradiance / π).
+vec3 env_irradiance(vec3 n) { return frame.env_intensity * env_texture(ENV_TEX_IRRADIANCE, n, 0.0).rgb; }
+
+// GGX-prefiltered radiance around r at `roughness`.
+vec3 env_specular(vec3 r, float roughness) {
+    return frame.env_intensity * env_texture(ENV_TEX_SPECULAR, r, clamp(roughness, 0.0, 1.0) * float(ENV_SPECULAR_LEVELS - 1u)).rgb;
+}
+
+// Split-sum scale and bias of F0 at (n·v, roughness).
+vec2 env_brdf(float n_dot_v, float roughness) {
+    return textureLod(textures[nonuniformEXT(uint(scene.environment) + ENV_TEX_BRDF)], vec2(n_dot_v, roughness), 0.0).rg;
+}
+
+// What a ray that found nothing sees: the environment, or for camera rays under
+// `--background` (FLAG_ENV_BACKGROUND clear) and without an environment, the background.
+vec3 miss_radiance(vec3 dir, bool camera_ray) {
+    if (env_enabled() && (!camera_ray || (frame.flags & FLAG_ENV_BACKGROUND) != 0u)) {
+        return env_radiance(dir);
+    }
+    return background_radiance(dir);
+}
+
+// Single- and multiple-scattering specular energy of a GGX layer with Fresnel F0 = f0 (and
+// F90 scaled by specular_weight, KHR_materials_specular), from the BRDF table:
+// ss = k_S A + B, ms = Ems ss F_avg / (1 - F_avg Ems) (Fdez-Agüera 2019).
+void env_specular_energy(vec3 f0, float specular_weight, float n_dot_v, float roughness, out vec3 ss, out vec3 ms) {
+    vec2 ab = env_brdf(n_dot_v, roughness);
+    vec3 fr = max(vec3(1.0 - roughness), f0) - f0;
+    vec3 k_s = f0 + fr * pow(1.0 - n_dot_v, 5.0);
+    ss = specular_weight * (k_s * ab.x + ab.y);
+    float e_ms = 1.0 - (ab.x + ab.y);
+    vec3 f_avg = specular_weight * (f0 + (1.0 - f0) / 21.0);
+    ms = e_ms * ss * f_avg / (vec3(1.0) - f_avg * e_ms);
+}
+
+#endif

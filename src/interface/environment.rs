@@ -1,0 +1,52 @@
+//! Image-based lighting: the environment's textures in the bindless array, and the push
+//! constant of its preparation passes (`shaders/environment/`, `interface_environment.glsl`).
+
+use bytemuck::{Pod, Zeroable};
+
+/// Bindless texture `SceneRefs::environment + ENV_TEX_RADIANCE`: the map itself with an
+/// area-weighted mip chain (background, mirror rays, and the preparation passes' input).
+pub const ENV_TEX_RADIANCE: u32 = 0;
+/// `+ ENV_TEX_SPECULAR`: GGX-prefiltered radiance, mip `m` at roughness `m / (ENV_SPECULAR_LEVELS - 1)`.
+pub const ENV_TEX_SPECULAR: u32 = 1;
+/// `+ ENV_TEX_IRRADIANCE`: cosine-weighted mean radiance (irradiance / π) per normal.
+pub const ENV_TEX_IRRADIANCE: u32 = 2;
+/// `+ ENV_TEX_BRDF`: the split-sum BRDF table, (scale, bias) of F0 by (n·v, roughness).
+pub const ENV_TEX_BRDF: u32 = 3;
+/// Textures an environment adds to the bindless array.
+pub const ENV_TEXTURES: u32 = 4;
+
+/// Mip levels of the prefiltered specular map (roughness 0, 0.25, 0.5, 0.75, 1).
+pub const ENV_SPECULAR_LEVELS: u32 = 5;
+/// Width of the prefiltered specular map's mip 0 (its height is half).
+pub const ENV_SPECULAR_WIDTH: u32 = 256;
+/// Width of the irradiance map (its height is half).
+pub const ENV_IRRADIANCE_WIDTH: u32 = 32;
+/// Side of the BRDF table.
+pub const ENV_BRDF_SIZE: u32 = 64;
+
+/// Binding of the preparation passes' input: the radiance map (a combined image sampler).
+pub const BINDING_ENV_SOURCE: u32 = 0;
+
+/// Push constant of `env_specular.comp`, `env_irradiance.comp` and `env_brdf.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct EnvPreparePush {
+    /// Device address of the output, `vec4` per texel, row-major.
+    pub texels_out: u64,
+    /// Output width.
+    pub width: u32,
+    /// Output height.
+    pub height: u32,
+    /// GGX roughness of this level (specular pass).
+    pub roughness: f32,
+    /// Samples per output texel (specular and BRDF passes).
+    pub samples: u32,
+    /// Width of the source map's mip 0.
+    pub source_width: u32,
+    /// Mip levels of the source map.
+    pub source_levels: u32,
+    /// Source mip level the irradiance pass integrates over, texel by texel.
+    pub source_level: u32,
+    /// Padding.
+    pub pad0: u32,
+}
