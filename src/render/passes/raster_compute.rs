@@ -1,7 +1,7 @@
 //! Compute rasterizer of the hybrid path's visibility buffer (`--raster compute`): the same
 //! (instance, primitive) image `visibility.frag` writes, produced by compute shaders instead of
 //! the graphics pipeline, for GPUs whose graphics units are scarce next to their compute units
-//! (H100/H200 run graphics on 2 of 66 TPCs).
+//! (H100 and H200 run graphics on 2 of 66 TPCs).
 //!
 //! Stages (`shaders/raster_*.comp`, rules in `shaders/common/raster.glsl`), tile-binned as in
 //! Laine & Karras 2011 ("High-Performance Software Rasterization on GPUs") for every triangle
