@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue #12's benchmarks on this machine: burst-timed 60-frame orbits (reprojection, adaptive
+# Frame-loop benchmarks on this machine: burst-timed 60-frame orbits (reprojection, adaptive
 # sub-sampling, frameless) against full renders of the same frames, and the host overhead of
 # `rqr compare`. Writes bench-frame-loop/ (JSON lines, reports) and prints a summary table.
 # Usage: scripts/bench-frame-loop.sh [BACKEND] [SIZE] [FRAMES]   (defaults: bvh 256 60)

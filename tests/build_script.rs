@@ -1,6 +1,6 @@
 //! `build.rs` on its own (it needs only std, so rustc compiles it in about a second): with no
 //! environment but `PATH` it compiles every shader to the same SPIR-V the crate embeds, so a
-//! plain `cargo build` needs nothing sourced (issue 17); and without a shader compiler it fails
+//! plain `cargo build` needs nothing sourced; and without a shader compiler it fails
 //! with one line naming `scripts/setup-vulkan.sh`.
 
 use std::path::{Path, PathBuf};

@@ -1,4 +1,4 @@
-//! The frame loop of issue #12: frames recorded back to back in bursts give the same images
+//! The frame loop: frames recorded back to back in bursts give the same images
 //! and statistics as frames submitted one by one, the statistics add up in every frame, and a
 //! loop of 100 frames allocates no device memory after its first frame.
 

@@ -1,4 +1,4 @@
-//! Temporal reprojection, frameless rendering and adaptive sub-sampling (issue #7) on small
+//! Temporal reprojection, frameless rendering and adaptive sub-sampling on small
 //! images of the procedural Cornell room (lavapipe is slow: ≤ 96×96, few frames).
 
 mod common;

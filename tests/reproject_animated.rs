@@ -1,4 +1,4 @@
-//! Reprojection with moving objects (issue 15, item 4): on an animated scene with a static
+//! Reprojection with moving objects: on an animated scene with a static
 //! camera, reprojected frames stay close to full renders of the same frames, and samples on
 //! the moving objects are reused where they went, which world-space positions cannot do
 //! (checked by rendering the same frames with the anchors off).
@@ -32,7 +32,7 @@ struct Frame {
 /// reprojecting on `path` (`visibility`: the rt path's check), the scene updated in place
 /// between frames ([`AnimatedFrames`], [`Sequence::update_scene`]); with `reference` each frame
 /// is compared with its full render. `anchors` off leaves the samples at their world
-/// positions (reprojection before issue 15).
+/// positions (reprojection without anchors).
 fn run(
     ctx: &Context,
     rel: &str,

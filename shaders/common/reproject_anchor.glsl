@@ -1,4 +1,4 @@
-// Temporal reprojection with moving geometry (issue 15): every cached sample of a scene with
+// Temporal reprojection with moving geometry: every cached sample of a scene with
 // animated transforms, skins or morph targets remembers the object-space point it was computed
 // at, its Anchor (instance, triangle, barycentrics), in a side buffer double-buffered like the
 // cache. The scatter moves each anchored sample to where that point is in this frame (this

@@ -55,7 +55,7 @@ pub struct RenderArgs {
     sequence: SequenceArgs,
 }
 
-/// Sequence flags of `rqr render` (issue #7).
+/// Sequence flags of `rqr render`.
 #[derive(Args, Debug)]
 pub struct SequenceArgs {
     /// Render N frames (0..N) along --camera-path; `-o out.png` writes out_0000.png, ….

@@ -191,7 +191,7 @@ pub const BINDING_SKIN_REST_TANGENTS: u32 = 2;
 pub const BINDING_SKIN_JOINTS: u32 = 3;
 /// skin.comp: 8 joint weights per vertex.
 pub const BINDING_SKIN_WEIGHTS: u32 = 4;
-/// skin.comp: morph displacements [attribute (position, normal, tangent)][target][vertex].
+/// skin.comp: morph displacements, indexed `[attribute (position, normal, tangent)][target][vertex]`.
 pub const BINDING_SKIN_DELTAS: u32 = 5;
 /// skin.comp: this frame's joint matrices (`mat4` per joint).
 pub const BINDING_SKIN_JOINT_MATRICES: u32 = 6;

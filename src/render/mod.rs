@@ -3,10 +3,11 @@
 //! - [`passes`]: the GPU passes, one module each;
 //! - [`settings`] (what to render), [`memory`] (what it will allocate), [`frame`] (the `Frame`
 //!   uniform and camera matrices) and [`sampling`] (the host mirror of the sample sequences);
-//! - the frame drivers: [`targets`] (one frame's resources), [`burst`] (timed frames),
-//!   [`reproject`], [`sequence`] and [`animated`] (camera sequences and animation);
+//! - the frame drivers in [`drivers`]: [`drivers::targets`] (one frame's resources),
+//!   [`drivers::burst`] (timed frames), [`drivers::sequence`] and [`drivers::animated`]
+//!   (camera sequences and animation), with temporal reuse in [`passes::reproject`];
 //! - [`image`]: host image utilities (PNG/EXR output, labels and charts, FLIP/PSNR);
-//! - [`reference`]: CPU references of shader code, used only by tests.
+//! - [`reference`](mod@reference): CPU references of shader code, used only by tests.
 
 pub mod drivers;
 pub mod frame;

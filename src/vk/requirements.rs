@@ -1,4 +1,4 @@
-//! What rqr requires of a device: one table that `rqr probe` ([`super::probe`]) reports and
+//! What rqr requires of a device: one table that `rqr probe` reports and
 //! [`super::Context::new`] enforces, so the probe cannot approve a device that opening then
 //! refuses.
 //!

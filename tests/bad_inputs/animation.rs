@@ -1,4 +1,4 @@
-//! Bad-input cases of animations, skins and morph targets (issue 15): joints out of range,
+//! Bad-input cases of animations, skins and morph targets: joints out of range,
 //! weights that do not sum to 1, inverse bind matrix count mismatch, sampler input not
 //! increasing, output count mismatch, CUBICSPLINE with the wrong tangent count, morph target
 //! count differing across primitives, animation of a missing node, cyclic skeleton.

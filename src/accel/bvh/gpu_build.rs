@@ -9,7 +9,7 @@
 //! 3. **Clustering**: PLOC (Meister & Bittner 2018) with the host build's search radius:
 //!    nearest neighbour by merged-box area, merge of mutual neighbours, scan + compaction.
 //!    Iterations run as indirect dispatches sized by the GPU; the host records them in chunks
-//!    of [`PLOC_CHUNK`] and reads one counter between chunks. Merges also decide, bottom-up by
+//!    of `PLOC_CHUNK` and reads one counter between chunks. Merges also decide, bottom-up by
 //!    SAH, which subtrees of at most `max_leaf_size` triangles become one leaf.
 //! 4. **Collapse**: top-down, one dispatch per level of the 4-wide tree: each binary node
 //!    opens its largest-area inner children until it has four (as `builder::flatten` does),

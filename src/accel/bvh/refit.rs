@@ -2,7 +2,7 @@
 //! transforms of the instances change, the topology (which triangles sit in which leaf, which
 //! nodes are whose children) stays, and the boxes of both levels are recomputed on the GPU.
 //!
-//! The first refit of a [`GpuBvh`] reads the node array back once and derives a [`RefitPlan`]
+//! The first refit of a [`GpuBvh`] reads the node array back once and derives a `RefitPlan`
 //! on the host: every node's level counted from the bottom (bottom levels first, then the top
 //! level, whose leaves need the refitted bottom-level roots), the padding scale it belongs to,
 //! and the three vertex indices of every leaf-order triangle. Each refit then uploads the new

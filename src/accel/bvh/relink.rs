@@ -145,7 +145,7 @@ fn sub_scene(scene: &Scene, rebuild: &[usize]) -> Scene {
 impl GpuBvh {
     /// Builds the bottom levels of `rebuild` (geometry indices) again from their positions in
     /// `scene` with `build`, keeps every other bottom level as it is (copied, never built),
-    /// and rebuilds the top level for `scene`'s instances (see the [module](self) docs).
+    /// and rebuilds the top level for `scene`'s instances (see the module docs).
     /// `scene` must be the scene this BVH was built from, posed (same geometries and
     /// instances). Returns the build statistics of the rebuilt bottom levels alone.
     pub fn rebuild_bottom_levels(

@@ -1,4 +1,4 @@
-//! Burst timing (issue #12): frames of one or more [`FrameTargets`] recorded back to back,
+//! Burst timing: frames of one or more [`FrameTargets`] recorded back to back,
 //! alternating between the targets frame by frame, into as few submissions as the fence
 //! timeout allows, after a warm-up that runs until two consecutive bursts agree.
 //!

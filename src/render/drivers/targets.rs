@@ -1,4 +1,4 @@
-//! The frame arena (issue #12): every buffer, image and descriptor set one frame of a path
+//! The frame arena: every buffer, image and descriptor set one frame of a path
 //! needs, created once per resolution and sample count and reused by every frame and sample
 //! of `rqr render`, `rqr compare` and `rqr render --frames`.
 //!

@@ -1,7 +1,7 @@
 //! Compute rasterizer of the hybrid path's visibility buffer (`--raster compute`): the same
 //! (instance, primitive) image `visibility.frag` writes, produced by compute shaders instead of
 //! the graphics pipeline, for GPUs whose graphics units are scarce next to their compute units
-//! (H100/H200 run graphics on 2 of 66 TPCs).
+//! (H100 and H200 run graphics on 2 of 66 TPCs).
 //!
 //! Stages (`shaders/raster_*.comp`, rules in `shaders/common/raster.glsl`), tile-binned as in
 //! Laine & Karras 2011 ("High-Performance Software Rasterization on GPUs") for every triangle
@@ -120,7 +120,8 @@ const TILE_SIZE: u32 = io::RASTER_TILE_SIZE;
 /// Entries of the per-tile triangle lists. A (triangle, tile) pair beyond it is rasterized by
 /// the binning invocation itself (correct, slower), so this bounds memory, not the scene.
 const BIN_CAPACITY: u64 = 1 << 21;
-/// Environment variable that lowers [`BIN_CAPACITY`] (tests of the overflow path).
+/// Environment variable that lowers the tile lists' capacity (2²¹ entries; tests of the
+/// overflow path).
 pub const BIN_CAPACITY_ENV: &str = "RQR_RASTER_BIN_CAPACITY";
 /// Most workgroups of `raster_triangles.comp` (grid-stride beyond).
 const MAX_TRIANGLE_WORKGROUPS: u32 = 65_535;

@@ -204,7 +204,7 @@ pub struct CameraAnimation {
 
 impl CameraAnimation {
     /// Reads the animation of camera `camera` (the scene's camera index, as in
-    /// [`Scene::cameras`]) in scene `scene` (default: the file's default scene, else 0) of a
+    /// [`Scene::cameras`](crate::scene::Scene::cameras)) in scene `scene` (default: the file's default scene, else 0) of a
     /// `.gltf`/`.glb` file.
     pub fn load(
         path: &Path,

@@ -1,4 +1,4 @@
-//! Camera sequences (issue #7): camera paths (orbit, dolly, glTF camera animation) and the
+//! Camera sequences: camera paths (orbit, dolly, glTF camera animation) and the
 //! driver that renders frame after frame, with or without reuse between frames
 //! ([`crate::render::passes::reproject`]), and optionally compares each frame with a full render.
 //!

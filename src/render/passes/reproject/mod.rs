@@ -1,5 +1,5 @@
 //! Temporal reprojection, frameless rendering and adaptive sub-sampling over a sequence of
-//! camera positions (issue #7; `shaders/reproject*.comp`).
+//! camera positions (`shaders/reproject*.comp`).
 //!
 //! A [`Reprojector`] keeps a per-pixel cache of the last frame's samples: linear colour and
 //! its display value, world position of the primary hit (or the ray direction of a miss),
@@ -38,8 +38,8 @@
 //! to trace, pending interpolation), dispatched indirectly by its length, so its
 //! cost follows its jobs.
 //!
-//! On a scene whose geometry moves between frames ([`Reprojector::track_moving_geometry`];
-//! issue 15), every sample also keeps an anchor (instance, triangle, barycentrics; a side buffer
+//! On a scene whose geometry moves between frames ([`Reprojector::track_moving_geometry`]),
+//! every sample also keeps an anchor (instance, triangle, barycentrics; a side buffer
 //! bound only for such scenes), and the scatter first moves it to where that point is in this
 //! frame (this frame's instance transform and skinned/morphed vertices), so a sample on a moving
 //! object lands where the object went and then meets the same tests as any other
@@ -532,7 +532,7 @@ impl Reprojector {
     }
 
     /// Makes cached samples move with their objects, for a scene whose geometry moves between
-    /// frames (animated transforms, skins, morph targets; issue 15): allocates the anchor
+    /// frames (animated transforms, skins, morph targets): allocates the anchor
     /// buffers (16 bytes per pixel, twice) and empties the cache. Each sample then remembers
     /// its instance, triangle and barycentrics, and the scatter recomputes its position and
     /// normal from the frame's transforms and vertices before projecting it

@@ -1,32 +1,37 @@
 #!/usr/bin/env bash
-# The open issues' GPU acceptance lines, as one run that fits a session's device budget
-# (about 6-8 minutes on an NVIDIA H200 after the machine starts). Run from the project root:
+# GPU benchmarks in one run of about 6-8 minutes on an NVIDIA H200 (after the machine starts):
+# reuse between frames against full frames, `rqr compare` frame-time stability and wall time
+# (1080p and 4K), the hybrid visibility pass with the compute rasterizer against the graphics
+# pipeline, GPU against host BVH builds, a 1M-triangle render end to end, and the per-frame
+# animation update. Run from the project root on the GPU machine, with .gpu/ holding the
+# release binary (copied to /tmp/rqr), the NVIDIA loader environment (.gpu/nvidia-env.sh),
+# the bumpy sphere meshes and CornellBox_kajiya:
 #
-#   ../shared/gpu/pack.sh                       # here: fills .gpu/ (binary, loader, meshes)
-#   device run, carry [".gpu"]: bash scripts/gpu-issue-checks.sh
+#   bash scripts/bench-gpu.sh
 #
-# Results: $OUT/issue-log.txt and $OUT/issue-results.tgz (every command's stdout/stderr, JSON
-# lines, compare reports). Each step has its own timeout and the archive is rewritten after
-# every step, so a run cut short still returns what it finished.
+# Results: $OUT/bench-gpu-log.txt and $OUT/bench-gpu-results.tgz (every command's
+# stdout/stderr, JSON lines, compare reports). Each step has its own timeout and the archive
+# is rewritten after every step, so a run cut short still returns what it finished.
 #
-# Dry run on the development machine (lavapipe, tiny sizes, no .gpu/ needed):
-#   DRY_RUN=1 bash scripts/gpu-issue-checks.sh
+# Dry run on a development machine (lavapipe, tiny sizes, no .gpu/ needed; MESHES and KAJIYA
+# name the bumpy sphere folder and CornellBox_kajiya's scene.gltf):
+#   DRY_RUN=1 MESHES=path/to/meshes KAJIYA=path/to/scene.gltf bash scripts/bench-gpu.sh
 #
-# Issue lines measured (1920x1080 unless said):
-#   #12  reprojected / adaptive / frameless frame GPU time over the full frame (burst timing,
-#        built-in and CornellBox_kajiya); two `compare --repeat 50` runs (agreement within 5 %,
-#        wall <= 5 s); `compare --repeat 50` at 4K (wall <= 15 s).
-#   #13  visibility pass, compute rasterizer vs graphics pipeline (`compare --raster`).
-#   #14  GPU vs host BVH build of the 1M and 100k bumpy spheres (build ms per phase, trace
-#        Mrays/s); `rqr render` of the 1M mesh end to end (wall <= 1 s).
-#   #15  per-frame animation update of CesiumMan (skin/morph + acceleration structures).
+# Measured (1920x1080 unless said):
+#   frame reuse   reprojected / adaptive / frameless frame GPU time over the full frame (burst
+#                 timing, built-in and CornellBox_kajiya); two `compare --repeat 50` runs
+#                 (agreement, wall time); `compare --repeat 50` at 4K (wall time).
+#   visibility    the hybrid visibility pass, compute rasterizer vs graphics pipeline.
+#   BVH build     GPU vs host build of the 1M and 100k bumpy spheres (build ms per phase, trace
+#                 Mrays/s); `rqr render` of the 1M mesh end to end.
+#   animation     per-frame animation update of CesiumMan (skin/morph + acceleration structures).
 set -u
 OUT=${OUT:-/tmp/gpu-out}
 mkdir -p "$OUT"
-R=/tmp/gpu-issue-r
+R=/tmp/bench-gpu-r
 rm -rf "$R"
 mkdir -p "$R"
-exec > >(tee -a "$OUT/issue-log.txt") 2>&1
+exec > >(tee -a "$OUT/bench-gpu-log.txt") 2>&1
 T0=$(date +%s)
 if [ -n "${DRY_RUN:-}" ]; then
   . scripts/env.sh
@@ -42,7 +47,7 @@ else
 fi
 CAM="--look-from 0,0,2.5 --look-at 0,0,0 --fov 45"
 export RQR_NO_AUTOTUNE=${RQR_NO_AUTOTUNE:-}
-pack() { tar czf "$OUT/issue-results.tgz" -C "$R" . 2>/dev/null; }
+pack() { tar czf "$OUT/bench-gpu-results.tgz" -C "$R" . 2>/dev/null; }
 step() {
   local name=$1 to=$2
   shift 2
@@ -65,24 +70,24 @@ print("    %s: rays %.3f, FLIP %.4f, reusing frame %.3f ms, full %.3f ms, ratio 
     sys.argv[1], s["mean_ray_fraction"], s["mean_flip"], s["mean_reused_frame_gpu_ms"],
     s["mean_reference_gpu_ms"], s["reused_over_full_gpu_time"], passes))' "$1" || true
 }
-mkdir -p /tmp/gic
+mkdir -p /tmp/bench-gpu-images
 
 # Warm the clocks first: the GPU idles at a fraction of its boost clock.
 step warm 60 "$RQR" bench --width "$W" --height "$H" --repeat 100 --json
 
-# #12: burst-timed sequences against full renders of the same frames.
+# Frame reuse: burst-timed sequences against full renders of the same frames.
 SEQ=(--width "$W" --height "$H" --frames "$FRAMES" --camera-path orbit:0.5 --backend bvh --reference --benchmark --json)
 for scene in builtin kajiya; do
   s=()
   [ "$scene" = kajiya ] && s=("$KAJIYA")
-  step "${scene}_reproject" 120 "$RQR" render "${s[@]}" "${SEQ[@]}" --reproject -o /tmp/gic/f.png
+  step "${scene}_reproject" 120 "$RQR" render "${s[@]}" "${SEQ[@]}" --reproject -o /tmp/bench-gpu-images/f.png
   summary "${scene}_reproject"
-  step "${scene}_adaptive" 120 "$RQR" render "${s[@]}" "${SEQ[@]}" --reproject --adaptive-subsample --subsample-threshold 0.2 -o /tmp/gic/f.png
+  step "${scene}_adaptive" 120 "$RQR" render "${s[@]}" "${SEQ[@]}" --reproject --adaptive-subsample --subsample-threshold 0.2 -o /tmp/bench-gpu-images/f.png
   summary "${scene}_adaptive"
-  step "${scene}_frameless10" 120 "$RQR" render "${s[@]}" "${SEQ[@]}" --frameless 10 -o /tmp/gic/f.png
+  step "${scene}_frameless10" 120 "$RQR" render "${s[@]}" "${SEQ[@]}" --frameless 10 -o /tmp/bench-gpu-images/f.png
   summary "${scene}_frameless10"
 done
-# #12: two compare runs (agreement), then 4K; wall times are in the step lines.
+# Frame loop: two compare runs (agreement), then 4K; wall times are in the step lines.
 step compare_1 120 "$RQR" compare --width "$W" --height "$H" --repeat "$REPEAT" -o "$R/compare_1"
 step compare_2 120 "$RQR" compare --width "$W" --height "$H" --repeat "$REPEAT" -o "$R/compare_2"
 step compare_4k 180 "$RQR" compare --width "$W4" --height "$H4" --repeat "$REPEAT" -o "$R/compare_4k"
@@ -98,18 +103,18 @@ for b in r["backends"]:
 PY
 done
 
-# #13: visibility pass, compute rasterizer against the graphics pipeline.
+# Visibility pass, compute rasterizer against the graphics pipeline.
 step raster_graphics 120 "$RQR" compare --width "$W" --height "$H" --raster graphics --max-depth 1 --repeat "$REPEAT" -o "$R/raster_graphics"
 step raster_compute 120 "$RQR" compare --width "$W" --height "$H" --raster compute --max-depth 1 --repeat "$REPEAT" -o "$R/raster_compute"
 
-# #14: GPU against host BVH build, and the 1M mesh end to end.
+# BVH build: GPU against host BVH build, and the 1M mesh end to end.
 step bvh_100k 120 "$RQR" bench "$MESHES/bumpy_sphere_100k.glb" $CAM --width "$W" --height "$H" --repeat "$REPEAT" --all-bvh-builds --json
 step bvh_1m 180 "$RQR" bench "$MESHES/bumpy_sphere_1m.glb" $CAM --width "$W" --height "$H" --repeat "$REPEAT" --all-bvh-builds --json
-step render_1m_gpu 60 "$RQR" render "$MESHES/bumpy_sphere_1m.glb" $CAM --width "$W" --height "$H" --backend bvh --bvh-build gpu -o /tmp/gic/m1.png
-step render_1m_auto 60 "$RQR" render "$MESHES/bumpy_sphere_1m.glb" $CAM --width "$W" --height "$H" -o /tmp/gic/m1a.png
+step render_1m_gpu 60 "$RQR" render "$MESHES/bumpy_sphere_1m.glb" $CAM --width "$W" --height "$H" --backend bvh --bvh-build gpu -o /tmp/bench-gpu-images/m1.png
+step render_1m_auto 60 "$RQR" render "$MESHES/bumpy_sphere_1m.glb" $CAM --width "$W" --height "$H" -o /tmp/bench-gpu-images/m1a.png
 
-# #15: animated frames (per-pass animation cost is in the JSON lines).
-step anim_cesiumman 120 "$RQR" render assets/gltf/CesiumMan/CesiumMan.glb --width "$W" --height "$H" --frames "$FRAMES" --json -o /tmp/gic/cm.png
+# Animation: animated frames (per-pass animation cost is in the JSON lines).
+step anim_cesiumman 120 "$RQR" render assets/gltf/CesiumMan/CesiumMan.glb --width "$W" --height "$H" --frames "$FRAMES" --json -o /tmp/bench-gpu-images/cm.png
 
 find "$R" -name '*.png' -delete
 pack
