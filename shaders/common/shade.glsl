@@ -145,7 +145,9 @@ PathRay path_stack[STACK_SIZE];
 // mirror lobes that their reflection rays carry (their gloss when the ray is traced, else 0):
 // the prefiltered map gives the rest, so a mirror keeps its inter-reflections and the lookup
 // takes over as roughness grows.
-vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_traced) {
+// `single` returns the base layer's single-scattering specular energy, which its traced
+// mirror ray is weighted by so the two shares add up to the split sum's total.
+vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_traced, out vec3 single) {
     float n_dot_v = clamp(dot(s.n, v), 1e-4, 1.0);
     float f0_ior = pow((s.ior - 1.0) / (s.ior + 1.0), 2.0);
     vec3 f0_dielectric = s.layered ? min(vec3(f0_ior) * s.specular_color, vec3(1.0)) : vec3(f0_ior);
@@ -157,6 +159,7 @@ vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_t
         ss = vec3(0.0);
         ms = vec3(0.0);
     }
+    single = ss;
     vec3 irradiance = env_irradiance(s.n);
     vec3 diffuse_color = s.base_color * (1.0 - s.metallic) * (1.0 - s.transmission);
     vec3 light = diffuse_color * max(vec3(1.0) - ss - ms, vec3(0.0)) * irradiance + ms * irradiance;
@@ -188,13 +191,14 @@ vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
     }
     float coverage = s.alpha_mode == ALPHA_BLEND ? clamp(s.alpha, 0.0, 1.0) : 1.0;
     float cone = r.cone_width + frame.pixel_spread * t;
+    vec3 env_single = vec3(0.0);
     if (env_enabled()) {
         // The environment replaces the ambient term; a lobe whose ray is not traced (last
         // segment) is lit by the prefiltered map alone.
         bool last = r.depth >= frame.max_depth;
         float traced = last ? 0.0 : (1.0 - s.roughness) * (1.0 - s.roughness);
         float coat_traced = last ? 0.0 : (1.0 - s.clearcoat_roughness) * (1.0 - s.clearcoat_roughness);
-        color = s.emissive * (1.0 - coat) + direct + environment_light(s, v, traced, coat, coat_traced);
+        color = s.emissive * (1.0 - coat) + direct + environment_light(s, v, traced, coat, coat_traced, env_single);
     }
     if (coverage < 1.0 && sp < STACK_SIZE) {
         PathRay through = PathRay(s.position - s.ng * eps_offset(), r.dir, r.weight * (1.0 - coverage), r.depth, RAY_REFRACTION, cone);
@@ -225,6 +229,8 @@ vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
             // Total internal reflection: all energy goes to the reflected ray.
             reflect_weight = w * (transmission + (1.0 - transmission) * gloss * surface_fresnel(s, f0, cos_i));
         }
+    } else if (env_enabled()) {
+        reflect_weight *= env_single;
     } else {
         reflect_weight *= surface_fresnel(s, f0, cos_i);
     }

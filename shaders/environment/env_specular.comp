@@ -2,8 +2,9 @@
 // One level of the GGX-prefiltered specular map: for each texel's direction r (taken as normal
 // and view, n = v = r, as the split-sum approximation does), the n·l-weighted mean of the
 // environment over GGX-sampled light directions at push.roughness. Filtered importance
-// sampling (Křivánek & Colbert 2008): each sample reads the source mip whose texels cover the
-// sample's solid angle, so a few hundred samples give a smooth result.
+// sampling (Křivánek & Colbert 2008, without their +1 level bias, which blurred the roughest
+// level by 2 %): each sample reads the source mip whose texels cover the sample's solid angle,
+// so a few hundred samples give a smooth result.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_scalar_block_layout : require
@@ -40,7 +41,7 @@ void main() {
             float sample_angle = 1.0 / (float(pc.samples) * pdf + 1e-6);
             float sin_theta = sqrt(max(1.0 - l.y * l.y, 0.0));
             float texel_angle = env_texel_solid_angle(float(pc.source_width), sin_theta);
-            float lod = clamp(0.5 * log2(sample_angle / texel_angle) + 1.0, 0.0, float(pc.source_levels - 1u));
+            float lod = clamp(0.5 * log2(sample_angle / texel_angle), 0.0, float(pc.source_levels - 1u));
             sum += textureLod(source, env_uv(l), lod).rgb * n_dot_l;
             weight += n_dot_l;
         }
