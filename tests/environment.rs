@@ -80,7 +80,11 @@ fn hit(out: &RenderOutput, i: usize) -> bool {
 fn each_path(ctx: &Context, mut f: impl FnMut(Backend, bool, &str)) {
     for backend in backends(ctx) {
         for hybrid in [false, true] {
-            let label = format!("{} {}", backend.as_str(), if hybrid { "hybrid" } else { "rt" });
+            let label = format!(
+                "{} {}",
+                backend.as_str(),
+                if hybrid { "hybrid" } else { "rt" }
+            );
             f(backend, hybrid, &label);
         }
     }
@@ -293,7 +297,8 @@ fn ggx_albedo(n_dot_v: f64, roughness: f64) -> f64 {
             let gv = ct * (n_dot_v * n_dot_v * (1.0 - a2) + a2).sqrt();
             let gl = n_dot_v * (ct * ct * (1.0 - a2) + a2).sqrt();
             let vis = 0.5 / (gv + gl);
-            let d_omega = st * (std::f64::consts::FRAC_PI_2 / nt as f64)
+            let d_omega = st
+                * (std::f64::consts::FRAC_PI_2 / nt as f64)
                 * (std::f64::consts::TAU / np as f64);
             sum += dist * vis * ct * d_omega;
         }
@@ -327,7 +332,11 @@ fn prepared_levels_match_brute_force_integration() {
     // integrates texel by texel).
     let map = EnvironmentMap::from_fn(128, |d| {
         let patch = (-(d - Vec3::new(0.6, 0.6, 0.52).normalize()).length_squared() * 8.0).exp();
-        [0.3 + 0.2 * d.y + 4.0 * patch, 0.3 + 0.1 * d.x, 0.4 + 2.0 * patch]
+        [
+            0.3 + 0.2 * d.y + 4.0 * patch,
+            0.3 + 0.1 * d.x,
+            0.4 + 2.0 * patch,
+        ]
     });
     let env = GpuEnvironment::prepare(&ctx, &map).unwrap();
     let texel_dirs: Vec<(Vec3, f32)> = (0..map.height)
@@ -335,7 +344,10 @@ fn prepared_levels_match_brute_force_integration() {
         .map(|(x, y)| {
             let u = (x as f32 + 0.5) / map.width as f32;
             let v = (y as f32 + 0.5) / map.height as f32;
-            (rqr::environment::uv_to_direction(u, v), (std::f32::consts::PI * v).sin())
+            (
+                rqr::environment::uv_to_direction(u, v),
+                (std::f32::consts::PI * v).sin(),
+            )
         })
         .collect();
     let reference = |n: Vec3, weight: &dyn Fn(Vec3) -> f32| {
@@ -412,12 +424,23 @@ fn cli_renders_under_an_environment_file_and_reports_its_preparation() {
     let json = common::run_json(
         std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
             .env("RQR_VALIDATION", "1")
-            .args(["render", "--width", "32", "--height", "32", "--json", "--environment"])
+            .args([
+                "render",
+                "--width",
+                "32",
+                "--height",
+                "32",
+                "--json",
+                "--environment",
+            ])
             .arg(&hdr)
             .args(["--environment-rotation", "-45", "-o"])
             .arg(&out),
     );
-    assert!(json["environment_prepare_ms"].as_f64().unwrap() > 0.0, "{json}");
+    assert!(
+        json["environment_prepare_ms"].as_f64().unwrap() > 0.0,
+        "{json}"
+    );
     assert!(out.exists());
     std::fs::remove_dir_all(&dir).ok();
 }

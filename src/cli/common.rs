@@ -7,9 +7,9 @@ use std::time::Duration;
 use anyhow::{bail, Context as _, Result};
 use clap::Args;
 use glam::Vec3;
-use rqr::environment::{EnvironmentMap, EnvironmentSource, GpuEnvironment};
 use rqr::accel::bvh::{BvhBuild, BvhBuildChoice};
 use rqr::accel::{Backend, BackendChoice};
+use rqr::environment::{EnvironmentMap, EnvironmentSource, GpuEnvironment};
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::passes::raster_compute::{RasterChoice, RasterMode};
 use rqr::render::{FilterKind, RenderSettings, SamplerKind, Tonemap};
@@ -263,7 +263,11 @@ pub fn light_with(
     };
     let env = GpuEnvironment::prepare(ctx, map)?;
     let ms = env.prepare_ms;
-    log::info!("environment {}x{} prepared in {ms:.1} ms", map.width, map.height);
+    log::info!(
+        "environment {}x{} prepared in {ms:.1} ms",
+        map.width,
+        map.height
+    );
     renderer.set_environment(ctx, Some(env))?;
     Ok(Some(ms))
 }

@@ -97,7 +97,12 @@ impl GpuEnvironment {
             )
         };
         let radiance = image("environment map", map.width, map.height, levels)?;
-        let specular = image("environment specular", spec_w, spec_w / 2, ENV_SPECULAR_LEVELS)?;
+        let specular = image(
+            "environment specular",
+            spec_w,
+            spec_w / 2,
+            ENV_SPECULAR_LEVELS,
+        )?;
         let irradiance = image("environment irradiance", irr_w, irr_w / 2, 1)?;
         let brdf = image("environment BRDF table", ENV_BRDF_SIZE, ENV_BRDF_SIZE, 1)?;
         let map_sampler = Sampler::new(
@@ -238,7 +243,12 @@ impl GpuEnvironment {
             pipeline_barrier(
                 device,
                 cmd,
-                &[barrier(radiance.raw(), 0..levels, transfer_dst, shader_read)],
+                &[barrier(
+                    radiance.raw(),
+                    0..levels,
+                    transfer_dst,
+                    shader_read,
+                )],
             );
             let mut offset = 0u64;
             let mut push = EnvPreparePush {
@@ -307,7 +317,12 @@ impl GpuEnvironment {
                 device,
                 cmd,
                 &[
-                    barrier(specular.raw(), 0..ENV_SPECULAR_LEVELS, transfer_dst, shader_read),
+                    barrier(
+                        specular.raw(),
+                        0..ENV_SPECULAR_LEVELS,
+                        transfer_dst,
+                        shader_read,
+                    ),
                     barrier(irradiance.raw(), 0..1, transfer_dst, shader_read),
                     barrier(brdf.raw(), 0..1, transfer_dst, shader_read),
                 ],
@@ -375,7 +390,12 @@ impl GpuEnvironment {
             pipeline_barrier(
                 device,
                 cmd,
-                &[barrier(image.raw(), levels.clone(), shader_read, transfer_src)],
+                &[barrier(
+                    image.raw(),
+                    levels.clone(),
+                    shader_read,
+                    transfer_src,
+                )],
             );
             let region = vk::BufferImageCopy::default()
                 .image_subresource(vk::ImageSubresourceLayers {
@@ -408,9 +428,9 @@ impl GpuEnvironment {
             crate::vk::host_read_barrier(device, cmd);
             Ok(())
         })?;
-        let texels = staging
-            .mapped_read(0, count)
-            .ok_or_else(|| crate::vk::VkError::Limit("readback buffer is not host-visible".into()))?;
+        let texels = staging.mapped_read(0, count).ok_or_else(|| {
+            crate::vk::VkError::Limit("readback buffer is not host-visible".into())
+        })?;
         Ok((w, h, texels))
     }
 }

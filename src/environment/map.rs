@@ -111,7 +111,11 @@ impl EnvironmentMap {
     /// solid angle (sin θ), so every level integrates to the same irradiance as the map.
     /// Level 0 is the map itself; texels as RGBA (alpha 1), level after level.
     pub fn mip_chain(&self) -> Vec<Vec<[f32; 4]>> {
-        let mut levels = vec![self.texels.iter().map(|t| [t[0], t[1], t[2], 1.0]).collect::<Vec<_>>()];
+        let mut levels = vec![self
+            .texels
+            .iter()
+            .map(|t| [t[0], t[1], t[2], 1.0])
+            .collect::<Vec<_>>()];
         let (mut w, mut h) = (self.width, self.height);
         while w > 1 || h > 1 {
             let prev = levels.last().unwrap();
@@ -178,7 +182,10 @@ fn check_size(file: &str, width: u32, height: u32) -> Result<(), EnvironmentErro
     if width > MAX_WIDTH {
         return Err(EnvironmentError::format(
             file,
-            format!("the map is {width}x{height}, larger than the {MAX_WIDTH}x{} limit", MAX_WIDTH / 2),
+            format!(
+                "the map is {width}x{height}, larger than the {MAX_WIDTH}x{} limit",
+                MAX_WIDTH / 2
+            ),
         ));
     }
     Ok(())
@@ -194,7 +201,10 @@ pub fn load(path: &Path) -> Result<(EnvironmentMap, usize), EnvironmentError> {
         source,
     };
     if path.is_dir() {
-        return Err(EnvironmentError::format(&file, "is a directory, not an image file"));
+        return Err(EnvironmentError::format(
+            &file,
+            "is a directory, not an image file",
+        ));
     }
     let bytes = std::fs::read(path).map_err(io)?;
     let mut map = decode(&file, &bytes)?;
@@ -242,7 +252,10 @@ fn exr_header(file: &str, bytes: &[u8]) -> Result<ExrHeader, EnvironmentError> {
     let mut r = bytes.get(8..).ok_or_else(|| bad("truncated"))?;
     let mut header = ExrHeader::default();
     let cstr = |r: &mut &[u8]| -> Result<String, EnvironmentError> {
-        let end = r.iter().position(|&b| b == 0).ok_or_else(|| bad("truncated"))?;
+        let end = r
+            .iter()
+            .position(|&b| b == 0)
+            .ok_or_else(|| bad("truncated"))?;
         let s = String::from_utf8_lossy(&r[..end]).into_owned();
         *r = &r[end + 1..];
         Ok(s)
@@ -400,7 +413,9 @@ mod tests {
             height: 8,
             texels: vec![[1.0; 3]; 64],
         };
-        let err = decode("sq.hdr", &encode_hdr(&square)).unwrap_err().to_string();
+        let err = decode("sq.hdr", &encode_hdr(&square))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("twice as wide"), "{err}");
     }
 

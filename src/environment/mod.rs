@@ -115,7 +115,11 @@ pub fn direction_to_uv(d: Vec3) -> (f32, f32) {
 pub fn uv_to_direction(u: f32, v: f32) -> Vec3 {
     let phi = std::f32::consts::TAU * u;
     let theta = std::f32::consts::PI * v;
-    Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos())
+    Vec3::new(
+        theta.sin() * phi.sin(),
+        theta.cos(),
+        -theta.sin() * phi.cos(),
+    )
 }
 
 /// Where a world direction `d` reads the map turned by `degrees` about +Y (counter-clockwise
@@ -155,7 +159,10 @@ mod tests {
 
     #[test]
     fn arguments() {
-        assert_eq!(EnvironmentSource::parse("none").unwrap(), EnvironmentSource::None);
+        assert_eq!(
+            EnvironmentSource::parse("none").unwrap(),
+            EnvironmentSource::None
+        );
         assert!(matches!(
             EnvironmentSource::parse("a.hdr").unwrap(),
             EnvironmentSource::File(_)

@@ -10,7 +10,8 @@ pub use super::settings::RenderPath;
 pub(crate) use super::settings::{FilterKind, RenderSettings, SamplerKind, SettingsError};
 
 pub use crate::interface::{
-    GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_ENV_BACKGROUND, FLAG_NO_SPECULAR, FLAG_SKY, FLAG_WRITE_AOV,
+    GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_ENV_BACKGROUND, FLAG_NO_SPECULAR, FLAG_SKY,
+    FLAG_WRITE_AOV,
 };
 
 /// Near plane used when the camera has none that fits.

@@ -10,6 +10,7 @@ mod scene_util;
 
 mod animation;
 mod corpus;
+mod environment;
 mod extensions;
 
 use std::path::{Path, PathBuf};
