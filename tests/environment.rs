@@ -424,6 +424,7 @@ fn cli_renders_under_an_environment_file_and_reports_its_preparation() {
     let json = common::run_json(
         std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
             .env("RQR_VALIDATION", "1")
+            .env("RQR_CACHE_DIR", dir.join("cache"))
             .args([
                 "render",
                 "--width",
@@ -438,9 +439,48 @@ fn cli_renders_under_an_environment_file_and_reports_its_preparation() {
             .arg(&out),
     );
     assert!(
-        json["environment_prepare_ms"].as_f64().unwrap() > 0.0,
+        json["environment_prepare"]["total_ms"].as_f64().unwrap() > 0.0,
         "{json}"
     );
     assert!(out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn prepared_textures_come_back_from_the_cache_and_a_corrupt_file_is_rebuilt() {
+    let ctx = common::gpu();
+    let dir = std::env::temp_dir().join(format!("rqr-env-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let map = direction_map(64);
+    let read_all = |env: &GpuEnvironment| {
+        let mut all = Vec::new();
+        for level in 0..5 {
+            all.extend(env.read(&ctx, EnvTexture::Specular, level).unwrap().2);
+        }
+        all.extend(env.read(&ctx, EnvTexture::Irradiance, 0).unwrap().2);
+        all.extend(env.read(&ctx, EnvTexture::Brdf, 0).unwrap().2);
+        all
+    };
+    let first = GpuEnvironment::prepare_cached(&ctx, &map, Some(&dir)).unwrap();
+    assert!(!first.timing.cached);
+    let second = GpuEnvironment::prepare_cached(&ctx, &map, Some(&dir)).unwrap();
+    assert!(
+        second.timing.cached,
+        "the second preparation reads the cache"
+    );
+    assert_eq!(read_all(&first), read_all(&second));
+    // Another map is another file.
+    let other = GpuEnvironment::prepare_cached(&ctx, &direction_map(32), Some(&dir)).unwrap();
+    assert!(!other.timing.cached);
+    // A corrupt file (cut short) is prepared again, giving the same textures.
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    }
+    let rebuilt = GpuEnvironment::prepare_cached(&ctx, &map, Some(&dir)).unwrap();
+    assert!(!rebuilt.timing.cached);
+    assert_eq!(read_all(&first), read_all(&rebuilt));
+    common::assert_validation_clean(&ctx);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -251,25 +251,35 @@ impl ImageArgs {
     }
 }
 
-/// Prepares `map` on the device and lights `renderer` with it; returns the preparation's
-/// milliseconds.
+/// Prepares `map` on the device and lights `renderer` with it; returns how long the
+/// preparation took.
 pub fn light_with(
     ctx: &Context,
     renderer: &mut rqr::render::Renderer,
     map: Option<&EnvironmentMap>,
-) -> Result<Option<f64>> {
+) -> Result<Option<rqr::environment::gpu::PrepareTiming>> {
     let Some(map) = map else {
         return Ok(None);
     };
-    let env = GpuEnvironment::prepare(ctx, map)?;
-    let ms = env.prepare_ms;
-    log::info!(
-        "environment {}x{} prepared in {ms:.1} ms",
-        map.width,
-        map.height
-    );
+    let env = prepare_environment(ctx, map)?;
+    let timing = env.timing;
     renderer.set_environment(ctx, Some(env))?;
-    Ok(Some(ms))
+    Ok(Some(timing))
+}
+
+/// Prepares `map` through the on-disk cache (`RQR_CACHE_DIR` or the user's cache folder).
+pub fn prepare_environment(ctx: &Context, map: &EnvironmentMap) -> Result<GpuEnvironment> {
+    let cache = rqr::environment::gpu::default_cache_dir();
+    let env = GpuEnvironment::prepare_cached(ctx, map, cache.as_deref())?;
+    let t = env.timing;
+    log::info!(
+        "environment {}x{} prepared in {:.1} ms{}",
+        map.width,
+        map.height,
+        t.total_ms,
+        if t.cached { " (from the cache)" } else { "" }
+    );
+    Ok(env)
 }
 
 fn parse_background(s: &str) -> Result<(Vec3, bool), String> {

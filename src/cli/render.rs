@@ -294,7 +294,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "rays_total": out.rays.total(),
             "mrays_per_s": mrays_per_s(&out),
             "acceleration": renderer.backend.stats_json(),
-            "environment_prepare_ms": environment_ms,
+            "environment_prepare": environment_ms,
             "output": args.output,
             "aovs": aovs,
         });
@@ -420,7 +420,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         }
     };
     let prepared = match &environment {
-        Some(map) => Some(rqr::environment::GpuEnvironment::prepare(&ctx, map)?),
+        Some(map) => Some(super::common::prepare_environment(&ctx, map)?),
         None => None,
     };
     let (mut renderer, mut animated_frames) = (renderer, animated_frames);

@@ -1,7 +1,9 @@
 //! An environment map on the GPU: the map with its mip chain, and the textures the Whitted
 //! model's split-sum lighting reads, computed at load by the compute passes of
-//! `shaders/environment/` (one submission).
+//! `shaders/environment/` (one submission), or read from an on-disk cache keyed by the map's
+//! content and the preparation's settings.
 
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use ash::vk;
@@ -15,8 +17,8 @@ use crate::interface::environment::{
 use crate::interface::push_bytes;
 use crate::scene::textures::{barrier, pipeline_barrier};
 use crate::vk::{
-    memory_barrier, Binding, Buffer, ComputePipeline, Context, Image, MemoryLocation, Sampler,
-    VkResult,
+    memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, Image,
+    MemoryLocation, Sampler, VkError, VkResult,
 };
 
 /// GGX samples per texel of the prefiltered levels (filtered importance sampling).
@@ -25,6 +27,8 @@ const SPECULAR_SAMPLES: u32 = 256;
 const BRDF_SAMPLES: u32 = 1024;
 /// The irradiance pass integrates over the first source level at most this many rows high.
 const IRRADIANCE_SOURCE_ROWS: u32 = 32;
+/// Version of the cache files' contents: bump when a preparation pass changes its output.
+const CACHE_VERSION: u32 = 1;
 
 /// The four textures of an environment (`ENV_TEX_*` order) and how long preparing took.
 pub struct GpuEnvironment {
@@ -36,8 +40,21 @@ pub struct GpuEnvironment {
     table_sampler: Sampler,
     /// Width of the map.
     pub width: u32,
-    /// Milliseconds of preparation (host mips, upload and the GPU passes), wall time.
-    pub prepare_ms: f64,
+    /// Where the preparation's time went.
+    pub timing: PrepareTiming,
+}
+
+/// Wall-clock milliseconds of [`GpuEnvironment::prepare_cached`]'s stages.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct PrepareTiming {
+    /// The whole preparation.
+    pub total_ms: f64,
+    /// The map's mip chain on the host.
+    pub mips_ms: f64,
+    /// The upload and the GPU passes (from the cache: the upload of their results).
+    pub gpu_ms: f64,
+    /// Whether the prepared textures came from the on-disk cache.
+    pub cached: bool,
 }
 
 /// Which prepared texture to read back ([`GpuEnvironment::read`]).
@@ -57,45 +74,300 @@ fn level_extent(width: u32, height: u32, level: u32) -> (u32, u32) {
     ((width >> level).max(1), (height >> level).max(1))
 }
 
+/// Where each prepared texture starts in the passes' output, in texels, and their total.
+struct Layout {
+    irradiance: u64,
+    brdf: u64,
+    total: u64,
+}
+
+fn layout() -> Layout {
+    let specular: u64 = (0..ENV_SPECULAR_LEVELS)
+        .map(|l| {
+            let (w, h) = level_extent(ENV_SPECULAR_WIDTH, ENV_SPECULAR_WIDTH / 2, l);
+            u64::from(w * h)
+        })
+        .sum();
+    let irradiance = u64::from(ENV_IRRADIANCE_WIDTH * ENV_IRRADIANCE_WIDTH / 2);
+    Layout {
+        irradiance: specular,
+        brdf: specular + irradiance,
+        total: specular + irradiance + u64::from(ENV_BRDF_SIZE * ENV_BRDF_SIZE),
+    }
+}
+
+/// The on-disk cache of prepared textures: `$RQR_CACHE_DIR/environment`, else the user's
+/// cache directory's `rqr/environment`.
+pub fn default_cache_dir() -> Option<PathBuf> {
+    match std::env::var_os("RQR_CACHE_DIR") {
+        Some(d) if !d.is_empty() => Some(PathBuf::from(d).join("environment")),
+        _ => dirs::cache_dir().map(|d| d.join("rqr").join("environment")),
+    }
+}
+
+/// FNV-1a over the map and every setting that shapes the prepared textures.
+fn cache_key(map: &EnvironmentMap) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for v in [
+        CACHE_VERSION,
+        map.width,
+        map.height,
+        SPECULAR_SAMPLES,
+        BRDF_SAMPLES,
+        IRRADIANCE_SOURCE_ROWS,
+        ENV_SPECULAR_WIDTH,
+        ENV_SPECULAR_LEVELS,
+        ENV_IRRADIANCE_WIDTH,
+        ENV_BRDF_SIZE,
+    ] {
+        eat(&v.to_le_bytes());
+    }
+    eat(bytemuck::cast_slice(&map.texels));
+    h
+}
+
+/// Reads a cache file (the key, then `texels` RGBA32F texels); `None` when absent, and
+/// with a warning when short or for another key: the environment is prepared again and the
+/// file overwritten.
+fn read_cache(path: &Path, key: u64, texels: u64) -> Option<Vec<[f32; 4]>> {
+    let bytes = std::fs::read(path).ok()?;
+    let valid = bytes.len() as u64 == 8 + texels * 16
+        && bytes[..8] == key.to_le_bytes()
+        && bytes[8..]
+            .chunks_exact(4)
+            .all(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]).is_finite());
+    if !valid {
+        log::warn!(
+            "{}: corrupt environment cache file, preparing again",
+            path.display()
+        );
+        return None;
+    }
+    Some(bytemuck::pod_collect_to_vec(&bytes[8..]))
+}
+
+/// Writes a cache file atomically (a temporary name in the same folder, then a rename).
+fn write_cache(path: &Path, key: u64, texels: &[[f32; 4]]) -> std::io::Result<()> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    let mut bytes = key.to_le_bytes().to_vec();
+    bytes.extend_from_slice(bytemuck::cast_slice(texels));
+    std::fs::write(&tmp, &bytes)?;
+    std::fs::rename(&tmp, path)
+}
+
+const NONE: (vk::PipelineStageFlags2, vk::AccessFlags2, vk::ImageLayout) = (
+    vk::PipelineStageFlags2::NONE,
+    vk::AccessFlags2::NONE,
+    vk::ImageLayout::UNDEFINED,
+);
+const TRANSFER_DST: (vk::PipelineStageFlags2, vk::AccessFlags2, vk::ImageLayout) = (
+    vk::PipelineStageFlags2::ALL_TRANSFER,
+    vk::AccessFlags2::TRANSFER_WRITE,
+    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+);
+const TRANSFER_SRC: (vk::PipelineStageFlags2, vk::AccessFlags2, vk::ImageLayout) = (
+    vk::PipelineStageFlags2::ALL_TRANSFER,
+    vk::AccessFlags2::TRANSFER_READ,
+    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+);
+const SHADER_READ: (vk::PipelineStageFlags2, vk::AccessFlags2, vk::ImageLayout) = (
+    vk::PipelineStageFlags2::ALL_COMMANDS,
+    vk::AccessFlags2::SHADER_SAMPLED_READ,
+    vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+);
+
+/// Copies of every level of `image`, stored back to back from texel `first` of a buffer.
+fn level_copies(image: &Image, levels: u32, first: u64) -> Vec<vk::BufferImageCopy> {
+    let mut offset = first * 16;
+    (0..levels)
+        .map(|level| {
+            let (w, h) = level_extent(image.extent.width, image.extent.height, level);
+            let copy = vk::BufferImageCopy::default()
+                .buffer_offset(offset)
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: level,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                })
+                .image_extent(vk::Extent3D {
+                    width: w,
+                    height: h,
+                    depth: 1,
+                });
+            offset += u64::from(w * h) * 16;
+            copy
+        })
+        .collect()
+}
+
+/// The preparation passes and their descriptor sets.
+struct Passes {
+    specular: std::sync::Arc<ComputePipeline>,
+    irradiance: std::sync::Arc<ComputePipeline>,
+    brdf: std::sync::Arc<ComputePipeline>,
+    specular_set: DescriptorSet,
+    irradiance_set: DescriptorSet,
+}
+
+impl Passes {
+    fn new(ctx: &Context, source: (vk::ImageView, vk::Sampler)) -> VkResult<Self> {
+        let source_binding = bindings(&[(BINDING_ENV_SOURCE, Binding::SampledImages(1))]);
+        let push_size = std::mem::size_of::<EnvPreparePush>() as u32;
+        let pipeline = |name: &str, spirv: &[u8], b: &[Binding]| {
+            ComputePipeline::cached(ctx, name, spirv, b, push_size)
+        };
+        let specular = pipeline(
+            "environment specular",
+            crate::shaders::ENV_SPECULAR_COMP,
+            &source_binding,
+        )?;
+        let irradiance = pipeline(
+            "environment irradiance",
+            crate::shaders::ENV_IRRADIANCE_COMP,
+            &source_binding,
+        )?;
+        let brdf = pipeline(
+            "environment BRDF table",
+            crate::shaders::ENV_BRDF_COMP,
+            &bindings(&[]),
+        )?;
+        let specular_set = specular.allocate_set()?;
+        specular_set.sampled_images(BINDING_ENV_SOURCE, &[source]);
+        let irradiance_set = irradiance.allocate_set()?;
+        irradiance_set.sampled_images(BINDING_ENV_SOURCE, &[source]);
+        Ok(Self {
+            specular,
+            irradiance,
+            brdf,
+            specular_set,
+            irradiance_set,
+        })
+    }
+
+    /// Records every pass, writing `out` in [`layout`]'s order.
+    fn record(&self, cmd: vk::CommandBuffer, out: &Buffer, map: &EnvironmentMap, levels: u32) {
+        let at = |texel: u64| out.address() + texel * 16;
+        let groups = |w: u32, h: u32| [w.div_ceil(8), h.div_ceil(8), 1];
+        let mut push = EnvPreparePush {
+            source_width: map.width,
+            source_levels: levels,
+            samples: SPECULAR_SAMPLES,
+            ..Default::default()
+        };
+        let mut first = 0u64;
+        for level in 0..ENV_SPECULAR_LEVELS {
+            let (w, h) = level_extent(ENV_SPECULAR_WIDTH, ENV_SPECULAR_WIDTH / 2, level);
+            push.texels_out = at(first);
+            push.width = w;
+            push.height = h;
+            push.roughness = level as f32 / (ENV_SPECULAR_LEVELS - 1) as f32;
+            let bytes = push_bytes(&push);
+            self.specular
+                .dispatch(cmd, Some(&self.specular_set), bytes, groups(w, h));
+            first += u64::from(w * h);
+        }
+        let l = layout();
+        let (w, h) = (ENV_IRRADIANCE_WIDTH, ENV_IRRADIANCE_WIDTH / 2);
+        push.texels_out = at(l.irradiance);
+        push.width = w;
+        push.height = h;
+        push.source_level = (0..levels)
+            .find(|&l| (map.height >> l).max(1) <= IRRADIANCE_SOURCE_ROWS)
+            .unwrap_or(levels - 1);
+        self.irradiance.dispatch(
+            cmd,
+            Some(&self.irradiance_set),
+            push_bytes(&push),
+            groups(w, h),
+        );
+        push.texels_out = at(l.brdf);
+        push.width = ENV_BRDF_SIZE;
+        push.height = ENV_BRDF_SIZE;
+        push.samples = BRDF_SAMPLES;
+        self.brdf.dispatch(
+            cmd,
+            None,
+            push_bytes(&push),
+            groups(ENV_BRDF_SIZE, ENV_BRDF_SIZE),
+        );
+    }
+}
+
+fn sampler(ctx: &Context, mode_u: vk::SamplerAddressMode, mips: bool) -> VkResult<Sampler> {
+    Sampler::new(
+        ctx,
+        &vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::LINEAR)
+            .min_filter(vk::Filter::LINEAR)
+            .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+            .address_mode_u(mode_u)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .min_lod(0.0)
+            .max_lod(if mips { vk::LOD_CLAMP_NONE } else { 0.25 }),
+    )
+}
+
 impl GpuEnvironment {
-    /// Uploads `map` and prepares its lighting textures. The device memory it needs is
-    /// checked first.
+    /// Uploads `map` and prepares its lighting textures, without a cache.
     pub fn prepare(ctx: &Context, map: &EnvironmentMap) -> VkResult<Self> {
+        Self::prepare_cached(ctx, map, None)
+    }
+
+    /// Uploads `map` and prepares its lighting textures. With `cache_dir`, the prepared
+    /// textures are read from (or written to) a file there named by the content hash of the
+    /// map and the preparation's settings. The device memory it needs is checked first.
+    pub fn prepare_cached(
+        ctx: &Context,
+        map: &EnvironmentMap,
+        cache_dir: Option<&Path>,
+    ) -> VkResult<Self> {
         let start = Instant::now();
-        let spec_w = ENV_SPECULAR_WIDTH;
-        let irr_w = ENV_IRRADIANCE_WIDTH;
-        let out_texels: u64 = (0..ENV_SPECULAR_LEVELS)
-            .map(|l| {
-                let (w, h) = level_extent(spec_w, spec_w / 2, l);
-                u64::from(w * h)
-            })
-            .sum::<u64>()
-            + u64::from(irr_w * irr_w / 2)
-            + u64::from(ENV_BRDF_SIZE * ENV_BRDF_SIZE);
+        let l = layout();
         // The map with its mips twice (image and staging), the prepared texels twice.
         ctx.check_memory(
             "the environment map",
-            2 * map.device_bytes() + 2 * out_texels * 16,
+            2 * map.device_bytes() + 2 * l.total * 16,
         )?;
+        let key = cache_dir.map(|_| cache_key(map));
+        let cache_file = cache_dir
+            .zip(key)
+            .map(|(d, k)| d.join(format!("{k:016x}.bin")));
+        let cached = cache_file
+            .as_deref()
+            .zip(key)
+            .and_then(|(f, k)| read_cache(f, k, l.total));
+
+        let mips_start = Instant::now();
         let chain = map.mip_chain();
+        let mips_ms = mips_start.elapsed().as_secs_f64() * 1e3;
+        let gpu_start = Instant::now();
         let levels = chain.len() as u32;
         let usage = vk::ImageUsageFlags::SAMPLED
             | vk::ImageUsageFlags::TRANSFER_DST
             | vk::ImageUsageFlags::TRANSFER_SRC;
-        let format = vk::Format::R32G32B32A32_SFLOAT;
-        let image = |name: &str, w: u32, h: u32, levels: u32| {
+        let image = |name: &str, width: u32, height: u32, levels: u32| {
+            let extent = vk::Extent2D { width, height };
             Image::new(
                 ctx,
                 name,
-                vk::Extent2D {
-                    width: w,
-                    height: h,
-                },
-                format,
+                extent,
+                vk::Format::R32G32B32A32_SFLOAT,
                 usage,
                 levels,
             )
         };
+        let spec_w = ENV_SPECULAR_WIDTH;
+        let irr_w = ENV_IRRADIANCE_WIDTH;
         let radiance = image("environment map", map.width, map.height, levels)?;
         let specular = image(
             "environment specular",
@@ -105,30 +377,8 @@ impl GpuEnvironment {
         )?;
         let irradiance = image("environment irradiance", irr_w, irr_w / 2, 1)?;
         let brdf = image("environment BRDF table", ENV_BRDF_SIZE, ENV_BRDF_SIZE, 1)?;
-        let map_sampler = Sampler::new(
-            ctx,
-            &vk::SamplerCreateInfo::default()
-                .mag_filter(vk::Filter::LINEAR)
-                .min_filter(vk::Filter::LINEAR)
-                .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
-                .address_mode_u(vk::SamplerAddressMode::REPEAT)
-                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .min_lod(0.0)
-                .max_lod(vk::LOD_CLAMP_NONE),
-        )?;
-        let table_sampler = Sampler::new(
-            ctx,
-            &vk::SamplerCreateInfo::default()
-                .mag_filter(vk::Filter::LINEAR)
-                .min_filter(vk::Filter::LINEAR)
-                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
-                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .min_lod(0.0)
-                .max_lod(0.25),
-        )?;
+        let map_sampler = sampler(ctx, vk::SamplerAddressMode::REPEAT, true)?;
+        let table_sampler = sampler(ctx, vk::SamplerAddressMode::CLAMP_TO_EDGE, false)?;
 
         let texels: Vec<[f32; 4]> = chain.concat();
         let mut staging = Buffer::new(
@@ -139,98 +389,41 @@ impl GpuEnvironment {
             MemoryLocation::CpuToGpu,
         )?;
         staging.write(bytemuck::cast_slice(&texels))?;
-        let out = Buffer::new(
+        let location = if cached.is_some() {
+            MemoryLocation::CpuToGpu
+        } else {
+            MemoryLocation::GpuOnly
+        };
+        let mut out = Buffer::new(
             ctx,
             "environment prepared texels",
-            out_texels * 16,
+            l.total * 16,
             vk::BufferUsageFlags::empty(),
-            MemoryLocation::GpuOnly,
+            location,
         )?;
-
-        let source_binding = bindings(&[(BINDING_ENV_SOURCE, Binding::SampledImages(1))]);
-        let push_size = std::mem::size_of::<EnvPreparePush>() as u32;
-        let specular_pass = ComputePipeline::cached(
-            ctx,
-            "environment specular",
-            crate::shaders::ENV_SPECULAR_COMP,
-            &source_binding,
-            push_size,
-        )?;
-        let irradiance_pass = ComputePipeline::cached(
-            ctx,
-            "environment irradiance",
-            crate::shaders::ENV_IRRADIANCE_COMP,
-            &source_binding,
-            push_size,
-        )?;
-        let brdf_pass = ComputePipeline::cached(
-            ctx,
-            "environment BRDF table",
-            crate::shaders::ENV_BRDF_COMP,
-            &bindings(&[]),
-            push_size,
-        )?;
-        let set = specular_pass.allocate_set()?;
-        set.sampled_images(BINDING_ENV_SOURCE, &[(radiance.view(), map_sampler.raw())]);
-        let irradiance_set = irradiance_pass.allocate_set()?;
-        irradiance_set.sampled_images(BINDING_ENV_SOURCE, &[(radiance.view(), map_sampler.raw())]);
-
-        let irradiance_level = (0..levels)
-            .find(|&l| (map.height >> l).max(1) <= IRRADIANCE_SOURCE_ROWS)
-            .unwrap_or(levels - 1);
-        let device = ctx.device();
-        let none = (
-            vk::PipelineStageFlags2::NONE,
-            vk::AccessFlags2::NONE,
-            vk::ImageLayout::UNDEFINED,
-        );
-        let transfer_dst = (
-            vk::PipelineStageFlags2::ALL_TRANSFER,
-            vk::AccessFlags2::TRANSFER_WRITE,
-            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-        );
-        let shader_read = (
-            vk::PipelineStageFlags2::ALL_COMMANDS,
-            vk::AccessFlags2::SHADER_SAMPLED_READ,
-            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        );
-        let copies_of = |image: &Image, levels: u32, first_offset: u64| {
-            let mut offset = first_offset;
-            (0..levels)
-                .map(|level| {
-                    let (w, h) = level_extent(image.extent.width, image.extent.height, level);
-                    let copy = vk::BufferImageCopy::default()
-                        .buffer_offset(offset)
-                        .image_subresource(vk::ImageSubresourceLayers {
-                            aspect_mask: vk::ImageAspectFlags::COLOR,
-                            mip_level: level,
-                            base_array_layer: 0,
-                            layer_count: 1,
-                        })
-                        .image_extent(vk::Extent3D {
-                            width: w,
-                            height: h,
-                            depth: 1,
-                        });
-                    offset += u64::from(w * h) * 16;
-                    copy
-                })
-                .collect::<Vec<_>>()
+        let passes = match &cached {
+            Some(texels) => {
+                out.write(bytemuck::cast_slice(texels))?;
+                None
+            }
+            None => Some(Passes::new(ctx, (radiance.view(), map_sampler.raw()))?),
         };
+
+        let device = ctx.device();
         ctx.run("environment preparation", |cmd| {
             pipeline_barrier(
                 device,
                 cmd,
                 &[
-                    barrier(radiance.raw(), 0..levels, none, transfer_dst),
-                    barrier(specular.raw(), 0..ENV_SPECULAR_LEVELS, none, transfer_dst),
-                    barrier(irradiance.raw(), 0..1, none, transfer_dst),
-                    barrier(brdf.raw(), 0..1, none, transfer_dst),
+                    barrier(radiance.raw(), 0..levels, NONE, TRANSFER_DST),
+                    barrier(specular.raw(), 0..ENV_SPECULAR_LEVELS, NONE, TRANSFER_DST),
+                    barrier(irradiance.raw(), 0..1, NONE, TRANSFER_DST),
+                    barrier(brdf.raw(), 0..1, NONE, TRANSFER_DST),
                 ],
             );
-            let copies = copies_of(&radiance, levels, 0);
+            let copies = level_copies(&radiance, levels, 0);
             // SAFETY: the staging buffer holds every level back to back, 16 bytes a texel, at
-            // the offsets `copies_of` computes from the same extents; the image is TRANSFER_DST.
+            // the offsets `level_copies` computes from the same extents; TRANSFER_DST layout.
             unsafe {
                 device.cmd_copy_buffer_to_image(
                     cmd,
@@ -246,63 +439,23 @@ impl GpuEnvironment {
                 &[barrier(
                     radiance.raw(),
                     0..levels,
-                    transfer_dst,
-                    shader_read,
+                    TRANSFER_DST,
+                    SHADER_READ,
                 )],
             );
-            let mut offset = 0u64;
-            let mut push = EnvPreparePush {
-                source_width: map.width,
-                source_levels: levels,
-                samples: SPECULAR_SAMPLES,
-                ..Default::default()
-            };
-            for level in 0..ENV_SPECULAR_LEVELS {
-                let (w, h) = level_extent(spec_w, spec_w / 2, level);
-                push.texels_out = out.address() + offset;
-                push.width = w;
-                push.height = h;
-                push.roughness = level as f32 / (ENV_SPECULAR_LEVELS - 1) as f32;
-                specular_pass.dispatch(
-                    cmd,
-                    Some(&set),
-                    push_bytes(&push),
-                    [w.div_ceil(8), h.div_ceil(8), 1],
-                );
-                offset += u64::from(w * h) * 16;
+            if let Some(passes) = &passes {
+                passes.record(cmd, &out, map, levels);
             }
-            let irradiance_offset = offset;
-            push.texels_out = out.address() + offset;
-            push.width = irr_w;
-            push.height = irr_w / 2;
-            push.source_level = irradiance_level;
-            irradiance_pass.dispatch(
-                cmd,
-                Some(&irradiance_set),
-                push_bytes(&push),
-                [irr_w.div_ceil(8), (irr_w / 2).div_ceil(8), 1],
-            );
-            offset += u64::from(irr_w * irr_w / 2) * 16;
-            let brdf_offset = offset;
-            push.texels_out = out.address() + offset;
-            push.width = ENV_BRDF_SIZE;
-            push.height = ENV_BRDF_SIZE;
-            push.samples = BRDF_SAMPLES;
-            brdf_pass.dispatch(
-                cmd,
-                None,
-                push_bytes(&push),
-                [ENV_BRDF_SIZE.div_ceil(8), ENV_BRDF_SIZE.div_ceil(8), 1],
-            );
             memory_barrier(device, cmd);
-            for (image, levels, at) in [
+            for (image, levels, first) in [
                 (&specular, ENV_SPECULAR_LEVELS, 0),
-                (&irradiance, 1, irradiance_offset),
-                (&brdf, 1, brdf_offset),
+                (&irradiance, 1, l.irradiance),
+                (&brdf, 1, l.brdf),
             ] {
-                let copies = copies_of(image, levels, at);
-                // SAFETY: `out` holds each texture's levels back to back from `at`, written
-                // by the passes above with the same extents; the barrier made them visible.
+                let copies = level_copies(image, levels, first);
+                // SAFETY: `out` holds each texture's levels back to back from `first`,
+                // written by the passes (or from the cache) with the same extents; the
+                // barrier made them visible; TRANSFER_DST layout.
                 unsafe {
                     device.cmd_copy_buffer_to_image(
                         cmd,
@@ -320,15 +473,25 @@ impl GpuEnvironment {
                     barrier(
                         specular.raw(),
                         0..ENV_SPECULAR_LEVELS,
-                        transfer_dst,
-                        shader_read,
+                        TRANSFER_DST,
+                        SHADER_READ,
                     ),
-                    barrier(irradiance.raw(), 0..1, transfer_dst, shader_read),
-                    barrier(brdf.raw(), 0..1, transfer_dst, shader_read),
+                    barrier(irradiance.raw(), 0..1, TRANSFER_DST, SHADER_READ),
+                    barrier(brdf.raw(), 0..1, TRANSFER_DST, SHADER_READ),
                 ],
             );
             Ok(())
         })?;
+        let gpu_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
+        if let (Some(file), Some(k), true) = (&cache_file, key, passes.is_some()) {
+            let written = read_buffer(ctx, &out, l.total)
+                .map_err(|e| std::io::Error::other(e.to_string()))
+                .and_then(|texels| write_cache(file, k, &texels));
+            match written {
+                Ok(()) => log::debug!("environment cached in {}", file.display()),
+                Err(e) => log::warn!("cannot cache the environment in {}: {e}", file.display()),
+            }
+        }
         Ok(Self {
             radiance,
             specular,
@@ -337,7 +500,12 @@ impl GpuEnvironment {
             map_sampler,
             table_sampler,
             width: map.width,
-            prepare_ms: start.elapsed().as_secs_f64() * 1e3,
+            timing: PrepareTiming {
+                total_ms: start.elapsed().as_secs_f64() * 1e3,
+                mips_ms,
+                gpu_ms,
+                cached: passes.is_none(),
+            },
         })
     }
 
@@ -374,16 +542,6 @@ impl GpuEnvironment {
             vk::BufferUsageFlags::empty(),
             MemoryLocation::GpuToCpu,
         )?;
-        let shader_read = (
-            vk::PipelineStageFlags2::ALL_COMMANDS,
-            vk::AccessFlags2::SHADER_SAMPLED_READ,
-            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        );
-        let transfer_src = (
-            vk::PipelineStageFlags2::ALL_TRANSFER,
-            vk::AccessFlags2::TRANSFER_READ,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-        );
         let device = ctx.device();
         ctx.run("environment readback", |cmd| {
             let levels = level..level + 1;
@@ -393,8 +551,8 @@ impl GpuEnvironment {
                 &[barrier(
                     image.raw(),
                     levels.clone(),
-                    shader_read,
-                    transfer_src,
+                    SHADER_READ,
+                    TRANSFER_SRC,
                 )],
             );
             let region = vk::BufferImageCopy::default()
@@ -423,7 +581,7 @@ impl GpuEnvironment {
             pipeline_barrier(
                 device,
                 cmd,
-                &[barrier(image.raw(), levels, transfer_src, shader_read)],
+                &[barrier(image.raw(), levels, TRANSFER_SRC, SHADER_READ)],
             );
             crate::vk::host_read_barrier(device, cmd);
             Ok(())
@@ -433,4 +591,28 @@ impl GpuEnvironment {
         })?;
         Ok((w, h, texels))
     }
+}
+
+/// Copies `texels` RGBA32F texels of a GPU buffer back to the host.
+fn read_buffer(ctx: &Context, buffer: &Buffer, texels: u64) -> VkResult<Vec<[f32; 4]>> {
+    let staging = Buffer::new(
+        ctx,
+        "environment cache readback",
+        texels * 16,
+        vk::BufferUsageFlags::empty(),
+        MemoryLocation::GpuToCpu,
+    )?;
+    ctx.run("environment cache readback", |cmd| {
+        let region = vk::BufferCopy::default().size(texels * 16);
+        // SAFETY: both buffers hold at least `texels * 16` bytes and have transfer usage.
+        unsafe {
+            ctx.device()
+                .cmd_copy_buffer(cmd, buffer.raw(), staging.raw(), &[region])
+        };
+        crate::vk::host_read_barrier(ctx.device(), cmd);
+        Ok(())
+    })?;
+    staging
+        .mapped_read(0, texels as usize)
+        .ok_or_else(|| VkError::Limit("readback buffer is not host-visible".into()))
 }
