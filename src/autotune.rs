@@ -181,8 +181,9 @@ struct CacheFile {
 /// Why a cache file could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum CacheError {
-    /// Reading or writing failed.
-    #[error("{path}: {source}")]
+    /// Reading or writing failed (the OS error is the source, printed by
+    /// [`crate::error_chain`]).
+    #[error("{path}: cannot read or write the autotune cache")]
     Io {
         /// The file.
         path: String,
@@ -275,7 +276,7 @@ pub fn cached_decision(device: &DeviceInfo) -> Decision {
         Ok(Some(m)) => decide(&m, device),
         Ok(None) => rule(device, "not measured on this device yet"),
         Err(e) => {
-            log::warn!("autotune cache unusable: {e}");
+            log::warn!("autotune cache unusable: {}", crate::error_chain(&e));
             rule(device, "autotune cache unusable")
         }
     }
@@ -301,7 +302,10 @@ pub fn decision(ctx: &Context) -> Decision {
         match load(path, &key) {
             Ok(Some(m)) => return decide(&m, device),
             Ok(None) => {}
-            Err(e) => log::warn!("autotune cache unusable, measuring again: {e}"),
+            Err(e) => log::warn!(
+                "autotune cache unusable, measuring again: {}",
+                crate::error_chain(&e)
+            ),
         }
     }
     log::info!(
@@ -322,7 +326,10 @@ pub fn decision(ctx: &Context) -> Decision {
     match &path {
         Some(path) => {
             if let Err(e) = store(path, &key, &m) {
-                log::warn!("cannot write the autotune cache: {e}");
+                log::warn!(
+                    "cannot write the autotune cache: {}",
+                    crate::error_chain(&e)
+                );
             }
         }
         None => log::warn!("no user cache directory; autotune results are not kept"),
