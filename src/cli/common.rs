@@ -113,10 +113,6 @@ pub struct DeviceArgs {
     /// auto (GPU build on discrete/integrated GPUs, host build on CPU devices like lavapipe).
     #[arg(long, value_enum, default_value_t = BvhBuildChoice::Auto)]
     pub bvh_build: BvhBuildChoice,
-    /// Hybrid path: what rasterizes primary visibility (`graphics` pipeline, `compute`
-    /// rasterizer, or `auto`: the faster one as measured on first use of the device).
-    #[arg(long, value_enum, default_value_t = RasterChoice::Auto)]
-    pub raster: RasterChoice,
     /// GPU fence timeout per submission, in milliseconds.
     #[arg(long, default_value_t = 120_000, value_parser = clap::value_parser!(u64).range(1..))]
     pub timeout_ms: u64,
@@ -152,17 +148,6 @@ impl DeviceArgs {
             return Ok((d.backend, d.backend_reason));
         }
         Ok(self.backend.resolve(ctx.info())?)
-    }
-
-    /// Resolves `--raster` on the opened device: `auto` by measurement.
-    pub fn raster(&self, ctx: &Context) -> (RasterMode, String) {
-        match self.raster.forced() {
-            Some(mode) => (mode, format!("forced by --raster {}", mode.as_str())),
-            None => {
-                let d = rqr::autotune::decision(ctx);
-                (d.raster, d.raster_reason)
-            }
-        }
     }
 }
 
@@ -298,9 +283,23 @@ pub struct ImageArgs {
     /// material is evaluated in the shading pass; `full`: the classic 7-attachment G-buffer).
     #[arg(long, value_enum, default_value_t = GbufferLayout::Visibility)]
     pub gbuffer: GbufferLayout,
+    /// Hybrid path: what rasterizes primary visibility (`graphics` pipeline, `compute`
+    /// rasterizer, or `auto`: the faster one as measured on first use of the device).
+    #[arg(long, value_enum, default_value_t = RasterChoice::Auto)]
+    pub raster: RasterChoice,
 }
 
 impl ImageArgs {
+    /// Resolves `--raster` on the opened device: `auto` by measurement.
+    pub fn raster(&self, ctx: &Context) -> (RasterMode, String) {
+        match self.raster.forced() {
+            Some(mode) => (mode, format!("forced by --raster {}", mode.as_str())),
+            None => {
+                let d = rqr::autotune::decision(ctx);
+                (d.raster, d.raster_reason)
+            }
+        }
+    }
     /// Render settings; ranges are checked here, before any GPU work.
     pub fn settings(&self) -> Result<RenderSettings> {
         let s = RenderSettings {
@@ -322,7 +321,7 @@ impl ImageArgs {
             tonemap: self.tonemap,
             exposure: self.exposure,
             gbuffer: self.gbuffer,
-            // Resolved on the opened device (DeviceArgs::raster).
+            // Resolved on the opened device (ImageArgs::raster).
             raster: Default::default(),
         };
         s.validate(MAX_SIDE)?;

@@ -245,7 +245,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let ctx = args.device.open()?;
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
-    let (raster, raster_reason) = args.device.raster(&ctx);
+    let (raster, raster_reason) = args.image.raster(&ctx);
     if matches!(args.mode, RenderPath::Hybrid) {
         log::info!("visibility pass: {} ({raster_reason})", raster.as_str());
     }
@@ -345,6 +345,9 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let animated = deformable && rest.animation_moves_geometry(&animations);
     if animated {
         check_animated_sequence(args, &reuse)?;
+        // Samples on moving geometry move with their objects: the anchors are checked with
+        // the sample cache before anything is allocated.
+        reuse.moving_geometry = true;
     }
     // Frame k of an animated scene shows it at k / --fps seconds.
     let pose_at = |k: u32| match deformable {
@@ -430,10 +433,6 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         path.clone(),
         options,
     )?;
-    if animated {
-        // Samples on moving geometry move with their objects.
-        sequence.track_moving_geometry(&ctx)?;
-    }
     let bar = indicatif::ProgressBar::new(u64::from(range.end - range.start));
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {elapsed} {msg}")
