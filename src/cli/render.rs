@@ -167,6 +167,8 @@ impl SequenceArgs {
             max_age: self.max_age,
             rt_visibility: self.rt_visibility,
             linear_color: true,
+            // Set once the scene is loaded (an animation that moves geometry).
+            moving_geometry: false,
         }
     }
 }

@@ -46,7 +46,8 @@ impl RenderSettings {
         match path {
             RenderPath::RayTraced => {
                 let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1);
-                pixels.saturating_mul(RGBA32F + aov + tonemapped)
+                pixels
+                    .saturating_mul(RGBA32F + aov + tonemapped)
                     .saturating_add(corners.saturating_mul(RGBA32F))
             }
             RenderPath::Hybrid => {

@@ -207,7 +207,7 @@ impl Reprojector {
             options.moving_geometry,
             ctx.allocated_bytes(),
         )
-            .map_err(|e| VkError::Limit(e.to_string()))?;
+        .map_err(|e| VkError::Limit(e.to_string()))?;
         options.validate().map_err(VkError::Limit)?;
         if settings.spp != 1 || settings.sampler != SamplerKind::Center {
             return Err(VkError::Limit(
