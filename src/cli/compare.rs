@@ -164,11 +164,12 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let mut settings = args.image.settings()?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("cannot create output directory '{}'", args.output.display()))?;
-    let scene = args.scene.load()?;
+    let mut scene = args.scene.load()?;
     let camera = args
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
     let ctx = args.device.open()?;
+    args.scene.apply_texture_format(&ctx, &mut [&mut scene]);
     let (first, _) = args.device.backend(&ctx)?;
     settings.raster = args.image.raster(&ctx).0;
     let mut backends = vec![first];

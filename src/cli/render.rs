@@ -240,11 +240,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         return run_sequence(args, &ext);
     }
     check_output_file(&args.output)?;
-    let scene = args.scene.load()?;
+    let mut scene = args.scene.load()?;
     let camera = args
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
     let ctx = args.device.open()?;
+    let textures = args.scene.apply_texture_format(&ctx, &mut [&mut scene]);
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
     let (raster, raster_reason) = args.image.raster(&ctx);
@@ -285,6 +286,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "gbuffer": matches!(args.mode, RenderPath::Hybrid).then_some(settings.gbuffer),
             "raster": matches!(args.mode, RenderPath::Hybrid).then_some(settings.raster),
             "raster_reason": matches!(args.mode, RenderPath::Hybrid).then_some(raster_reason),
+            "texture_format": textures.as_ref().map(|t| t.0),
+            "texture_format_reason": textures.map(|t| t.1),
             "gpu_ms": out.gpu_ms.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
             "total_gpu_ms": out.total_ms(),
             "rays": out.rays,
@@ -340,7 +343,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         }
     }
     check_output_file(&frame_path(&args.output, range.start))?;
-    let (rest, animations) = args.scene.load_rest()?;
+    let (mut rest, animations) = args.scene.load_rest()?;
     // A skinned or morphed scene is posed even without animation (the bind pose is not the
     // rest pose); it changes between frames only when an animation moves more than cameras.
     let deformable = rest.is_animated();
@@ -356,7 +359,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         true => rest.posed(&animations, k as f32 / seq.fps),
         false => rest.clone(),
     };
-    let scene = pose_at(range.start);
+    let mut scene = pose_at(range.start);
     let aspect = settings.width as f32 / settings.height as f32;
     let base = args.camera.resolve(&scene, aspect)?;
     let path = match seq.camera_path {
@@ -389,6 +392,9 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         }
     };
     let ctx = args.device.open()?;
+    // The animated renderer uploads the rest pose's textures, the others the posed scene's.
+    args.scene
+        .apply_texture_format(&ctx, &mut [&mut rest, &mut scene]);
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
     // An animated scene keeps one renderer whose vertices and acceleration structures are

@@ -547,4 +547,19 @@ impl Scene {
     pub fn unique_triangle_count(&self) -> usize {
         self.geometries.iter().map(Geometry::triangle_count).sum()
     }
+
+    /// Images that keep their KTX2 file ([`ImageData::ktx2`]): what `--texture-format`
+    /// decides for.
+    pub fn ktx2_image_count(&self) -> usize {
+        self.images.iter().filter(|i| i.ktx2.is_some()).count()
+    }
+
+    /// Forgets every image's KTX2 file, so that the upload takes the RGBA8 levels decoded at
+    /// load instead of transcoding to a block format: `--texture-format rgba8` applied after
+    /// loading (how `auto` applies a device's measured choice of RGBA8).
+    pub fn drop_ktx2_files(&mut self) {
+        for image in &mut self.images {
+            image.ktx2 = None;
+        }
+    }
 }
