@@ -1,7 +1,8 @@
 //! Uploads a scene's images as sampled Vulkan images with full mip chains, and creates one
 //! sampler per distinct glTF sampler state, for a bindless `sampler2D textures[]` array.
-//! Images loaded from KTX2 files upload as BC7 (or ASTC 4x4) blocks with the file's levels
-//! where the device samples that format, else as RGBA8.
+//! Images that keep their KTX2 file upload as BC7 (or ASTC 4x4) blocks with the file's levels
+//! where the device samples that format, else as RGBA8 (`--texture-format`, whose `auto`
+//! drops the files first where RGBA8 measured faster: [`Scene::drop_ktx2_files`]).
 
 use std::collections::HashMap;
 
@@ -402,35 +403,6 @@ impl GpuTextures {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mip_chain_lengths() {
-        assert_eq!(mip_levels(1, 1), 1);
-        assert_eq!(mip_levels(2, 1), 2);
-        assert_eq!(mip_levels(256, 256), 9);
-        assert_eq!(mip_levels(300, 17), 9);
-        assert_eq!(mip_levels(16384, 1), 15);
-    }
-
-    #[test]
-    fn sampler_without_mipmaps_clamps_lod() {
-        let s = SamplerState {
-            mipmaps: false,
-            ..Default::default()
-        };
-        let info = sampler_create_info(&s);
-        assert_eq!(info.max_lod, 0.25);
-        assert_eq!(info.mipmap_mode, vk::SamplerMipmapMode::NEAREST);
-        let t = sampler_create_info(&SamplerState::default());
-        assert_eq!(t.max_lod, vk::LOD_CLAMP_NONE);
-        assert_eq!(t.mipmap_mode, vk::SamplerMipmapMode::LINEAR);
-        assert_eq!(t.anisotropy_enable, vk::FALSE);
-    }
-}
-
 /// Uploads one image (`label` names it in errors and debug names): its stored levels, or
 /// level 0 and a chain generated with linear blits; left in `SHADER_READ_ONLY_OPTIMAL`.
 fn upload_image(ctx: &Context, label: &str, img: &ImageData, texels: &Texels) -> VkResult<Image> {
@@ -615,4 +587,33 @@ pub(crate) fn upload_levels(
         _ => Texels::Blocks(format, levels.iter().map(|l| l.to_vec()).collect()),
     };
     upload_image(ctx, label, &img, &texels)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mip_chain_lengths() {
+        assert_eq!(mip_levels(1, 1), 1);
+        assert_eq!(mip_levels(2, 1), 2);
+        assert_eq!(mip_levels(256, 256), 9);
+        assert_eq!(mip_levels(300, 17), 9);
+        assert_eq!(mip_levels(16384, 1), 15);
+    }
+
+    #[test]
+    fn sampler_without_mipmaps_clamps_lod() {
+        let s = SamplerState {
+            mipmaps: false,
+            ..Default::default()
+        };
+        let info = sampler_create_info(&s);
+        assert_eq!(info.max_lod, 0.25);
+        assert_eq!(info.mipmap_mode, vk::SamplerMipmapMode::NEAREST);
+        let t = sampler_create_info(&SamplerState::default());
+        assert_eq!(t.max_lod, vk::LOD_CLAMP_NONE);
+        assert_eq!(t.mipmap_mode, vk::SamplerMipmapMode::LINEAR);
+        assert_eq!(t.anisotropy_enable, vk::FALSE);
+    }
 }

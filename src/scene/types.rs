@@ -411,8 +411,9 @@ pub struct ImageData {
     pub srgb: bool,
     /// The KTX2 file (KHR_texture_basisu) `rgba8` and `mips` were transcoded from, kept so
     /// that the upload can transcode it again to a block format the device samples (BC7,
-    /// ASTC 4x4) instead of uploading RGBA8; `None` for other images, and when loaded with
-    /// [`TextureFormat::Rgba8`](super::textures::TextureFormat::Rgba8).
+    /// ASTC 4x4) instead of uploading RGBA8; `None` for other images, when loaded with
+    /// [`TextureFormat::Rgba8`](super::textures::TextureFormat::Rgba8), and after
+    /// [`Scene::drop_ktx2_files`].
     pub ktx2: Option<std::sync::Arc<[u8]>>,
 }
 
