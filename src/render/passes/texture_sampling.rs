@@ -3,9 +3,11 @@
 //! each sampled by one short dispatch (`shaders/texture_sampling.comp`), timed with GPU
 //! timestamps, the two alternating.
 //!
-//! The texture is noise, so no block compresses to a constant colour (on lavapipe BC7 costs
-//! a software decode per texel fetch, whatever the colours); its blocks are random bytes,
-//! which decode to every BC7 / ASTC mode, as real textures use them.
+//! The texture is noise: its RGBA8 texels and its blocks are random bytes. Random BC7 blocks
+//! cover every BC7 mode, as real textures use them (lavapipe decodes each fetched block in
+//! software, whatever its colours). Many random ASTC blocks are void-extent or error blocks;
+//! ASTC is only chosen on devices without BC7 (mobile GPUs), which decode it in hardware at
+//! the same cost per block.
 
 use std::sync::Arc;
 
