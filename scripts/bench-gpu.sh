@@ -25,6 +25,8 @@
 #   BVH build     GPU vs host build of the 1M and 100k bumpy spheres (build ms per phase, trace
 #                 Mrays/s); `rqr render` of the 1M mesh end to end.
 #   animation     per-frame animation update of CesiumMan (skin/morph + acceleration structures).
+#   textures      the autotune measurement of BC7 against RGBA8 sampling, in a cache of its
+#                 own (`rqr probe --json`: texture_block_ms, texture_rgba8_ms, texture_format).
 set -u
 OUT=${OUT:-/tmp/gpu-out}
 mkdir -p "$OUT"
@@ -115,6 +117,11 @@ step render_1m_auto 60 "$RQR" render "$MESHES/bumpy_sphere_1m.glb" $CAM --width 
 
 # Animation: animated frames (per-pass animation cost is in the JSON lines).
 step anim_cesiumman 120 "$RQR" render assets/gltf/CesiumMan/CesiumMan.glb --width "$W" --height "$H" --frames "$FRAMES" --json -o /tmp/bench-gpu-images/cm.png
+
+# Texture format: a first run in an empty cache measures (BC7 vs RGBA8 sampling among the rest).
+step texture_measure 180 env RQR_NO_AUTOTUNE=0 XDG_CACHE_HOME="$R/autotune-cache" "$RQR" render --width 64 --height 64 -o /tmp/gic/tex.png
+step texture_probe 30 env RQR_NO_AUTOTUNE=0 XDG_CACHE_HOME="$R/autotune-cache" "$RQR" probe --json
+grep -E '"texture_(format|block_ms|rgba8_ms)' "$R/texture_probe.out" || true
 
 find "$R" -name '*.png' -delete
 pack

@@ -1,18 +1,21 @@
-//! `--backend auto` and `--raster auto` decided by measurement: the first time rqr meets a
-//! device and driver version it times a small fixed workload (the built-in scene at
-//! [`MEASURE_SIZE`]², the default recursion depth, as `render` and `compare` run it): the
-//! ray-traced frame on `hw` and on `bvh`, frames of the two alternating so that a device whose
-//! speed drifts (a CPU device on a shared machine, a GPU changing clocks) slows both alike, and
-//! the hybrid path's visibility pass on the graphics pipeline and on the compute rasterizer
-//! (each configuration keeps the median of its timed frames); and the compute BVH's build on
-//! the host and on the GPU over a fixed procedural mesh ([`BUILD_MESH_STACKS`]² sphere, wall
-//! time of each whole build). The numbers
+//! `--backend auto`, `--raster auto`, `--bvh-build auto` and `--texture-format auto` decided
+//! by measurement: the first time rqr meets a device and driver version it times a small fixed
+//! workload (the built-in scene at [`MEASURE_SIZE`]², the default recursion depth, as `render`
+//! and `compare` run it): the ray-traced frame on `hw` and on `bvh`, frames of the two
+//! alternating so that a device whose speed drifts (a CPU device on a shared machine, a GPU
+//! changing clocks) slows both alike, and the hybrid path's visibility pass on the graphics
+//! pipeline and on the compute rasterizer (each configuration keeps the median of its timed
+//! frames); the compute BVH's build on the host and on the GPU over a fixed procedural mesh
+//! ([`BUILD_MESH_STACKS`]² sphere, wall time of each whole build); and one short dispatch
+//! sampling a small texture in the device's block format (BC7, else ASTC 4x4) and as RGBA8
+//! ([`crate::render::passes::texture_sampling`], alternating, medians). The numbers
 //! are cached as JSON in the user's cache directory (`$XDG_CACHE_HOME/rqr/autotune.json`),
 //! keyed by device UUID and driver version, and every later run decides from them.
 //!
 //! `RQR_NO_AUTOTUNE=1` skips all of this and applies the feature rule (`hw` where the device
-//! has ray queries, graphics visibility). A cache that is missing, corrupt, from another format
-//! or unwritable only costs a warning and a measurement (or the rule when measuring fails).
+//! has ray queries, graphics visibility, the device-type rules of the BVH build and the
+//! texture format). A cache that is missing, corrupt, from another format or unwritable only
+//! costs a warning and a measurement (or the rule when measuring fails).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -23,13 +26,21 @@ use serde::{Deserialize, Serialize};
 use crate::accel::bvh::{BvhBuild, BvhBuildChoice};
 use crate::accel::Backend;
 use crate::render::passes::raster_compute::RasterMode;
+use crate::scene::TextureFormat;
 use crate::vk::{Context, DeviceInfo};
 
 /// Format of the cache file; a file of another format is ignored and rewritten. Format 2: the
 /// frames are measured at the default depth, alternating, median (format 1 measured depth 1,
 /// where `hw` and `bvh` are close on lavapipe and a noisy minimum picked the slower one for
-/// `compare`), and the BVH build times are added.
-pub const CACHE_FORMAT: u32 = 2;
+/// `compare`), and the BVH build times are added. Format 3: the texture-sampling times
+/// (`texture_block_ms`, `texture_rgba8_ms`) are added.
+pub const CACHE_FORMAT: u32 = 3;
+/// `--texture-format auto` takes RGBA8 only when its sampling measured faster than the block
+/// format's by more than this factor: a block format takes a quarter of the memory and, on a
+/// GPU that samples it natively, less bandwidth on textures larger than the measured one,
+/// and a dispatch of well under a millisecond on a GPU varies by more than a few percent
+/// between runs. (lavapipe decodes BC7 in software: RGBA8 measures about 4x faster there.)
+pub const TEXTURE_RGBA8_MARGIN: f64 = 1.25;
 /// Stacks (and slices) of the sphere whose BVH builds are timed (2 · 128 · 127 = 32 512
 /// triangles).
 pub const BUILD_MESH_STACKS: u32 = 128;
@@ -59,6 +70,10 @@ pub struct Decision {
     pub bvh_build: BvhBuild,
     /// Why.
     pub bvh_build_reason: String,
+    /// How KTX2 textures upload: [`TextureFormat::Block`] or [`TextureFormat::Rgba8`].
+    pub texture_format: TextureFormat,
+    /// Why.
+    pub texture_format_reason: String,
     /// The numbers behind the decision (`None`: the feature rule decided).
     pub measured: Option<Measurement>,
 }
@@ -86,6 +101,7 @@ pub fn rule(device: &DeviceInfo, why: &str) -> Decision {
         )
     };
     let (bvh_build, build_reason) = BvhBuildChoice::Auto.resolve(device);
+    let (texture_format, texture_why) = texture_rule(device);
     Decision {
         backend,
         backend_reason: format!("auto (feature rule, {why}): {features}"),
@@ -93,12 +109,77 @@ pub fn rule(device: &DeviceInfo, why: &str) -> Decision {
         raster_reason: format!("auto (feature rule, {why}): graphics pipeline"),
         bvh_build,
         bvh_build_reason: format!("{build_reason} (device-type rule, {why})"),
+        texture_format,
+        texture_format_reason: format!("auto (device-type rule, {why}): {texture_why}"),
         measured: None,
     }
 }
 
+/// The texture format without a measurement: RGBA8 where the device samples no block
+/// format, and on CPU devices (which decode block formats in software per texel fetch),
+/// else the device's block format.
+fn texture_rule(device: &DeviceInfo) -> (TextureFormat, String) {
+    match crate::scene::textures::block_format_name(device) {
+        None => (
+            TextureFormat::Rgba8,
+            "the device samples no block format (BC7, ASTC 4x4): RGBA8".into(),
+        ),
+        Some(block) if device.device_type == "cpu" => (
+            TextureFormat::Rgba8,
+            format!("a CPU device decodes {block} in software: RGBA8"),
+        ),
+        Some(block) => (TextureFormat::Block, format!("{block} blocks")),
+    }
+}
+
+/// The texture format from measured sampling times: the block format unless RGBA8 measured
+/// faster by more than [`TEXTURE_RGBA8_MARGIN`].
+fn texture_decision(m: &Measurement, device: &DeviceInfo) -> (TextureFormat, String) {
+    let sampled = format!(
+        "{}x{} texture, {}x{} invocations x {} trilinear samples",
+        crate::render::passes::texture_sampling::TEXTURE_SIDE,
+        crate::render::passes::texture_sampling::TEXTURE_SIDE,
+        crate::render::passes::texture_sampling::DISPATCH_SIDE,
+        crate::render::passes::texture_sampling::DISPATCH_SIDE,
+        crate::render::passes::texture_sampling::SAMPLES_PER_INVOCATION,
+    );
+    let rgba8 = m.texture_rgba8_ms;
+    match (
+        crate::scene::textures::block_format_name(device),
+        m.texture_block_ms,
+    ) {
+        (None, _) => (
+            TextureFormat::Rgba8,
+            "auto: the device samples no block format (BC7, ASTC 4x4): RGBA8".into(),
+        ),
+        (Some(block), Some(block_ms)) => {
+            let format = if rgba8 * TEXTURE_RGBA8_MARGIN < block_ms {
+                TextureFormat::Rgba8
+            } else {
+                TextureFormat::Block
+            };
+            (
+                format,
+                format!(
+                    "auto (measured): sampling {block_ms:.3} ms {block} vs {rgba8:.3} ms RGBA8 ({sampled}; RGBA8 only when over {TEXTURE_RGBA8_MARGIN}x faster)"
+                ),
+            )
+        }
+        // A cache written where the device sampled no block format (or edited): the rule.
+        (Some(_), None) => {
+            let (format, why) = texture_rule(device);
+            (
+                format,
+                format!("auto (device-type rule, block format not measured): {why}"),
+            )
+        }
+    }
+}
+
 /// Decides from measured numbers: the faster ray backend (ties to `hw`), the faster
-/// visibility pass (ties to graphics) and the faster BVH build (ties to the host build).
+/// visibility pass (ties to graphics), the faster BVH build (ties to the host build) and the
+/// texture format (the block format unless RGBA8 samples over [`TEXTURE_RGBA8_MARGIN`]
+/// times faster).
 pub fn decide(m: &Measurement, device: &DeviceInfo) -> Decision {
     let hw_ok = device.ray_query && device.acceleration_structure;
     let size = format!(
@@ -139,7 +220,10 @@ pub fn decide(m: &Measurement, device: &DeviceInfo) -> Decision {
         BvhBuild::Host
     };
     let triangles = 2 * BUILD_MESH_STACKS * (BUILD_MESH_STACKS - 1);
+    let (texture_format, texture_format_reason) = texture_decision(m, device);
     Decision {
+        texture_format,
+        texture_format_reason,
         backend,
         backend_reason,
         bvh_build,
@@ -181,8 +265,9 @@ struct CacheFile {
 /// Why a cache file could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum CacheError {
-    /// Reading or writing failed.
-    #[error("{path}: {source}")]
+    /// Reading or writing failed (the OS error is the source, printed by
+    /// [`crate::error_chain`]).
+    #[error("{path}: cannot read or write the autotune cache")]
     Io {
         /// The file.
         path: String,
@@ -275,7 +360,7 @@ pub fn cached_decision(device: &DeviceInfo) -> Decision {
         Ok(Some(m)) => decide(&m, device),
         Ok(None) => rule(device, "not measured on this device yet"),
         Err(e) => {
-            log::warn!("autotune cache unusable: {e}");
+            log::warn!("autotune cache unusable: {}", crate::error_chain(&e));
             rule(device, "autotune cache unusable")
         }
     }
@@ -301,11 +386,14 @@ pub fn decision(ctx: &Context) -> Decision {
         match load(path, &key) {
             Ok(Some(m)) => return decide(&m, device),
             Ok(None) => {}
-            Err(e) => log::warn!("autotune cache unusable, measuring again: {e}"),
+            Err(e) => log::warn!(
+                "autotune cache unusable, measuring again: {}",
+                crate::error_chain(&e)
+            ),
         }
     }
     log::info!(
-        "autotune: first run on {} ({}), measuring backends and visibility passes",
+        "autotune: first run on {} ({}), measuring backends, visibility passes, BVH builds and texture sampling",
         device.name,
         device.driver_info
     );
@@ -322,7 +410,10 @@ pub fn decision(ctx: &Context) -> Decision {
     match &path {
         Some(path) => {
             if let Err(e) = store(path, &key, &m) {
-                log::warn!("cannot write the autotune cache: {e}");
+                log::warn!(
+                    "cannot write the autotune cache: {}",
+                    crate::error_chain(&e)
+                );
             }
         }
         None => log::warn!("no user cache directory; autotune results are not kept"),
@@ -404,6 +495,7 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
     let (graphics, compute) = (hybrid(RasterMode::Graphics), hybrid(RasterMode::Compute));
     let visibility = alternate(&[&graphics, &compute], &|n| n == "gbuffer")?;
     let (bvh_host_build_ms, bvh_gpu_build_ms) = measure_builds(ctx)?;
+    let textures = crate::render::passes::texture_sampling::measure(ctx, MEASURE_FRAMES)?;
     let m = Measurement {
         rt_hw_ms,
         rt_bvh_ms,
@@ -411,6 +503,8 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
         visibility_compute_ms: visibility[1],
         bvh_host_build_ms,
         bvh_gpu_build_ms,
+        texture_block_ms: textures.block.map(|(_, ms)| ms),
+        texture_rgba8_ms: textures.rgba8_ms,
     };
     log::info!("autotune measured {m:?}");
     Ok(m)

@@ -45,5 +45,20 @@ pub enum Error {
     Environment(#[from] environment::EnvironmentError),
 }
 
+/// `error` and its [`source`](std::error::Error::source)s joined with `": "`, outermost first:
+/// the one-line message `rqr: error:` prints (anyhow's `{:#}`). rqr's errors leave their
+/// sources out of their own messages, so each clause appears once; printing only `{error}`
+/// drops the causes.
+pub fn error_chain(error: &(dyn std::error::Error + 'static)) -> String {
+    let mut out = error.to_string();
+    let mut cause = error.source();
+    while let Some(c) = cause {
+        out.push_str(": ");
+        out.push_str(&c.to_string());
+        cause = c.source();
+    }
+    out
+}
+
 /// Result alias for the library.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -179,6 +179,25 @@ fn bad_settings_fail_before_any_gpu_work() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+#[test]
+fn bench_has_no_raster_flag() {
+    // `rqr bench` traces rays without rasterizing: a --raster there would do nothing, so clap
+    // rejects it; render and compare keep it.
+    let args = ["bench", "--raster", "compute"];
+    let (out, _) = rqr(&args, NO_VULKAN, Duration::from_secs(30));
+    assert_clean_failure(&args, &out, 2, "unexpected argument '--raster'");
+    let (help, _) = rqr(&["bench", "--help"], NO_VULKAN, Duration::from_secs(30));
+    assert!(help.status.success());
+    assert!(!String::from_utf8_lossy(&help.stdout).contains("--raster"));
+    for command in ["render", "compare"] {
+        let (help, _) = rqr(&[command, "--help"], NO_VULKAN, Duration::from_secs(30));
+        assert!(
+            String::from_utf8_lossy(&help.stdout).contains("--raster <RASTER>"),
+            "{command}"
+        );
+    }
+}
+
 /// `rqr probe --json` of the device the tests run on.
 fn device() -> serde_json::Value {
     let (out, _) = rqr(&["probe", "--json"], &[], Duration::from_secs(60));

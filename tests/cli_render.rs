@@ -219,9 +219,25 @@ fn compare_writes_every_file_with_a_consistent_report() {
             assert!(Path::new(f.as_str().unwrap()).is_file());
         }
     }
+    // report.md names backends and settings as they are typed on the command line, unquoted.
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(
+        md.contains("1 spp (center)") && md.contains("hybrid G-buffer: visibility"),
+        "{md}"
+    );
     if backends.len() > 1 {
         let cross = &report["rt_across_backends"];
         assert!(cross["primary_ids_agree"].as_f64().unwrap() >= 0.999);
+        let line = md
+            .lines()
+            .find(|l| l.starts_with("Ray traced, "))
+            .unwrap_or_else(|| panic!("no cross-backend line in {md}"));
+        assert!(
+            line.starts_with("Ray traced, hw vs bvh: FLIP mean ")
+                || line.starts_with("Ray traced, bvh vs hw: FLIP mean "),
+            "{line}"
+        );
+        assert!(!line.contains('"'), "{line}");
     }
     // FLIP of an image against itself is exactly 0.
     let rt = image::open(dir.join("rt.png")).unwrap().to_rgba8();

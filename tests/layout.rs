@@ -202,6 +202,10 @@ fn interface_structs_match_generated_glsl_layout() {
         ("VisibilityPush", words(&distinct::<VisibilityPush>(14))),
         ("TracePush", words(&distinct::<TracePush>(15))),
         ("SkinPush", words(&distinct::<SkinPush>(20))),
+        (
+            "TextureSamplingPush",
+            words(&distinct::<TextureSamplingPush>(26)),
+        ),
     ];
     let records = [
         ("GpuBvhRefs", words(&distinct::<GpuBvhRefs>(23))),

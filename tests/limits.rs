@@ -11,6 +11,7 @@ use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
+use rqr::render::drivers::targets::readback_bytes;
 use rqr::render::passes::gbuffer;
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::passes::reproject::{Reprojector, ReuseOptions};
@@ -54,14 +55,24 @@ fn dense_sphere(segments: u32) -> Scene {
 fn render_estimates_grow_with_what_they_allocate() {
     let s = settings(640, 480, 1);
     let rt = s.estimate_bytes(RenderPath::RayTraced, true);
-    // Colour (16 B) + AOVs (48 B) + tonemap (4 B) per pixel, plus the adaptive corners.
-    assert!(rt >= 640 * 480 * (16 + 48 + 4 + 16), "{rt}");
-    assert!(rt <= 640 * 480 * 100, "{rt}");
-    // Without AOVs, no AOV buffer (a one-element placeholder is bound instead).
+    // Colour (16 B) + AOVs (48 B) + tonemap (4 B) per pixel, plus the adaptive corners, plus
+    // the readback slot: tonemapped and linear colour (20 B) and the AOVs again (48 B).
+    assert!(rt >= 640 * 480 * (16 + 48 + 4 + 16 + 20 + 48), "{rt}");
+    assert!(rt <= 640 * 480 * 200, "{rt}");
+    // The readback slot is what the frame allocates (counters, 20 B per pixel, AOVs).
+    let counters = 4 * rqr::render::drivers::targets::RING_COUNTERS as u64;
+    for aov in [false, true] {
+        assert_eq!(
+            readback_bytes(&s, aov),
+            counters + 640 * 480 * if aov { 20 + 48 } else { 20 }
+        );
+    }
+    // Without AOVs, no AOV buffer (a one-element placeholder is bound instead) and none in
+    // the readback slot.
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
         assert_eq!(
             s.estimate_bytes(path, true) - s.estimate_bytes(path, false),
-            640 * 480 * 48,
+            640 * 480 * 2 * 48,
             "{path:?}"
         );
     }
@@ -225,6 +236,113 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
     assert_validation_clean(&ctx);
 }
 
+/// A size whose passes' buffers fit the heap but whose readback slot does not is refused
+/// before anything is allocated, with the size and the way out, not by a failed allocation.
+#[test]
+fn the_readback_slot_is_counted_before_allocating() {
+    let s = settings(512, 512, 1);
+    let ring = readback_bytes(&s, false);
+    assert!(ring >= 512 * 512 * 20, "{ring}");
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        // A device of its own per path: heap limits only ever shrink.
+        let mut ctx = gpu();
+        let scene = cornell();
+        let camera = scene.cameras[0];
+        let draws = gbuffer::draws(&scene);
+        let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+        let render = |ctx: &rqr::vk::Context| match path {
+            RenderPath::RayTraced => renderer.render_rt(ctx, &s, &camera, false),
+            RenderPath::Hybrid => renderer.render_hybrid(ctx, &draws, &s, &camera, false),
+        };
+        let needed = s.estimate_bytes(path, false);
+        // With room for the estimate, the frame renders.
+        ctx.limit_device_memory(ctx.allocated_bytes() + needed + (1 << 20));
+        let out = render(&ctx).unwrap_or_else(|e| panic!("{path:?} with room: {e}"));
+        assert_eq!(out.color.len(), 512 * 512);
+        // Room for the passes' buffers, not for the readback slot on top.
+        let in_use = ctx.allocated_bytes();
+        ctx.limit_device_memory(in_use + needed - ring / 2);
+        let err = render(&ctx)
+            .err()
+            .unwrap_or_else(|| panic!("{path:?}: fits only without its readback slot"));
+        let msg = err.to_string();
+        let mib = needed.div_ceil(1 << 20);
+        assert!(
+            msg.contains("512x512 at 1 spp")
+                && msg.contains(&format!("needs about {mib} MiB of device memory"))
+                && msg.contains("lower the resolution"),
+            "{path:?}: {msg}"
+        );
+        assert!(!msg.contains("out of memory allocating"), "{msg}");
+        assert_eq!(
+            ctx.allocated_bytes(),
+            in_use,
+            "{path:?}: allocated before failing"
+        );
+        assert_validation_clean(&ctx);
+    }
+}
+
+/// With geometry that moves between frames, the samples' anchors (2 × 16 bytes per pixel) are
+/// checked with the sample cache before anything is allocated: a heap that holds the cache
+/// only without them refuses the sequence up front, naming the anchors.
+#[test]
+fn reprojection_anchors_are_checked_before_allocating() {
+    let s = settings(256, 256, 1);
+    let anchors = Reprojector::anchor_bytes(&s);
+    assert_eq!(anchors, 256 * 256 * 2 * 16);
+    assert_eq!(
+        Reprojector::estimate_bytes(&s, true) - Reprojector::estimate_bytes(&s, false),
+        anchors
+    );
+    let mut ctx = gpu();
+    let scene = cornell();
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let new_sequence = |ctx: &rqr::vk::Context, moving_geometry: bool| {
+        let mut options = sequence_options(true);
+        options.reuse.moving_geometry = moving_geometry;
+        Sequence::new(
+            ctx,
+            &renderer,
+            &scene,
+            &s,
+            scene.cameras[0],
+            CameraPath::Static,
+            options,
+        )
+    };
+    // The same check on a device description: fits without the anchors only.
+    let mut info = lavapipe_storage_range(&ctx);
+    let static_total =
+        Reprojector::estimate_bytes(&s, false) + s.estimate_bytes(RenderPath::RayTraced, false);
+    for heap in &mut info.memory_heaps {
+        heap.size_bytes = static_total + anchors / 2;
+    }
+    Reprojector::check_device(&s, &info, RenderPath::RayTraced, false, 0).unwrap();
+    let msg = Reprojector::check_device(&s, &info, RenderPath::RayTraced, true, 0)
+        .expect_err("the anchors do not fit")
+        .to_string();
+    assert!(msg.contains("with the anchors"), "{msg}");
+
+    // Through Sequence::new on the device: made with the anchors allocated when they fit...
+    let seq = new_sequence(&ctx, true).unwrap();
+    drop(seq);
+    // ...refused before allocating anything when only the static cache fits.
+    let in_use = ctx.allocated_bytes();
+    ctx.limit_device_memory(in_use + static_total + anchors / 2);
+    let err = new_sequence(&ctx, true)
+        .err()
+        .expect("room for the static cache only");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("256x256 with reuse between frames")
+            && msg.contains("with the anchors that move samples with their objects"),
+        "{msg}"
+    );
+    assert_eq!(ctx.allocated_bytes(), in_use, "allocated before failing");
+    assert_validation_clean(&ctx);
+}
+
 /// The device as lavapipe reports it (maxStorageBufferRange 128 MiB), with a heap and an image
 /// limit that are not in the way.
 fn lavapipe_storage_range(ctx: &rqr::vk::Context) -> rqr::vk::DeviceInfo {
@@ -358,12 +476,12 @@ fn reprojection_cache_is_checked_with_the_full_render() {
     info.max_memory_allocation_size = 2 << 30;
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
         s.check_device(&info, path, false, 0).unwrap();
-        Reprojector::check_device(&s, &info, path, 0)
+        Reprojector::check_device(&s, &info, path, false, 0)
             .unwrap_or_else(|e| panic!("{path:?}: a 152 MiB cache in a 2 GiB allocation: {e}"));
     }
     info.max_memory_allocation_size = 128 << 20;
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
-        let err = Reprojector::check_device(&s, &info, path, 0)
+        let err = Reprojector::check_device(&s, &info, path, false, 0)
             .expect_err("a 152 MiB cache in 128 MiB allocations")
             .to_string();
         for needle in [
@@ -373,7 +491,7 @@ fn reprojection_cache_is_checked_with_the_full_render() {
         ] {
             assert!(err.contains(needle), "'{needle}' not in: {err}");
         }
-        Reprojector::check_device(&settings(1024, 1024, 1), &info, path, 0).unwrap();
+        Reprojector::check_device(&settings(1024, 1024, 1), &info, path, false, 0).unwrap();
     }
     info.max_memory_allocation_size = 2 << 30;
 
@@ -381,14 +499,14 @@ fn reprojection_cache_is_checked_with_the_full_render() {
     // come on top of the full render.
     let s = settings(512, 512, 1);
     let full = s.estimate_bytes(RenderPath::RayTraced, false);
-    let cache = Reprojector::estimate_bytes(&s);
+    let cache = Reprojector::estimate_bytes(&s, false);
     assert!(cache >= 512 * 512 * 2 * entry, "{cache}");
     for heap in &mut info.memory_heaps {
         heap.size_bytes = full + cache - 1;
     }
     s.check_device(&info, RenderPath::RayTraced, false, 0)
         .unwrap();
-    let err = Reprojector::check_device(&s, &info, RenderPath::RayTraced, 0)
+    let err = Reprojector::check_device(&s, &info, RenderPath::RayTraced, false, 0)
         .expect_err("one byte short")
         .to_string();
     assert!(
@@ -399,7 +517,7 @@ fn reprojection_cache_is_checked_with_the_full_render() {
     for heap in &mut info.memory_heaps {
         heap.size_bytes = full + cache;
     }
-    Reprojector::check_device(&s, &info, RenderPath::RayTraced, 0).unwrap();
+    Reprojector::check_device(&s, &info, RenderPath::RayTraced, false, 0).unwrap();
 }
 
 #[test]

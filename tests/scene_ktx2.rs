@@ -453,17 +453,49 @@ fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
     common::assert_validation_clean(&ctx);
 }
 
+/// lavapipe's measured sampling times with BC7 faster, or RGBA8 faster (its real ordering).
+fn sampling_times(bc7_faster: bool) -> rqr::autotune::Measurement {
+    let (block, rgba8) = if bc7_faster { (1.0, 2.0) } else { (86.5, 1.3) };
+    rqr::autotune::Measurement {
+        rt_hw_ms: Some(2.0),
+        rt_bvh_ms: 1.0,
+        visibility_graphics_ms: 1.0,
+        visibility_compute_ms: 2.0,
+        bvh_host_build_ms: 1.0,
+        bvh_gpu_build_ms: 2.0,
+        texture_block_ms: Some(block),
+        texture_rgba8_ms: rgba8,
+    }
+}
+
 #[test]
 fn texture_format_flag_chooses_the_upload() {
     let dir = std::env::temp_dir().join(format!("rqr-test-ktx2-flag-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let gltf = dir.join("lamp_quad.gltf");
     std::fs::write(&gltf, lamp_textures_quad()).unwrap();
-    let render = |format: &str| {
-        let png = dir.join(format!("{format}.png"));
+    // An isolated autotune cache, holding the outcome each `auto` run is to follow.
+    let cache = dir.join("cache");
+    let report = rqr::vk::probe_devices(
+        &rqr::vk::DeviceSelector::Auto,
+        rqr::accel::BackendChoice::Auto,
+    )
+    .expect(common::INSTALL_HINT);
+    let device = report.devices[report.selected.unwrap()].clone();
+    let inject = |bc7_faster: bool| {
+        rqr::autotune::store(
+            &cache.join("rqr").join("autotune.json"),
+            &rqr::autotune::cache_key(&device),
+            &sampling_times(bc7_faster),
+        )
+        .unwrap()
+    };
+    let render = |format: &str, name: &str, autotune: &str| {
+        let png = dir.join(format!("{name}.png"));
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
             .env("RQR_VALIDATION", "1")
-            .env("RQR_NO_AUTOTUNE", "1")
+            .env("RQR_NO_AUTOTUNE", autotune)
+            .env("XDG_CACHE_HOME", &cache)
             .env("RUST_LOG", "rqr=info")
             .args([
                 "render",
@@ -480,23 +512,47 @@ fn texture_format_flag_chooses_the_upload() {
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-        assert!(out.status.success(), "{format}: {stderr}");
-        assert!(!stderr.contains("VUID"), "{format}: validation: {stderr}");
+        assert!(out.status.success(), "{name}: {stderr}");
+        assert!(!stderr.contains("VUID"), "{name}: validation: {stderr}");
         (image::open(&png).unwrap().to_rgba8().into_raw(), stderr)
     };
-    let (auto, auto_log) = render("auto");
-    let (rgba8, rgba8_log) = render("rgba8");
-    assert!(
-        auto_log.contains("2 of 2 images uploaded as BC7 blocks"),
-        "{auto_log}"
-    );
+    let as_blocks = "2 of 2 images uploaded as BC7 blocks";
+    let (block, block_log) = render("block", "block", "1");
+    let (rgba8, rgba8_log) = render("rgba8", "rgba8", "1");
+    assert!(block_log.contains(as_blocks), "{block_log}");
     assert!(!rgba8_log.contains("uploaded as"), "{rgba8_log}");
-    let d = compare::compare(48, 48, &rgba8, &auto);
+    let d = compare::compare(48, 48, &rgba8, &block);
     eprintln!(
-        "rqr render --texture-format rgba8 vs auto: FLIP mean {:.5}",
+        "rqr render --texture-format rgba8 vs block: FLIP mean {:.5}",
         d.flip_mean
     );
     assert!(d.flip_mean < 0.02, "FLIP {}", d.flip_mean);
+    // `auto` follows the measurement: BC7 where it sampled faster...
+    inject(true);
+    let (auto, log) = render("auto", "auto-bc7", "0");
+    assert!(log.contains(as_blocks), "{log}");
+    assert!(
+        log.contains("KTX2 textures: block (auto (measured)"),
+        "{log}"
+    );
+    assert_eq!(auto, block, "auto uploads exactly what block does");
+    // ...RGBA8 where that sampled faster (lavapipe's own ordering).
+    inject(false);
+    let (auto, log) = render("auto", "auto-rgba8", "0");
+    assert!(!log.contains("uploaded as"), "{log}");
+    assert!(
+        log.contains("KTX2 textures: rgba8 (auto (measured)"),
+        "{log}"
+    );
+    assert_eq!(auto, rgba8, "auto uploads exactly what rgba8 does");
+    // Without measurements, the rule: a CPU device decodes BC7 in software.
+    let (auto, log) = render("auto", "auto-rule", "1");
+    assert!(!log.contains("uploaded as"), "{log}");
+    assert!(
+        log.contains("a CPU device decodes BC7 in software"),
+        "{log}"
+    );
+    assert_eq!(auto, rgba8);
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
         .args(["render", "--texture-format", "bc9"])
         .arg(&gltf)
@@ -504,7 +560,7 @@ fn texture_format_flag_chooses_the_upload() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        !out.status.success() && stderr.contains("auto, rgba8"),
+        !out.status.success() && stderr.contains("auto, rgba8, block"),
         "{stderr}"
     );
     let _ = std::fs::remove_dir_all(&dir);

@@ -47,6 +47,7 @@ layout(set = 0, binding = 4, std430) readonly buffer Pushes {
     VisibilityPush visibility;
     TracePush trace;
     SkinPush skin;
+    TextureSamplingPush texture_sampling;
 } pushes;
 
 layout(set = 0, binding = 5, scalar) readonly buffer Records {
@@ -76,6 +77,7 @@ void main() {
     put_VisibilityPush(pushes.visibility);
     put_TracePush(pushes.trace);
     put_SkinPush(pushes.skin);
+    put_TextureSamplingPush(pushes.texture_sampling);
     put_GpuBvhRefs(records.bvh_refs);
     put_BvhBuildRefs(records.bvh_build_refs);
     put_BvhRefitRefs(records.bvh_refit_refs);

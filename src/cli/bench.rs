@@ -112,11 +112,12 @@ fn median(mut batches: Vec<RayBatch>) -> RayBatch {
 
 /// Runs `rqr bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
-    let scene = args.scene.load()?;
+    let mut scene = args.scene.load()?;
     let camera = args
         .camera
         .resolve(&scene, args.width as f32 / args.height as f32)?;
     let ctx = args.device.open()?;
+    args.scene.apply_texture_format(&ctx, &mut [&mut scene]);
     let (first, _) = args.device.backend(&ctx)?;
     let mut backends = vec![first];
     if args.all_backends {

@@ -38,9 +38,11 @@ pub struct SceneArgs {
     /// Pose animated scenes at T seconds (default 0; sequences sample frame k at k/--fps).
     #[arg(long, value_name = "T")]
     pub time: Option<f32>,
-    /// How KTX2 (KHR_texture_basisu) textures reach the GPU: `auto` transcodes them to BC7
-    /// (else ASTC 4x4) where the device samples it (`rqr probe` says), else RGBA8; `rgba8`
-    /// always uploads RGBA8 (four times the memory; to compare with).
+    /// How KTX2 (KHR_texture_basisu) textures reach the GPU: `block` transcodes them to BC7
+    /// (else ASTC 4x4) where the device samples it, else RGBA8; `rgba8` uploads the RGBA8
+    /// decoded at load (four times the memory, but faster to sample on CPU devices); `auto`
+    /// the faster of the two on this device, measured once per device and driver (`rqr
+    /// probe` shows the numbers).
     #[arg(long, value_enum, default_value_t = TextureFormat::Auto)]
     pub texture_format: TextureFormat,
 }
@@ -92,6 +94,47 @@ impl SceneArgs {
         }
     }
 
+    /// Resolves `--texture-format` on the opened device and applies it to `scenes` (one
+    /// file's scenes: its rest pose, posed copies): RGBA8 drops their KTX2 files, so the
+    /// upload takes the RGBA8 levels decoded at load; the block format keeps them. `auto`
+    /// asks the autotune measurement ([`rqr::autotune`]) only where a scene has KTX2
+    /// images; `None` when there was nothing to decide. Returns the format and why.
+    pub fn apply_texture_format(
+        &self,
+        ctx: &Context,
+        scenes: &mut [&mut Scene],
+    ) -> Option<(TextureFormat, String)> {
+        let ktx2 = scenes.iter().any(|s| s.ktx2_image_count() > 0);
+        let (format, reason) = match self.texture_format {
+            TextureFormat::Auto if !ktx2 => return None,
+            TextureFormat::Auto => {
+                let d = rqr::autotune::decision(ctx);
+                (d.texture_format, d.texture_format_reason)
+            }
+            TextureFormat::Block => match rqr::scene::textures::block_format_name(ctx.info()) {
+                Some(name) => (
+                    TextureFormat::Block,
+                    format!("forced by --texture-format block ({name})"),
+                ),
+                None => (
+                    TextureFormat::Rgba8,
+                    "--texture-format block, but the device samples no block format: RGBA8".into(),
+                ),
+            },
+            TextureFormat::Rgba8 => (
+                TextureFormat::Rgba8,
+                "forced by --texture-format rgba8".into(),
+            ),
+        };
+        if format == TextureFormat::Rgba8 {
+            for scene in scenes.iter_mut() {
+                scene.drop_ktx2_files();
+            }
+        }
+        log::info!("KTX2 textures: {} ({reason})", format.as_str());
+        Some((format, reason))
+    }
+
     /// A short name for reports.
     pub fn name(&self) -> String {
         self.scene
@@ -114,10 +157,6 @@ pub struct DeviceArgs {
     /// auto (GPU build on discrete/integrated GPUs, host build on CPU devices like lavapipe).
     #[arg(long, value_enum, default_value_t = BvhBuildChoice::Auto)]
     pub bvh_build: BvhBuildChoice,
-    /// Hybrid path: what rasterizes primary visibility (`graphics` pipeline, `compute`
-    /// rasterizer, or `auto`: the faster one as measured on first use of the device).
-    #[arg(long, value_enum, default_value_t = RasterChoice::Auto)]
-    pub raster: RasterChoice,
     /// GPU fence timeout per submission, in milliseconds.
     #[arg(long, default_value_t = 120_000, value_parser = clap::value_parser!(u64).range(1..))]
     pub timeout_ms: u64,
@@ -153,17 +192,6 @@ impl DeviceArgs {
             return Ok((d.backend, d.backend_reason));
         }
         Ok(self.backend.resolve(ctx.info())?)
-    }
-
-    /// Resolves `--raster` on the opened device: `auto` by measurement.
-    pub fn raster(&self, ctx: &Context) -> (RasterMode, String) {
-        match self.raster.forced() {
-            Some(mode) => (mode, format!("forced by --raster {}", mode.as_str())),
-            None => {
-                let d = rqr::autotune::decision(ctx);
-                (d.raster, d.raster_reason)
-            }
-        }
     }
 }
 
@@ -356,9 +384,23 @@ pub struct ImageArgs {
     /// material is evaluated in the shading pass; `full`: the classic 7-attachment G-buffer).
     #[arg(long, value_enum, default_value_t = GbufferLayout::Visibility)]
     pub gbuffer: GbufferLayout,
+    /// Hybrid path: what rasterizes primary visibility (`graphics` pipeline, `compute`
+    /// rasterizer, or `auto`: the faster one as measured on first use of the device).
+    #[arg(long, value_enum, default_value_t = RasterChoice::Auto)]
+    pub raster: RasterChoice,
 }
 
 impl ImageArgs {
+    /// Resolves `--raster` on the opened device: `auto` by measurement.
+    pub fn raster(&self, ctx: &Context) -> (RasterMode, String) {
+        match self.raster.forced() {
+            Some(mode) => (mode, format!("forced by --raster {}", mode.as_str())),
+            None => {
+                let d = rqr::autotune::decision(ctx);
+                (d.raster, d.raster_reason)
+            }
+        }
+    }
     /// Render settings; ranges are checked here, before any GPU work.
     pub fn settings(&self) -> Result<RenderSettings> {
         let s = RenderSettings {
@@ -383,7 +425,7 @@ impl ImageArgs {
             tonemap: self.tonemap,
             exposure: self.exposure,
             gbuffer: self.gbuffer,
-            // Resolved on the opened device (DeviceArgs::raster).
+            // Resolved on the opened device (ImageArgs::raster).
             raster: Default::default(),
         };
         s.validate(MAX_SIDE)?;

@@ -173,8 +173,9 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
     let ctx = args.device.open()?;
+    args.scene.apply_texture_format(&ctx, &mut [&mut scene]);
     let (first, _) = args.device.backend(&ctx)?;
-    settings.raster = args.device.raster(&ctx).0;
+    settings.raster = args.image.raster(&ctx).0;
     let mut backends = vec![first];
     if args.backends == Backends::All {
         for b in [Backend::Hw, Backend::Bvh] {
@@ -568,6 +569,13 @@ fn cross_backend(settings: &RenderSettings, runs: &[BackendRun]) -> Option<Cross
     })
 }
 
+/// The command-line spelling of `value` (`center`, `visibility`), as a user types it.
+fn flag_name(value: impl clap::ValueEnum) -> String {
+    value
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_string())
+}
+
 /// report.md: settings, the timing tables, the image differences and the host times.
 #[allow(clippy::too_many_arguments)]
 fn markdown_report(
@@ -583,16 +591,16 @@ fn markdown_report(
 ) -> Result<String> {
     let header = "| backend | path   | gbuffer  | rt/shade  | tonemap | frame ms  | frame min–max   | primary   | shadow   | reflect  | refract  | Mrays/s  |\n|---------|--------|----------|-----------|---------|-----------|-----------------|-----------|----------|----------|----------|----------|\n";
     let mut md = format!(
-        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({:?}), max depth {}, hybrid G-buffer: {:?}, visibility pass: {}. Timing: {timing}. Pass columns are medians; \"frame ms\" is the median whole frame (passes, barriers, everything between them).\n\n{header}{table}\n",
+        "# rqr compare: {}\n\nDevice: {} ({}). {}x{}, {} spp ({}), max depth {}, hybrid G-buffer: {}, visibility pass: {}. Timing: {timing}. Pass columns are medians; \"frame ms\" is the median whole frame (passes, barriers, everything between them).\n\n{header}{table}\n",
         args.scene.name(),
         ctx.info().name,
         ctx.info().device_type,
         settings.width,
         settings.height,
         settings.spp,
-        settings.sampler,
+        flag_name(settings.sampler),
         settings.max_depth,
-        settings.gbuffer,
+        flag_name(settings.gbuffer),
         settings.raster.as_str(),
     );
     if !split_table.is_empty() {
@@ -619,8 +627,8 @@ fn markdown_report(
         writeln!(
             md,
             "\nRay traced, {} vs {}: FLIP mean {:.5}, primary ids agree on {:.4} % of pixels",
-            json!(c.backends[0]),
-            json!(c.backends[1]),
+            c.backends[0],
+            c.backends[1],
             f64::from(c.flip.flip_mean),
             100.0 * c.primary_ids_agree
         )?;

@@ -153,6 +153,8 @@ pub(crate) fn probe_report(
         }
         d.raster = decision.raster.as_str().to_string();
         d.raster_reason = decision.raster_reason;
+        d.texture_format = decision.texture_format.as_str().to_string();
+        d.texture_format_reason = decision.texture_format_reason;
         d.autotune = decision.measured;
     }
     Ok(report)

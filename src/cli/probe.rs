@@ -123,11 +123,15 @@ fn print_device(d: &DeviceInfo, selected: bool) -> Result<(), StdoutError> {
         (
             "block-compressed textures",
             match (d.bc7_textures, d.astc_4x4_textures) {
-                (true, true) => "BC7, ASTC 4x4 (KTX2 textures upload as BC7)".into(),
-                (true, false) => "BC7 (KTX2 textures upload as BC7)".into(),
-                (false, true) => "ASTC 4x4 (KTX2 textures upload as ASTC 4x4)".into(),
+                (true, true) => "BC7, ASTC 4x4 (--texture-format block uploads BC7)".into(),
+                (true, false) => "BC7 (--texture-format block uploads BC7)".into(),
+                (false, true) => "ASTC 4x4 (--texture-format block uploads ASTC 4x4)".into(),
                 (false, false) => "none (KTX2 textures upload as RGBA8)".into(),
             },
+        ),
+        (
+            "KTX2 textures (auto)",
+            format!("{} ({})", d.texture_format, d.texture_format_reason),
         ),
         ("device UUID", d.device_uuid.clone()),
     ];

@@ -167,6 +167,8 @@ impl SequenceArgs {
             max_age: self.max_age,
             rt_visibility: self.rt_visibility,
             linear_color: true,
+            // Set once the scene is loaded (an animation that moves geometry).
+            moving_geometry: false,
         }
     }
 }
@@ -247,9 +249,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
     let ctx = args.device.open()?;
+    let textures = args.scene.apply_texture_format(&ctx, &mut [&mut scene]);
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
-    let (raster, raster_reason) = args.device.raster(&ctx);
+    let (raster, raster_reason) = args.image.raster(&ctx);
     if matches!(args.mode, RenderPath::Hybrid) {
         log::info!("visibility pass: {} ({raster_reason})", raster.as_str());
     }
@@ -288,6 +291,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "gbuffer": matches!(args.mode, RenderPath::Hybrid).then_some(settings.gbuffer),
             "raster": matches!(args.mode, RenderPath::Hybrid).then_some(settings.raster),
             "raster_reason": matches!(args.mode, RenderPath::Hybrid).then_some(raster_reason),
+            "texture_format": textures.as_ref().map(|t| t.0),
+            "texture_format_reason": textures.map(|t| t.1),
             "gpu_ms": out.gpu_ms.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
             "total_gpu_ms": out.total_ms(),
             "rays": out.rays,
@@ -355,13 +360,16 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let animated = deformable && rest.animation_moves_geometry(&animations);
     if animated {
         check_animated_sequence(args, &reuse)?;
+        // Samples on moving geometry move with their objects: the anchors are checked with
+        // the sample cache before anything is allocated.
+        reuse.moving_geometry = true;
     }
     // Frame k of an animated scene shows it at k / --fps seconds.
     let pose_at = |k: u32| match deformable {
         true => rest.posed(&animations, k as f32 / seq.fps),
         false => rest.clone(),
     };
-    let scene = pose_at(range.start);
+    let mut scene = pose_at(range.start);
     let aspect = settings.width as f32 / settings.height as f32;
     let base = args.camera.resolve(&scene, aspect)?;
     let path = match seq.camera_path {
@@ -394,6 +402,9 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         }
     };
     let ctx = args.device.open()?;
+    // The animated renderer uploads the rest pose's textures, the others the posed scene's.
+    args.scene
+        .apply_texture_format(&ctx, &mut [&mut rest, &mut scene]);
     let (backend, reason) = args.device.backend(&ctx)?;
     log::info!("backend {} ({reason})", backend.as_str());
     // An animated scene keeps one renderer whose vertices and acceleration structures are
@@ -450,10 +461,6 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         path.clone(),
         options,
     )?;
-    if animated {
-        // Samples on moving geometry move with their objects.
-        sequence.track_moving_geometry(&ctx)?;
-    }
     let bar = indicatif::ProgressBar::new(u64::from(range.end - range.start));
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {elapsed} {msg}")

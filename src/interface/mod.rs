@@ -8,7 +8,7 @@
 //! | Rust file | header | for |
 //! |---|---|---|
 //! | `shared.rs` | `interface_shared.glsl` | set-0 bindings 0-3, `Frame` ([`GpuFrame`]), sampler/filter codes, ray kinds and counter slots |
-//! | `passes.rs` | `interface_passes.glsl` | ray-traced, hybrid, G-buffer, compute-raster, tonemap, ray-bench and skinning passes, [`Aov`] |
+//! | `passes.rs` | `interface_passes.glsl` | ray-traced, hybrid, G-buffer, compute-raster, tonemap, ray-bench, texture-sampling and skinning passes, [`Aov`] |
 //! | `bvh.rs` | `interface_bvh.glsl` | the compute BVH's uniform, the GPU build and refit passes' records, push constants and state words |
 //! | `reproject.rs` | `interface_reproject.glsl` | temporal reprojection |
 //! | `environment.rs` | `interface_environment.glsl` | image-based lighting: the environment's textures and preparation passes |

@@ -181,6 +181,22 @@ pub struct RaybenchPush {
     pub mode: u32,
 }
 
+/// texture_sampling.comp (the texture-format measurement of `rqr::autotune`): the texture
+/// it samples.
+pub const BINDING_TEXTURE_SAMPLING_IMAGE: u32 = 0;
+/// texture_sampling.comp: one `vec4` sum of samples per invocation (keeps the samples live).
+pub const BINDING_TEXTURE_SAMPLING_SUMS: u32 = 1;
+
+/// texture_sampling.comp's push constant.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TextureSamplingPush {
+    /// Invocations per side of the square dispatch.
+    pub side: u32,
+    /// Trilinear samples per invocation.
+    pub samples: u32,
+}
+
 /// skin.comp: rest positions, `vec3` per vertex.
 pub const BINDING_SKIN_REST_POSITIONS: u32 = 0;
 /// skin.comp: rest normals, `vec3` per vertex.

@@ -26,16 +26,29 @@ impl RenderSettings {
     /// Device memory a render at these settings allocates for its own buffers and images:
     /// colour, adaptive corners and tonemap output (ray-traced), or accumulation, tonemap
     /// output and one G-buffer with depth per sample (hybrid), plus the per-pixel AOVs when
-    /// `aov` (without, the passes bind a one-element placeholder). The scene and the ray
-    /// backend come on top (see [`crate::accel`]).
+    /// `aov` (without, the passes bind a one-element placeholder), and the frame's readback
+    /// slot ([`crate::render::drivers::targets::readback_bytes`]: tonemapped and linear
+    /// colour, 20 bytes per pixel, the AOVs again when `aov`). The readback slot is
+    /// host-visible: on a device with one memory heap (CPU devices, integrated GPUs) it takes
+    /// the same memory; on a discrete GPU, counting it against the device heap errs on the
+    /// safe side. The scene and the ray backend come on top (see [`crate::accel`]).
     pub fn estimate_bytes(&self, path: RenderPath, aov: bool) -> u64 {
+        let readback = crate::render::drivers::targets::readback_bytes(self, aov);
+        self.device_bytes(path, aov).saturating_add(readback)
+    }
+
+    /// [`Self::estimate_bytes`] without the readback slot: the buffers and images the passes
+    /// use.
+    fn device_bytes(&self, path: RenderPath, aov: bool) -> u64 {
         let pixels = self.pixels();
         let aov = if aov { AOV_BYTES } else { 0 };
         let tonemapped = 4;
         match path {
             RenderPath::RayTraced => {
                 let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1);
-                pixels * (RGBA32F + aov + tonemapped) + corners * RGBA32F
+                pixels
+                    .saturating_mul(RGBA32F + aov + tonemapped)
+                    .saturating_add(corners.saturating_mul(RGBA32F))
             }
             RenderPath::Hybrid => {
                 let gbuffer: u64 = self
@@ -45,8 +58,9 @@ impl RenderSettings {
                     .map(|&f| format_bytes(f))
                     .sum::<u64>()
                     + 4; // D32 depth
-                pixels * (RGBA32F + aov + tonemapped)
-                    + pixels.saturating_mul(gbuffer * u64::from(self.spp))
+                pixels
+                    .saturating_mul(RGBA32F + aov + tonemapped)
+                    .saturating_add(pixels.saturating_mul(gbuffer * u64::from(self.spp)))
             }
         }
     }

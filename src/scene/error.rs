@@ -4,8 +4,10 @@
 /// A scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {source}")]
+    /// The file could not be read. The OS error is the [`source`](std::error::Error::source),
+    /// not part of this message: printers of the whole chain (`rqr: error:`,
+    /// [`crate::error_chain`]) add it once.
+    #[error("{file}: cannot read")]
     Io {
         /// The file (or `built-in`).
         file: String,

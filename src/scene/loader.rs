@@ -69,8 +69,10 @@ pub struct LoadOptions {
     /// KHR_materials_variants variant to render (`--variant NAME`); `None`: the default
     /// materials. A name the file does not define fails the load.
     pub variant: Option<String>,
-    /// How KTX2 textures reach the GPU (`--texture-format`): `Auto` keeps each KTX2 file in
-    /// [`ImageData::ktx2`] so the upload can choose a block format the device samples.
+    /// How KTX2 textures reach the GPU (`--texture-format`): `Auto` and `Block` keep each
+    /// KTX2 file in [`ImageData::ktx2`] so the upload can transcode it to a block format the
+    /// device samples (for `Auto`, unless [`Scene::drop_ktx2_files`] applies the device's
+    /// measured choice of RGBA8 first); `Rgba8` drops them at load.
     pub texture_format: TextureFormat,
 }
 

@@ -15,7 +15,7 @@ pub mod extensions;
 pub mod geometry;
 pub mod gpu;
 mod image;
-mod ktx2;
+pub(crate) mod ktx2;
 pub mod layout;
 mod loader;
 mod material_ext;

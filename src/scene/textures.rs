@@ -1,7 +1,8 @@
 //! Uploads a scene's images as sampled Vulkan images with full mip chains, and creates one
 //! sampler per distinct glTF sampler state, for a bindless `sampler2D textures[]` array.
-//! Images loaded from KTX2 files upload as BC7 (or ASTC 4x4) blocks with the file's levels
-//! where the device samples that format, else as RGBA8.
+//! Images that keep their KTX2 file upload as BC7 (or ASTC 4x4) blocks with the file's levels
+//! where the device samples that format, else as RGBA8 (`--texture-format`, whose `auto`
+//! drops the files first where RGBA8 measured faster: [`Scene::drop_ktx2_files`]).
 
 use std::collections::HashMap;
 
@@ -12,31 +13,59 @@ use super::types::{ImageData, Sampler as SamplerState, Scene, Wrap};
 use crate::vk::{Buffer, Context, Image, MemoryLocation, Sampler, VkError, VkResult};
 
 /// How KTX2 (KHR_texture_basisu) textures reach the GPU (`--texture-format`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum TextureFormat {
-    /// Transcoded to a block format the device samples (BC7, else ASTC 4x4) with the file's
-    /// mip levels, else RGBA8.
+    /// The faster of [`Self::Block`] and [`Self::Rgba8`] on the device, as measured once per
+    /// device and driver (`rqr::autotune`). The loader keeps the KTX2 files, so that the
+    /// choice can be made once the device is open ([`Scene::drop_ktx2_files`] applies
+    /// RGBA8); uploaded as is, such a scene's KTX2 textures go up as [`Self::Block`].
     #[default]
     Auto,
-    /// RGBA8, as transcoded at load (four times the memory of BC7; to compare with).
+    /// RGBA8, as transcoded at load (four times the memory of BC7; faster to sample on CPU
+    /// devices, which decode block formats in software).
     Rgba8,
+    /// Transcoded to the block format the device samples (BC7, else ASTC 4x4) with the
+    /// file's mip levels; RGBA8 where the device samples neither.
+    Block,
 }
 
-/// The block format KTX2 textures transcode to on `ctx`'s device, if it samples one: BC7
-/// first (desktop GPUs, lavapipe), else ASTC 4x4 (mobile GPUs).
-fn block_target(ctx: &Context) -> Option<BlockTarget> {
-    let f = ctx.features();
-    if f.bc7_textures {
+impl TextureFormat {
+    /// The `--texture-format` name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Rgba8 => "rgba8",
+            Self::Block => "block",
+        }
+    }
+}
+
+/// The block format KTX2 textures transcode to on a device with `features`, if it samples
+/// one: BC7 first (desktop GPUs, lavapipe), else ASTC 4x4 (mobile GPUs).
+pub(crate) fn block_target_of(features: &crate::vk::DeviceInfo) -> Option<BlockTarget> {
+    if features.bc7_textures {
         Some(BlockTarget::Bc7)
-    } else if f.astc_4x4_textures {
+    } else if features.astc_4x4_textures {
         Some(BlockTarget::Astc4x4)
     } else {
         None
     }
 }
 
+/// [`block_target_of`] the device of `ctx`.
+pub(crate) fn block_target(ctx: &Context) -> Option<BlockTarget> {
+    block_target_of(ctx.info())
+}
+
+/// The name of the block format KTX2 textures upload as on `device` (`BC7`, `ASTC 4x4`),
+/// `None` where it samples neither.
+pub fn block_format_name(device: &crate::vk::DeviceInfo) -> Option<&'static str> {
+    block_target_of(device).map(BlockTarget::name)
+}
+
 /// The Vulkan format of `target` blocks, sRGB for colour images.
-fn block_format(target: BlockTarget, srgb: bool) -> vk::Format {
+pub(crate) fn block_format(target: BlockTarget, srgb: bool) -> vk::Format {
     match (target, srgb) {
         (BlockTarget::Bc7, true) => vk::Format::BC7_SRGB_BLOCK,
         (BlockTarget::Bc7, false) => vk::Format::BC7_UNORM_BLOCK,
@@ -313,7 +342,8 @@ impl GpuTextures {
         }
         let mut images = Vec::with_capacity(scene.images.len());
         for (i, (img, texels)) in scene.images.iter().zip(&texels).enumerate() {
-            images.push(Self::upload_image(ctx, i, img, texels)?);
+            let label = format!("texture {i}");
+            images.push(upload_image(ctx, &label, img, texels)?);
         }
         let mut samplers = Vec::new();
         let mut sampler_of: HashMap<SamplerState, usize> = HashMap::new();
@@ -344,169 +374,6 @@ impl GpuTextures {
         })
     }
 
-    fn upload_image(
-        ctx: &Context,
-        index: usize,
-        img: &ImageData,
-        texels: &Texels,
-    ) -> VkResult<Image> {
-        let format = match texels {
-            Texels::Blocks(format, _) => *format,
-            Texels::Rgba8(_) if img.srgb => vk::Format::R8G8B8A8_SRGB,
-            Texels::Rgba8(_) => vk::Format::R8G8B8A8_UNORM,
-        };
-        let stored = texels.levels();
-        // The file's own levels when it stores them (KTX2), else a full generated chain.
-        let levels = if stored.len() == 1 {
-            mip_levels(img.width, img.height)
-        } else {
-            stored.len() as u32
-        };
-        let extent = vk::Extent2D {
-            width: img.width,
-            height: img.height,
-        };
-        let image = Image::new(
-            ctx,
-            &format!("texture image {index}"),
-            extent,
-            format,
-            // TRANSFER_SRC: the chain's blits, and readback (block formats are checked for
-            // it by the probe).
-            vk::ImageUsageFlags::SAMPLED
-                | vk::ImageUsageFlags::TRANSFER_SRC
-                | vk::ImageUsageFlags::TRANSFER_DST,
-            levels,
-        )?;
-        let mut staging = Buffer::new(
-            ctx,
-            "texture staging",
-            stored.iter().map(|l| l.len() as u64).sum(),
-            vk::BufferUsageFlags::empty(),
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.write(&stored.concat())?;
-        let device = ctx.device();
-        let raw = image.raw();
-        let none = (
-            vk::PipelineStageFlags2::NONE,
-            vk::AccessFlags2::NONE,
-            vk::ImageLayout::UNDEFINED,
-        );
-        let transfer_dst = (
-            vk::PipelineStageFlags2::ALL_TRANSFER,
-            vk::AccessFlags2::TRANSFER_WRITE,
-            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-        );
-        let transfer_src = (
-            vk::PipelineStageFlags2::ALL_TRANSFER,
-            vk::AccessFlags2::TRANSFER_READ,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-        );
-        let shader_read = (
-            vk::PipelineStageFlags2::ALL_COMMANDS,
-            vk::AccessFlags2::SHADER_SAMPLED_READ,
-            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        );
-        ctx.run(&format!("upload texture {index}"), |cmd| {
-            pipeline_barrier(device, cmd, &[barrier(raw, 0..levels, none, transfer_dst)]);
-            let mut offset = 0u64;
-            let copies: Vec<vk::BufferImageCopy> = stored
-                .iter()
-                .enumerate()
-                .map(|(level, data)| {
-                    let copy = vk::BufferImageCopy::default()
-                        .buffer_offset(offset)
-                        .image_subresource(vk::ImageSubresourceLayers {
-                            aspect_mask: vk::ImageAspectFlags::COLOR,
-                            mip_level: level as u32,
-                            base_array_layer: 0,
-                            layer_count: 1,
-                        })
-                        .image_extent(vk::Extent3D {
-                            width: (img.width >> level).max(1),
-                            height: (img.height >> level).max(1),
-                            depth: 1,
-                        });
-                    offset += data.len() as u64;
-                    copy
-                })
-                .collect();
-            // SAFETY: the staging buffer holds every stored level back to back: RGBA8 levels
-            // of width*height*4 bytes (checked in `upload`), or whole 16-byte blocks per
-            // level (checked by the transcode), so every offset is a multiple of the block
-            // size; extents are the levels' texel sizes, which Vulkan allows for a partial
-            // last block; all levels are TRANSFER_DST.
-            unsafe {
-                device.cmd_copy_buffer_to_image(
-                    cmd,
-                    staging.raw(),
-                    raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &copies,
-                )
-            };
-            // Stored levels (KTX2, RGBA8 or blocks) are complete; a block-compressed image has
-            // more than one (`uses_blocks`) or is a single 1x1..4x4 level.
-            if stored.len() > 1 || matches!(texels, Texels::Blocks(..)) {
-                pipeline_barrier(
-                    device,
-                    cmd,
-                    &[barrier(raw, 0..levels, transfer_dst, shader_read)],
-                );
-                return Ok(());
-            }
-            let size = |l: u32| vk::Offset3D {
-                x: (img.width >> l).max(1) as i32,
-                y: (img.height >> l).max(1) as i32,
-                z: 1,
-            };
-            for level in 1..levels {
-                pipeline_barrier(
-                    device,
-                    cmd,
-                    &[barrier(raw, level - 1..level, transfer_dst, transfer_src)],
-                );
-                let layers = |mip_level| vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                };
-                let blit = vk::ImageBlit::default()
-                    .src_subresource(layers(level - 1))
-                    .src_offsets([vk::Offset3D::default(), size(level - 1)])
-                    .dst_subresource(layers(level))
-                    .dst_offsets([vk::Offset3D::default(), size(level)]);
-                // SAFETY: level-1 is TRANSFER_SRC, level is TRANSFER_DST; R8G8B8A8 UNORM and
-                // SRGB must support linear blits on every Vulkan device.
-                unsafe {
-                    device.cmd_blit_image(
-                        cmd,
-                        raw,
-                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                        raw,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[blit],
-                        vk::Filter::LINEAR,
-                    )
-                };
-                pipeline_barrier(
-                    device,
-                    cmd,
-                    &[barrier(raw, level - 1..level, transfer_src, shader_read)],
-                );
-            }
-            pipeline_barrier(
-                device,
-                cmd,
-                &[barrier(raw, levels - 1..levels, transfer_dst, shader_read)],
-            );
-            Ok(())
-        })?;
-        Ok(image)
-    }
-
     /// `(view, sampler)` per [`Scene::textures`] entry, in texture-index order: the contents
     /// of a bindless `sampler2D textures[]` array (combined image samplers).
     pub fn descriptors(&self) -> Vec<(vk::ImageView, vk::Sampler)> {
@@ -535,6 +402,192 @@ impl GpuTextures {
     pub fn is_empty(&self) -> bool {
         self.textures.is_empty()
     }
+}
+
+/// Uploads one image (`label` names it in errors and debug names): its stored levels, or
+/// level 0 and a chain generated with linear blits; left in `SHADER_READ_ONLY_OPTIMAL`.
+fn upload_image(ctx: &Context, label: &str, img: &ImageData, texels: &Texels) -> VkResult<Image> {
+    let format = match texels {
+        Texels::Blocks(format, _) => *format,
+        Texels::Rgba8(_) if img.srgb => vk::Format::R8G8B8A8_SRGB,
+        Texels::Rgba8(_) => vk::Format::R8G8B8A8_UNORM,
+    };
+    let stored = texels.levels();
+    // The file's own levels when it stores them (KTX2), else a full generated chain.
+    let levels = if stored.len() == 1 {
+        mip_levels(img.width, img.height)
+    } else {
+        stored.len() as u32
+    };
+    let extent = vk::Extent2D {
+        width: img.width,
+        height: img.height,
+    };
+    let image = Image::new(
+        ctx,
+        &format!("{label} image"),
+        extent,
+        format,
+        // TRANSFER_SRC: the chain's blits, and readback (block formats are checked for
+        // it by the probe).
+        vk::ImageUsageFlags::SAMPLED
+            | vk::ImageUsageFlags::TRANSFER_SRC
+            | vk::ImageUsageFlags::TRANSFER_DST,
+        levels,
+    )?;
+    let mut staging = Buffer::new(
+        ctx,
+        "texture staging",
+        stored.iter().map(|l| l.len() as u64).sum(),
+        vk::BufferUsageFlags::empty(),
+        MemoryLocation::CpuToGpu,
+    )?;
+    staging.write(&stored.concat())?;
+    let device = ctx.device();
+    let raw = image.raw();
+    let none = (
+        vk::PipelineStageFlags2::NONE,
+        vk::AccessFlags2::NONE,
+        vk::ImageLayout::UNDEFINED,
+    );
+    let transfer_dst = (
+        vk::PipelineStageFlags2::ALL_TRANSFER,
+        vk::AccessFlags2::TRANSFER_WRITE,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+    );
+    let transfer_src = (
+        vk::PipelineStageFlags2::ALL_TRANSFER,
+        vk::AccessFlags2::TRANSFER_READ,
+        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+    );
+    let shader_read = (
+        vk::PipelineStageFlags2::ALL_COMMANDS,
+        vk::AccessFlags2::SHADER_SAMPLED_READ,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    );
+    ctx.run(&format!("upload {label}"), |cmd| {
+        pipeline_barrier(device, cmd, &[barrier(raw, 0..levels, none, transfer_dst)]);
+        let mut offset = 0u64;
+        let copies: Vec<vk::BufferImageCopy> = stored
+            .iter()
+            .enumerate()
+            .map(|(level, data)| {
+                let copy = vk::BufferImageCopy::default()
+                    .buffer_offset(offset)
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: level as u32,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    })
+                    .image_extent(vk::Extent3D {
+                        width: (img.width >> level).max(1),
+                        height: (img.height >> level).max(1),
+                        depth: 1,
+                    });
+                offset += data.len() as u64;
+                copy
+            })
+            .collect();
+        // SAFETY: the staging buffer holds every stored level back to back: RGBA8 levels
+        // of width*height*4 bytes (checked in `upload`), or whole 16-byte blocks per
+        // level (checked by the transcode), so every offset is a multiple of the block
+        // size; extents are the levels' texel sizes, which Vulkan allows for a partial
+        // last block; all levels are TRANSFER_DST.
+        unsafe {
+            device.cmd_copy_buffer_to_image(
+                cmd,
+                staging.raw(),
+                raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &copies,
+            )
+        };
+        // Stored levels (KTX2, RGBA8 or blocks) are complete; a block-compressed image has
+        // more than one (`uses_blocks`) or is a single 1x1..4x4 level.
+        if stored.len() > 1 || matches!(texels, Texels::Blocks(..)) {
+            pipeline_barrier(
+                device,
+                cmd,
+                &[barrier(raw, 0..levels, transfer_dst, shader_read)],
+            );
+            return Ok(());
+        }
+        let size = |l: u32| vk::Offset3D {
+            x: (img.width >> l).max(1) as i32,
+            y: (img.height >> l).max(1) as i32,
+            z: 1,
+        };
+        for level in 1..levels {
+            pipeline_barrier(
+                device,
+                cmd,
+                &[barrier(raw, level - 1..level, transfer_dst, transfer_src)],
+            );
+            let layers = |mip_level| vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level,
+                base_array_layer: 0,
+                layer_count: 1,
+            };
+            let blit = vk::ImageBlit::default()
+                .src_subresource(layers(level - 1))
+                .src_offsets([vk::Offset3D::default(), size(level - 1)])
+                .dst_subresource(layers(level))
+                .dst_offsets([vk::Offset3D::default(), size(level)]);
+            // SAFETY: level-1 is TRANSFER_SRC, level is TRANSFER_DST; R8G8B8A8 UNORM and
+            // SRGB must support linear blits on every Vulkan device.
+            unsafe {
+                device.cmd_blit_image(
+                    cmd,
+                    raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[blit],
+                    vk::Filter::LINEAR,
+                )
+            };
+            pipeline_barrier(
+                device,
+                cmd,
+                &[barrier(raw, level - 1..level, transfer_src, shader_read)],
+            );
+        }
+        pipeline_barrier(
+            device,
+            cmd,
+            &[barrier(raw, levels - 1..levels, transfer_dst, shader_read)],
+        );
+        Ok(())
+    })?;
+    Ok(image)
+}
+
+/// Uploads a `width` x `height` image of `format` whose every mip level is given (RGBA8 or
+/// 4x4 blocks, level `l` of `max(1, size >> l)` texels), for measurements that sample a
+/// synthetic texture; left in `SHADER_READ_ONLY_OPTIMAL`.
+pub(crate) fn upload_levels(
+    ctx: &Context,
+    label: &str,
+    (width, height): (u32, u32),
+    format: vk::Format,
+    levels: &[Vec<u8>],
+) -> VkResult<Image> {
+    let img = ImageData {
+        width,
+        height,
+        rgba8: Vec::new(),
+        mips: Vec::new(),
+        srgb: false,
+        ktx2: None,
+    };
+    let levels: Vec<&[u8]> = levels.iter().map(Vec::as_slice).collect();
+    let texels = match format {
+        vk::Format::R8G8B8A8_UNORM | vk::Format::R8G8B8A8_SRGB => Texels::Rgba8(levels),
+        _ => Texels::Blocks(format, levels.iter().map(|l| l.to_vec()).collect()),
+    };
+    upload_image(ctx, label, &img, &texels)
 }
 
 #[cfg(test)]

@@ -411,8 +411,9 @@ pub struct ImageData {
     pub srgb: bool,
     /// The KTX2 file (KHR_texture_basisu) `rgba8` and `mips` were transcoded from, kept so
     /// that the upload can transcode it again to a block format the device samples (BC7,
-    /// ASTC 4x4) instead of uploading RGBA8; `None` for other images, and when loaded with
-    /// [`TextureFormat::Rgba8`](super::textures::TextureFormat::Rgba8).
+    /// ASTC 4x4) instead of uploading RGBA8; `None` for other images, when loaded with
+    /// [`TextureFormat::Rgba8`](super::textures::TextureFormat::Rgba8), and after
+    /// [`Scene::drop_ktx2_files`].
     pub ktx2: Option<std::sync::Arc<[u8]>>,
 }
 
@@ -556,5 +557,20 @@ impl Scene {
     /// Triangles counting each geometry once.
     pub fn unique_triangle_count(&self) -> usize {
         self.geometries.iter().map(Geometry::triangle_count).sum()
+    }
+
+    /// Images that keep their KTX2 file ([`ImageData::ktx2`]): what `--texture-format`
+    /// decides for.
+    pub fn ktx2_image_count(&self) -> usize {
+        self.images.iter().filter(|i| i.ktx2.is_some()).count()
+    }
+
+    /// Forgets every image's KTX2 file, so that the upload takes the RGBA8 levels decoded at
+    /// load instead of transcoding to a block format: `--texture-format rgba8` applied after
+    /// loading (how `auto` applies a device's measured choice of RGBA8).
+    pub fn drop_ktx2_files(&mut self) {
+        for image in &mut self.images {
+            image.ktx2 = None;
+        }
     }
 }

@@ -35,6 +35,11 @@ pub struct AutotuneMeasurement {
     pub bvh_host_build_ms: f64,
     /// Whole GPU build of the same BVH (wall milliseconds).
     pub bvh_gpu_build_ms: f64,
+    /// Trilinear sampling of a small texture in one short dispatch, the texture in the
+    /// device's block format (BC7, else ASTC 4x4); `None` where the device samples neither.
+    pub texture_block_ms: Option<f64>,
+    /// The same dispatch over the same texture as RGBA8.
+    pub texture_rgba8_ms: f64,
 }
 
 /// Acceleration-structure limits (present when the extension is supported).
@@ -132,7 +137,12 @@ pub struct DeviceInfo {
     pub raster: String,
     /// Why that visibility pass.
     pub raster_reason: String,
-    /// The autotune numbers behind `backend`/`raster` (`null`: the feature rule decided).
+    /// How KTX2 textures upload under `--texture-format auto` (`block` or `rgba8`).
+    pub texture_format: String,
+    /// Why that format.
+    pub texture_format_reason: String,
+    /// The autotune numbers behind `backend`/`raster`/`texture_format` (`null`: the feature
+    /// rule decided).
     pub autotune: Option<AutotuneMeasurement>,
 }
 
@@ -359,6 +369,8 @@ pub(crate) fn describe_device(
         backend_reason: String::new(),
         raster: "graphics".into(),
         raster_reason: "auto (feature rule): graphics pipeline".into(),
+        texture_format: "block".into(),
+        texture_format_reason: "auto (feature rule): the device's block format".into(),
         autotune: None,
     }
 }

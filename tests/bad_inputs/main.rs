@@ -49,14 +49,15 @@ fn rqr(args: &[&str], limit: Duration) -> (Output, Duration) {
     common::run_rqr(args, &[("RQR_VALIDATION", "1")], limit)
 }
 
-/// Loads in a thread with a deadline: `Ok(scene stats)` or `Err(message)`.
+/// Loads in a thread with a deadline: `Ok(scene stats)` or `Err(message)`, the message with
+/// its whole chain of causes as `rqr: error:` prints it.
 fn load_bounded(path: &Path) -> Result<usize, String> {
     let (tx, rx) = mpsc::channel();
     let p = path.to_path_buf();
     std::thread::spawn(move || {
         let r = scene::load(&p, &LoadOptions::default())
             .map(|s| s.triangle_count())
-            .map_err(|e| e.to_string());
+            .map_err(|e| rqr::error_chain(&e));
         tx.send(r).ok();
     });
     rx.recv_timeout(LOAD_LIMIT)

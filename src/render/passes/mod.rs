@@ -10,4 +10,5 @@ pub mod raybench;
 pub mod raytraced;
 pub mod reproject;
 pub mod skinning;
+pub mod texture_sampling;
 pub mod tonemap;

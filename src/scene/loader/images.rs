@@ -256,7 +256,8 @@ impl Loader<'_> {
             data.rgba8 = d.rgba8;
             data.mips = d.mips;
             data.ktx2 = match self.opts.texture_format {
-                TextureFormat::Auto => d.ktx2,
+                // Kept for the upload: a block format, or RGBA8 once the device chose it.
+                TextureFormat::Auto | TextureFormat::Block => d.ktx2,
                 TextureFormat::Rgba8 => None,
             };
         }

@@ -129,7 +129,13 @@ impl Sequence {
         // and its per-pixel buffers on top, against the device's limits and heap.
         let in_use = ctx.allocated_bytes();
         if options.reuse.any() {
-            Reprojector::check_device(settings, ctx.info(), options.path, in_use)
+            Reprojector::check_device(
+                settings,
+                ctx.info(),
+                options.path,
+                options.reuse.moving_geometry,
+                in_use,
+            )
         } else {
             settings.check_device(ctx.info(), options.path, false, in_use)
         }

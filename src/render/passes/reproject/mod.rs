@@ -200,8 +200,14 @@ impl Reprojector {
         settings: &RenderSettings,
         options: ReuseOptions,
     ) -> crate::Result<Self> {
-        Self::check_device(settings, ctx.info(), path, ctx.allocated_bytes())
-            .map_err(|e| VkError::Limit(e.to_string()))?;
+        Self::check_device(
+            settings,
+            ctx.info(),
+            path,
+            options.moving_geometry,
+            ctx.allocated_bytes(),
+        )
+        .map_err(|e| VkError::Limit(e.to_string()))?;
         options.validate().map_err(VkError::Limit)?;
         if settings.spp != 1 || settings.sampler != SamplerKind::Center {
             return Err(VkError::Limit(
@@ -418,7 +424,7 @@ impl Reprojector {
         )?;
         let readback = Some(readback);
         let profiler = GpuProfiler::new(ctx, SCOPES_PER_FRAME).ok();
-        Ok(Self {
+        let mut reprojector = Self {
             scene_scale: renderer.scene_scale(),
             path,
             options,
@@ -448,14 +454,20 @@ impl Reprojector {
             has_history: false,
             visibility_in_general: false,
             prev_view_proj: None,
-        })
+        };
+        if options.moving_geometry {
+            reprojector.track_moving_geometry(ctx)?;
+        }
+        Ok(reprojector)
     }
 
     /// Device memory of the reprojection buffers and images for `settings` (two caches,
     /// per-pixel keys, winners, states, colour, jobs, tonemapped output, and G-buffer images:
     /// the hybrid path's raster pass needs them; for the rt path, whose are 1x1, the estimate
     /// stays an upper bound).
-    pub fn estimate_bytes(settings: &RenderSettings) -> u64 {
+    ///
+    /// With `moving_geometry` the samples' anchors come on top ([`Self::anchor_bytes`]).
+    pub fn estimate_bytes(settings: &RenderSettings, moving_geometry: bool) -> u64 {
         let pixels = u64::from(settings.width) * u64::from(settings.height);
         let gbuffer: u64 = GBUFFER_FORMATS
             .iter()
@@ -474,7 +486,18 @@ impl Reprojector {
             + 4
             + 4 * u64::from(JOB_LISTS)
             + gbuffer;
-        pixels.saturating_mul(per_pixel)
+        let anchors = if moving_geometry {
+            Self::anchor_bytes(settings)
+        } else {
+            0
+        };
+        pixels.saturating_mul(per_pixel).saturating_add(anchors)
+    }
+
+    /// Device memory of the samples' anchors on a scene whose geometry moves: two buffers
+    /// (one per cache parity) of one [`io::Anchor`] (16 bytes) per pixel.
+    pub fn anchor_bytes(settings: &RenderSettings) -> u64 {
+        settings.pixels().saturating_mul(2 * ANCHOR_BYTES)
     }
 
     /// The largest buffer the reprojection reaches through a buffer reference (either sample
@@ -493,12 +516,14 @@ impl Reprojector {
     /// reached through buffer references against `maxMemoryAllocationSize`, and
     /// [`Self::estimate_bytes`] plus the full render's estimate against the largest device
     /// heap (the cache and the full render live together: a sequence with `--reference` makes
-    /// one per frame). [`Self::new`] and [`crate::render::drivers::sequence::Sequence::new`]
-    /// run it first.
+    /// one per frame), the anchors included with `moving_geometry`
+    /// ([`ReuseOptions::moving_geometry`]). [`Self::new`] and
+    /// [`crate::render::drivers::sequence::Sequence::new`] run it first.
     pub fn check_device(
         settings: &RenderSettings,
         info: &crate::vk::DeviceInfo,
         path: RenderPath,
+        moving_geometry: bool,
         in_use: u64,
     ) -> Result<(), SettingsError> {
         settings.check_device(info, path, false, in_use)?;
@@ -515,13 +540,18 @@ impl Reprojector {
                 mib(allocation)
             )));
         }
-        let cache = Self::estimate_bytes(settings);
+        let cache = Self::estimate_bytes(settings, moving_geometry);
         let full = settings.estimate_bytes(path, false);
         let heap = info.largest_device_heap();
         if cache.saturating_add(full).saturating_add(in_use) > heap {
             return Err(SettingsError(format!(
-                "{w}x{h} with reuse between frames needs about {} MiB of device memory for the sample cache and its per-pixel buffers plus {} MiB for a full render, on top of {} MiB in use, more than the {} MiB device heap of '{}'; {fix}",
+                "{w}x{h} with reuse between frames needs about {} MiB of device memory for the sample cache and its per-pixel buffers{} plus {} MiB for a full render, on top of {} MiB in use, more than the {} MiB device heap of '{}'; {fix}",
                 mib(cache),
+                if moving_geometry {
+                    " (with the anchors that move samples with their objects)"
+                } else {
+                    ""
+                },
                 mib(full),
                 mib(in_use),
                 mib(heap),
@@ -542,7 +572,10 @@ impl Reprojector {
             return Ok(());
         }
         let bytes = self.settings.pixels().saturating_mul(ANCHOR_BYTES);
-        ctx.check_memory("the reprojection's sample anchors", 2 * bytes)?;
+        ctx.check_memory(
+            "the reprojection's sample anchors",
+            Self::anchor_bytes(&self.settings),
+        )?;
         let storage = |name: &str| {
             Buffer::new(
                 ctx,

@@ -67,6 +67,11 @@ pub struct ReuseOptions {
     /// passes write only the display pixels: one word per pixel instead of five (the
     /// colours adaptive sub-sampling interpolates between are in the next cache anyway).
     pub linear_color: bool,
+    /// The scene's geometry moves between frames (animated transforms, skins, morph
+    /// targets): samples keep anchors (16 bytes per pixel, in each of two buffers) and move
+    /// with their objects. The anchors are allocated with the cache, and checked with it
+    /// before anything is allocated ([`super::Reprojector::check_device`]).
+    pub moving_geometry: bool,
 }
 
 impl Default for ReuseOptions {
@@ -79,6 +84,7 @@ impl Default for ReuseOptions {
             max_age: None,
             rt_visibility: RtVisibility::Edges,
             linear_color: true,
+            moving_geometry: false,
         }
     }
 }
