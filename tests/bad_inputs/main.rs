@@ -11,6 +11,7 @@ mod scene_util;
 mod animation;
 mod corpus;
 mod extensions;
+mod manifest;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
