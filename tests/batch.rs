@@ -270,3 +270,38 @@ fn the_library_renders_many_cameras_from_one_upload() {
     }
     assert_ne!(views[0].rgba8, views[1].rgba8);
 }
+
+#[test]
+fn visible_devices_without_nvidia_gpus_warn_once_and_fall_back() {
+    let dir = work_dir("visible");
+    std::fs::copy(assets().join("Box/Box.glb"), dir.join("Box.glb")).unwrap();
+    let manifest = dir.join("m.jsonl");
+    std::fs::write(
+        &manifest,
+        r#"{"id": "a", "scene": "Box.glb", "width": 8, "height": 8, "cameras": {"orbit": {"n": 1}}}"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let args = [
+        "batch",
+        manifest.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let (run, _) = common::run_rqr(&args, &[("CUDA_VISIBLE_DEVICES", "3")], LIMIT);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    assert_eq!(
+        err.matches("no NVIDIA Vulkan device is present").count(),
+        1,
+        "{err}"
+    );
+    assert!(out.join("a/000.png").is_file());
+    let (probe, _) = common::run_rqr(&["probe"], &[], LIMIT);
+    let text = String::from_utf8_lossy(&probe.stdout);
+    assert!(
+        text.contains("PCI bus id") && text.contains("device UUID"),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -101,7 +101,7 @@ pub fn run(args: &BatchArgs) -> Result<()> {
     runner::check_output_dir(&args.out)?;
     let opened = std::time::Instant::now();
     let mut device = BatchDevice::open(&DeviceOptions {
-        device: args.device.clone(),
+        device: rqr::device_select::resolve(&args.device).map_err(anyhow::Error::from_boxed)?,
         backend: args.backend,
         fence_timeout: Duration::from_millis(args.timeout_ms),
         pipeline_cache_dir: None,

@@ -147,7 +147,14 @@ pub(crate) fn probe_report(
     device: &DeviceSelector,
     backend: BackendChoice,
 ) -> Result<ProbeReport, VkError> {
-    let mut report = probe_devices(device, backend)?;
+    let device = match rqr::device_select::resolve(device) {
+        Ok(d) => d,
+        Err(e) => {
+            log::warn!("{e}");
+            device.clone()
+        }
+    };
+    let mut report = probe_devices(&device, backend)?;
     // `auto` as the autotune cache decided it (probe opens no device, so it never measures).
     for d in &mut report.devices {
         let decision = rqr::autotune::cached_decision(d);

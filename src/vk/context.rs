@@ -11,7 +11,9 @@ use std::time::Duration;
 use ash::{ext, khr, vk};
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
-use super::instance::{create_instance, device_name, load_entry, select_device, DeviceSelector};
+use super::instance::{
+    create_instance, device_identity, load_entry, select_device, DeviceSelector,
+};
 use super::probe::{describe_device, DeviceInfo};
 use super::{CallExt, VkError, VkResult};
 
@@ -279,7 +281,7 @@ impl Context {
             unsafe { instance.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices")?;
         let names: Vec<_> = physicals
             .iter()
-            .map(|&p| device_name(instance, p))
+            .map(|&p| device_identity(instance, p))
             .collect();
         let index = select_device(&names, &opts.device)?;
         let physical = physicals[index];
