@@ -11,6 +11,7 @@
 pub mod accel;
 pub mod autotune;
 pub mod batch;
+pub mod cache;
 pub mod device_select;
 pub mod interface;
 pub mod render;

@@ -141,12 +141,18 @@ pub struct LoadedScene {
 impl BatchDevice {
     /// Opens the device and resolves the backend once.
     pub fn open(options: &DeviceOptions) -> crate::Result<Self> {
-        let ctx = Context::new(&ContextOptions {
+        let mut ctx = Context::new(&ContextOptions {
             device: options.device.clone(),
             validation: None,
             sync_validation: None,
             fence_timeout: options.fence_timeout,
         })?;
+        if let Some(dir) = &options.pipeline_cache_dir {
+            // A cache that cannot be used costs compile time, not correctness.
+            if let Err(e) = ctx.use_pipeline_cache_dir(dir) {
+                log::warn!("pipeline cache in '{}' unavailable: {e}", dir.display());
+            }
+        }
         let decision = match options.autotune {
             true => crate::autotune::decision(&ctx),
             false => crate::autotune::rule(ctx.info(), "autotune off"),

@@ -104,7 +104,7 @@ pub fn run(args: &BatchArgs) -> Result<()> {
         device: rqr::device_select::resolve(&args.device).map_err(anyhow::Error::from_boxed)?,
         backend: args.backend,
         fence_timeout: Duration::from_millis(args.timeout_ms),
-        pipeline_cache_dir: None,
+        pipeline_cache_dir: rqr::cache::pipeline_cache_dir(),
         autotune: true,
     })?;
     let open_s = opened.elapsed().as_secs_f64();

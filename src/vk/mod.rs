@@ -8,6 +8,7 @@ mod context;
 mod instance;
 mod memory;
 mod pipeline;
+pub mod pipeline_cache;
 mod probe;
 mod profiler;
 pub mod requirements;
