@@ -245,6 +245,7 @@ fn the_library_renders_many_cameras_from_one_upload() {
     use rqr::batch::{BatchDevice, DeviceOptions, ViewOptions};
     let device = BatchDevice::open(&DeviceOptions {
         autotune: false,
+        validation: Some(true),
         ..Default::default()
     })
     .expect("device");
@@ -269,6 +270,7 @@ fn the_library_renders_many_cameras_from_one_upload() {
         assert!(v.gpu_ms > 0.0);
     }
     assert_ne!(views[0].rgba8, views[1].rgba8);
+    common::assert_validation_clean(device.context());
 }
 
 #[test]

@@ -46,6 +46,8 @@ pub struct DeviceOptions {
     pub fence_timeout: Duration,
     /// Directory of the on-disk pipeline cache (`None`: no cache kept).
     pub pipeline_cache_dir: Option<std::path::PathBuf>,
+    /// Khronos validation layer; `None`: on when `RQR_VALIDATION=1`.
+    pub validation: Option<bool>,
     /// Resolve `auto` choices by measurement on first use of a device ([`crate::autotune`],
     /// cached on disk); `false`: by the feature rules, measuring nothing.
     pub autotune: bool,
@@ -59,6 +61,7 @@ impl Default for DeviceOptions {
             fence_timeout: DEFAULT_FENCE_TIMEOUT,
             pipeline_cache_dir: None,
             autotune: true,
+            validation: None,
         }
     }
 }
@@ -143,7 +146,7 @@ impl BatchDevice {
     pub fn open(options: &DeviceOptions) -> crate::Result<Self> {
         let mut ctx = Context::new(&ContextOptions {
             device: options.device.clone(),
-            validation: None,
+            validation: options.validation,
             sync_validation: None,
             fence_timeout: options.fence_timeout,
         })?;

@@ -106,6 +106,7 @@ pub fn run(args: &BatchArgs) -> Result<()> {
         fence_timeout: Duration::from_millis(args.timeout_ms),
         pipeline_cache_dir: rqr::cache::pipeline_cache_dir(),
         autotune: true,
+        validation: None,
     })?;
     let open_s = opened.elapsed().as_secs_f64();
     log::info!(
