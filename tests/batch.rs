@@ -132,6 +132,19 @@ fn bad_jobs_fail_alone_and_a_rerun_resumes_to_identical_outputs() {
         assert!(t[stage].as_f64().unwrap() >= 0.0, "{stage}: {t}");
     }
     assert!(t["render_gpu_ms"].as_f64().unwrap() > 0.0, "{t}");
+    // Results carry every view's camera; an explicit one comes back as given.
+    assert_eq!(ok["cameras"].as_array().unwrap().len(), 2);
+    let textured = &by_line(&r, 3)["cameras"][0];
+    assert_eq!(
+        textured["c2w"],
+        serde_json::json!([
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 3.0],
+            [0.0, 0.0, 0.0, 1.0]
+        ])
+    );
+    assert!((textured["fov_y_deg"].as_f64().unwrap() - 40.0).abs() < 1e-4);
     let stdout = String::from_utf8_lossy(&first.stdout);
     assert!(
         stdout.contains("8 jobs (3 rendered, 0 skipped, 5 failed), 6 views"),

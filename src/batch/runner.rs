@@ -85,6 +85,32 @@ pub struct JobResult {
     pub views: usize,
     /// Stage times.
     pub times: StageTimes,
+    /// The camera of every view rendered, in view order (what a dataset needs with its
+    /// images).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub cameras: Vec<ViewCamera>,
+}
+
+/// The camera of one view, as written to the results.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ViewCamera {
+    /// Camera-to-world matrix, row-major (looks down -Z, +Y up: glTF and NeRF's convention).
+    pub c2w: [[f32; 4]; 4],
+    /// Vertical field of view, degrees.
+    pub fov_y_deg: f32,
+}
+
+impl ViewCamera {
+    fn new(camera: &crate::scene::Camera) -> Self {
+        let fov_y_deg = match camera.projection {
+            crate::scene::Projection::Perspective { yfov, .. } => yfov.to_degrees(),
+            crate::scene::Projection::Orthographic { .. } => 0.0,
+        };
+        Self {
+            c2w: camera.camera_to_world.transpose().to_cols_array_2d(),
+            fov_y_deg,
+        }
+    }
 }
 
 /// A shard's totals.
@@ -319,6 +345,7 @@ pub fn run_shard(
                 error: Some(error.to_string()),
                 views: 0,
                 times: StageTimes::default(),
+                cameras: Vec::new(),
             },
             Entry::Job(job)
                 if to_render
@@ -327,7 +354,8 @@ pub fn run_shard(
             {
                 let position = next_render;
                 next_render += 1;
-                let (outcome, times) = run_job(device, &rx, position, job, options);
+                let mut cameras = Vec::new();
+                let (outcome, times) = run_job(device, &rx, position, job, options, &mut cameras);
                 let views = match &outcome {
                     Ok(n) => *n,
                     Err(_) => 0,
@@ -344,6 +372,7 @@ pub fn run_shard(
                     error: outcome.err(),
                     views,
                     times,
+                    cameras,
                 }
             }
             Entry::Job(job) => JobResult {
@@ -353,6 +382,7 @@ pub fn run_shard(
                 error: None,
                 views: job.cameras.len(),
                 times: StageTimes::default(),
+                cameras: Vec::new(),
             },
             Entry::Blank | Entry::Defaults => continue,
         };
@@ -382,6 +412,7 @@ fn run_job(
     position: usize,
     job: &Job,
     options: &RunOptions,
+    cameras: &mut Vec<ViewCamera>,
 ) -> (Result<usize, String>, StageTimes) {
     let start = Instant::now();
     let deadline = options.job_timeout.map(|t| start + t);
@@ -424,7 +455,7 @@ fn run_job(
     device
         .context_mut()
         .set_fence_timeout(fence.min(default_timeout));
-    let result = render_job(device, scene, job, options, deadline, &mut times);
+    let result = render_job(device, scene, job, options, deadline, &mut times, cameras);
     device.context_mut().set_fence_timeout(default_timeout);
     times.total_ms = start.elapsed().as_secs_f64() * 1e3;
     match result {
@@ -456,12 +487,14 @@ fn render_job(
     options: &RunOptions,
     deadline: Option<Instant>,
     times: &mut StageTimes,
+    records: &mut Vec<ViewCamera>,
 ) -> crate::Result<usize> {
     let loaded = device.upload(scene, times.load_ms, times.texture_decode_ms)?;
     times.upload_ms = loaded.times.build.upload_ms;
     times.accel_build_ms = loaded.times.build.accel_build_ms;
     let aspect = job.width as f32 / job.height as f32;
     let cameras = job.cameras.cameras(&loaded.scene.bounds, aspect);
+    records.extend(cameras.iter().map(ViewCamera::new));
     let dir = options.out_dir.join(&job.id);
     std::fs::create_dir_all(&dir).map_err(|e| crate::render::image::output::OutputError {
         path: dir.clone(),

@@ -5,6 +5,7 @@
 //! `--shard auto` takes the shard from the environment of the job scheduler:
 //! - Slurm job arrays: `SLURM_ARRAY_TASK_ID` with `SLURM_ARRAY_TASK_COUNT`, or with
 //!   `SLURM_ARRAY_TASK_MIN` / `SLURM_ARRAY_TASK_MAX` (shard = id - min, count = max - min + 1);
+//!   with `--shard-count N`, shard = id of N (to resubmit some tasks of an array only);
 //! - Kubernetes Indexed Jobs: `JOB_COMPLETION_INDEX` with the count from `--shard-count` or
 //!   `RQR_SHARD_COUNT`;
 //! - otherwise one shard, 0/1.
@@ -119,6 +120,11 @@ pub fn from_env(
         }
     };
     if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+        if let Some(count) = shard_count {
+            // An explicit count makes the task id the shard index, so that a subset of the
+            // array (`--array=1,5`) can be resubmitted.
+            return Ok((Shard::new(id, count)?, "Slurm job array, --shard-count"));
+        }
         let min = number("SLURM_ARRAY_TASK_MIN")?;
         let max = number("SLURM_ARRAY_TASK_MAX")?;
         let count = number("SLURM_ARRAY_TASK_COUNT")?;
@@ -261,6 +267,22 @@ mod tests {
         assert!(from_env(&env, None).unwrap_err().0.contains("contiguous"));
         let env = env_of(&[("SLURM_ARRAY_TASK_ID", "2")]);
         assert!(from_env(&env, None).is_err());
+        // Resubmitting task 5 alone (--array=5) with --shard-count 8: shard 5 of 8, not 0/1.
+        let env = env_of(&[
+            ("SLURM_ARRAY_TASK_ID", "5"),
+            ("SLURM_ARRAY_TASK_MIN", "5"),
+            ("SLURM_ARRAY_TASK_MAX", "5"),
+            ("SLURM_ARRAY_TASK_COUNT", "1"),
+        ]);
+        assert_eq!(
+            from_env(&env, None).unwrap().0,
+            Shard { index: 0, count: 1 }
+        );
+        assert_eq!(
+            from_env(&env, Some(8)).unwrap().0,
+            Shard { index: 5, count: 8 }
+        );
+        assert!(from_env(&env, Some(4)).is_err());
         let env = env_of(&[
             ("SLURM_ARRAY_TASK_ID", "x"),
             ("SLURM_ARRAY_TASK_COUNT", "4"),

@@ -28,7 +28,8 @@ pub struct BatchArgs {
     /// (Slurm job array, Kubernetes Indexed Job, else 0/1).
     #[arg(long, default_value = "0/1")]
     shard: ShardSpec,
-    /// Number of shards for a Kubernetes Indexed Job (else RQR_SHARD_COUNT).
+    /// Number of shards for --shard auto: a Kubernetes Indexed Job's completions (else
+    /// RQR_SHARD_COUNT); under Slurm it makes the array task id the shard index.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     shard_count: Option<u32>,
     /// Render jobs whose outputs all exist again.
