@@ -2,7 +2,7 @@
 # `rqr batch --shard auto` under a real Slurm: starts a single-node cluster on localhost
 # (Debian's slurm-wlm and munge; installed with apt-get when missing, so run it as root in a
 # throw-away machine or container), then
-#   1. renders a manifest of 12 jobs x 4 views (48 views) in one process, for reference;
+#   1. renders a manifest of 24 jobs x 4 views (96 views) in one process, for reference;
 #   2. `sbatch --array=0-3 --wait` of `rqr batch --shard auto`: the union of the four shards'
 #      outputs must be byte-identical to the reference;
 #   3. submits the array again into a fresh directory, cancels it once shard 0 has finished
@@ -77,17 +77,17 @@ for _ in $(seq 60); do
 done
 sinfo -h -o %T | grep -q idle || { echo "FAIL: the node did not come up"; tail "$work"/*.log; exit 1; }
 
-# The manifest: 12 jobs x 4 views of the repository's small models.
+# The manifest: 24 jobs x 4 views of the repository's small models.
 mkdir -p "$work/data"
-for m in Box BoxTextured AnimatedMorphCube Avocado; do
+for m in Box BoxTextured AnimatedMorphCube AttenuationTest; do
   glb=$(ls assets/gltf/$m/*.glb | head -1)
   cp "$glb" "$work/data/$m.glb"
 done
 {
-  echo '{"defaults": {"width": 64, "height": 64, "cameras": {"orbit": {"n": 4, "elevation_deg": [0, 30], "seed": 5}}}}'
+  echo '{"defaults": {"width": 128, "height": 128, "cameras": {"orbit": {"n": 4, "elevation_deg": [0, 30], "seed": 5}}}}'
   k=0
-  for r in 0 1 2; do
-    for m in Box BoxTextured AnimatedMorphCube Avocado; do
+  for r in 0 1 2 3 4 5; do
+    for m in Box BoxTextured AnimatedMorphCube AttenuationTest; do
       echo "{\"id\": \"$m-$r\", \"scene\": \"$m.glb\", \"cameras\": {\"orbit\": {\"n\": 4, \"elevation_deg\": [0, 30], \"seed\": $k}}}"
       k=$((k + 1))
     done
@@ -102,7 +102,7 @@ check() { # description command...
 }
 same_outputs() { diff -r -q --exclude='results-*' "$work/single" "$1" > /dev/null; }
 
-"$rqr" batch "$manifest" --out "$work/single" > "$work/single.log" 2>&1
+"$rqr" batch "$manifest" --out "$work/single" > "$work/single.log" 2>&1 || { echo "FAIL: reference run"; tail "$work/single.log"; exit 1; }
 views=$(find "$work/single" -name '*.png' | wc -l)
 check "reference run rendered $views views (>= 40)" test "$views" -ge 40
 
@@ -127,7 +127,8 @@ before=$(grep -c '"status":"ok"' "$work/resumed/results-0-of-4.jsonl" 2> /dev/nu
 sbatch --array=0-3 --wait -o "$work/resubmitted-%a.out" \
   --wrap "$rqr batch $manifest --out $work/resumed --shard auto" > /dev/null || true
 skipped=$(cat "$work/resumed"/results-*-of-4.jsonl | grep -c '"status":"skipped"' || true)
-echo "killed after shard 0 finished ${before:-0} of its jobs; the resubmission skipped $skipped jobs"
+echo "killed after shard 0 finished ${before:-0} of its 6 jobs; the resubmission skipped $skipped jobs"
+check "the kill landed midway through shard 0" test "${before:-0}" -lt 6
 check "the resubmission skipped the finished jobs" test "$skipped" -ge 1
 check "killed + resubmitted outputs are byte-identical to one process" same_outputs "$work/resumed"
 echo "slurm test: $(($(date +%s) - started)) s, work directory $work"
