@@ -320,3 +320,34 @@ fn visible_devices_without_nvidia_gpus_warn_once_and_fall_back() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_job_past_its_time_limit_fails_alone_and_the_next_one_renders() {
+    let dir = work_dir("timeout");
+    std::fs::copy(assets().join("Box/Box.glb"), dir.join("Box.glb")).unwrap();
+    let manifest = dir.join("m.jsonl");
+    // About 4 s per view on lavapipe, against a 1.5 s limit; the light job takes milliseconds.
+    std::fs::write(
+        &manifest,
+        concat!(
+            r#"{"id": "heavy", "scene": "Box.glb", "width": 2048, "height": 2048, "spp": 16, "cameras": {"orbit": {"n": 2}}}"#,
+            "\n",
+            r#"{"id": "light", "scene": "Box.glb", "width": 16, "height": 16, "cameras": {"orbit": {"n": 2}}}"#,
+            "\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (m, o) = (manifest.to_str().unwrap(), out.to_str().unwrap());
+    let run = batch(&[m, "--out", o, "--job-timeout", "1.5"]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    let r = results(&out.join("results-0-of-1.jsonl"));
+    assert_eq!(r[0]["status"], "failed", "{r:?}");
+    let e = r[0]["error"].as_str().unwrap();
+    assert!(e.contains("job time limit of 1.5 s (--job-timeout)"), "{e}");
+    assert_eq!(r[1]["status"], "ok", "{r:?}");
+    assert!(out.join("light/001.png").is_file());
+    assert!(!out.join("heavy/001.png").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
