@@ -233,3 +233,26 @@ fn every_bad_line_fails_alone_in_the_binary() {
         "{gone}"
     );
 }
+
+/// What the `parse_manifest` fuzz target asserts, on every seed (and on cut-off seeds): one
+/// entry per line, every error naming its own line.
+#[test]
+fn the_fuzz_targets_invariant_holds_on_its_seeds() {
+    for entry in std::fs::read_dir(seed_dir()).unwrap().flatten() {
+        let text = std::fs::read_to_string(entry.path()).unwrap();
+        for cut in [text.len(), text.len() / 2, text.len() / 3] {
+            let Some(text) = text.get(..cut) else {
+                continue;
+            };
+            let entries =
+                manifest::parse(text, "fuzz.jsonl", Path::new("."), &JobFields::default());
+            assert_eq!(entries.len(), text.lines().count());
+            for (k, e) in entries.iter().enumerate() {
+                if let Entry::Invalid { error, .. } = e {
+                    let prefix = format!("fuzz.jsonl:{}: ", k + 1);
+                    assert!(error.to_string().starts_with(&prefix), "{error}");
+                }
+            }
+        }
+    }
+}
