@@ -240,18 +240,19 @@ pub fn decide(m: &Measurement, device: &DeviceInfo) -> Decision {
     }
 }
 
-/// The cache key of a device: UUID and driver version (a driver update re-measures).
+/// The cache key of a device: name and driver version (a driver update re-measures). It is
+/// the same on every identical GPU, so a fleet sharing `RQR_CACHE_DIR` measures once.
 pub fn cache_key(device: &DeviceInfo) -> String {
     format!(
         "{}/{:#x}/{}",
-        device.device_uuid, device.driver_version, device.driver_info
+        device.name, device.driver_version, device.driver_info
     )
 }
 
-/// The cache file: `<user cache dir>/rqr/autotune.json` (`$XDG_CACHE_HOME` or `~/.cache` on
-/// Linux); `None` where the platform has no cache directory.
+/// The cache file: `autotune.json` in [`crate::cache::cache_dir`] (`RQR_CACHE_DIR`, else
+/// `$XDG_CACHE_HOME/rqr` or `~/.cache/rqr` on Linux); `None` where there is none.
 pub fn cache_path() -> Option<PathBuf> {
-    dirs::cache_dir().map(|d| d.join("rqr").join("autotune.json"))
+    crate::cache::cache_dir().map(|d| d.join("autotune.json"))
 }
 
 #[derive(Serialize, Deserialize)]

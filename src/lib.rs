@@ -6,10 +6,13 @@
 //! Modules: [`vk`] (Vulkan plumbing), [`interface`] (the host/shader interface, one source for
 //! Rust and GLSL), [`accel`] (ray backends), [`scene`] (glTF loading and texture upload),
 //! [`render`] (passes and drivers), [`shaders`] (embedded SPIR-V), [`autotune`] (what `auto`
-//! picks, measured).
+//! picks, measured), [`batch`] (many assets in one process: `rqr batch` and its library API).
 
 pub mod accel;
 pub mod autotune;
+pub mod batch;
+pub mod cache;
+pub mod device_select;
 pub mod environment;
 pub mod interface;
 pub mod render;

@@ -147,7 +147,8 @@ impl SceneArgs {
 /// Device and backend selection.
 #[derive(Args, Debug, Clone)]
 pub struct DeviceArgs {
-    /// Vulkan device: index or name substring (see `rqr probe`).
+    /// Vulkan device: auto, index, name substring or uuid:GPU-… (see `rqr probe`); under
+    /// auto, CUDA_VISIBLE_DEVICES / NVIDIA_VISIBLE_DEVICES pick it (docs/batch.md).
     #[arg(long, default_value = "auto")]
     pub device: DeviceSelector,
     /// Ray backend: hardware ray queries, the compute-shader BVH, or auto.
@@ -163,10 +164,13 @@ pub struct DeviceArgs {
 }
 
 impl DeviceArgs {
-    /// Opens the device (validation per `RQR_VALIDATION`).
+    /// Opens the device (validation per `RQR_VALIDATION`); under `--device auto`,
+    /// `CUDA_VISIBLE_DEVICES` / `NVIDIA_VISIBLE_DEVICES` choose it ([`rqr::device_select`]).
     pub fn open(&self) -> Result<Context> {
+        let device =
+            rqr::device_select::resolve(&self.device).map_err(anyhow::Error::from_boxed)?;
         Ok(Context::new(&ContextOptions {
-            device: self.device.clone(),
+            device,
             validation: None,
             sync_validation: None,
             fence_timeout: Duration::from_millis(self.timeout_ms),

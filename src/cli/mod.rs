@@ -1,4 +1,4 @@
-//! The `rqr` command line: `probe`, `info`, `render`, `compare`, `bench`.
+//! The `rqr` command line: `probe`, `info`, `render`, `compare`, `bench`, `batch`.
 //!
 //! Subcommands print to stdout through [`outln!`] and [`out!`], never `println!`: a reader
 //! that goes away (`rqr info | head -1`) must end the command quietly, not panic.
@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 use rqr::accel::BackendChoice;
 use rqr::vk::{probe_devices, DeviceSelector, ProbeReport, VkError};
 
+mod batch;
 mod bench;
 mod common;
 mod compare;
@@ -98,6 +99,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Render both paths (and optionally both backends), write images, FLIP map and a report.
     Compare(compare::CompareArgs),
+    /// Render every job of a JSON Lines manifest (or one shard of it) on one warm device.
+    Batch(batch::BatchArgs),
     /// Measure acceleration-structure builds and ray throughput (primary and incoherent rays).
     Bench(bench::BenchArgs),
 }
@@ -112,6 +115,7 @@ pub fn main() -> ExitCode {
         Command::Render(args) => render::run(&args),
         Command::Compare(args) => compare::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Batch(args) => batch::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -143,7 +147,14 @@ pub(crate) fn probe_report(
     device: &DeviceSelector,
     backend: BackendChoice,
 ) -> Result<ProbeReport, VkError> {
-    let mut report = probe_devices(device, backend)?;
+    let device = match rqr::device_select::resolve(device) {
+        Ok(d) => d,
+        Err(e) => {
+            log::warn!("{e}");
+            device.clone()
+        }
+    };
+    let mut report = probe_devices(&device, backend)?;
     // `auto` as the autotune cache decided it (probe opens no device, so it never measures).
     for d in &mut report.devices {
         let decision = rqr::autotune::cached_decision(d);

@@ -11,7 +11,9 @@ pub struct ProbeArgs {
     /// Print the machine-readable JSON document (schema 1).
     #[arg(long)]
     json: bool,
-    /// Device to mark as selected: index or name substring (default: discrete > integrated > virtual > CPU).
+    /// Device to mark as selected: index, name substring or uuid:… (default: the
+    /// CUDA_VISIBLE_DEVICES / NVIDIA_VISIBLE_DEVICES rules, else discrete > integrated >
+    /// virtual > CPU).
     #[arg(long, default_value = "auto")]
     device: DeviceSelector,
     /// Backend choice to resolve for each device.
@@ -133,7 +135,16 @@ fn print_device(d: &DeviceInfo, selected: bool) -> Result<(), StdoutError> {
             "KTX2 textures (auto)",
             format!("{} ({})", d.texture_format, d.texture_format_reason),
         ),
-        ("device UUID", d.device_uuid.clone()),
+        (
+            "device UUID",
+            format!("{} (--device uuid:GPU-{})", d.device_uuid, d.device_uuid),
+        ),
+        (
+            "PCI bus id",
+            d.pci_bus_id
+                .clone()
+                .unwrap_or_else(|| "- (no VK_EXT_pci_bus_info)".into()),
+        ),
     ];
     for (k, v) in rows {
         outln!("    {k:<26} {v}")?;

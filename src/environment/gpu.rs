@@ -96,13 +96,10 @@ fn layout() -> Layout {
     }
 }
 
-/// The on-disk cache of prepared textures: `$RQR_CACHE_DIR/environment`, else the user's
-/// cache directory's `rqr/environment`.
+/// The on-disk cache of prepared textures: `environment/` in [`crate::cache::cache_dir`]
+/// (`RQR_CACHE_DIR`, else the user's cache folder).
 pub fn default_cache_dir() -> Option<PathBuf> {
-    match std::env::var_os("RQR_CACHE_DIR") {
-        Some(d) if !d.is_empty() => Some(PathBuf::from(d).join("environment")),
-        _ => dirs::cache_dir().map(|d| d.join("rqr").join("environment")),
-    }
+    crate::cache::cache_dir().map(|d| d.join("environment"))
 }
 
 /// FNV-1a over the map and every setting that shapes the prepared textures.

@@ -155,6 +155,15 @@ impl RenderOutput {
     }
 }
 
+/// Wall-clock milliseconds of [`Renderer::with_build_times`]' two stages.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct BuildTimes {
+    /// Textures and scene buffers to the device.
+    pub upload_ms: f64,
+    /// Acceleration structures (hardware backend) or the compute BVH.
+    pub accel_build_ms: f64,
+}
+
 /// An uploaded scene with its ray backend, ready to render.
 pub struct Renderer {
     /// Scene buffers.
@@ -184,11 +193,29 @@ impl Renderer {
         backend: Backend,
         bvh_build: crate::accel::bvh::BvhBuild,
     ) -> crate::Result<Self> {
+        Self::with_build_times(ctx, scene, backend, bvh_build).map(|(r, _)| r)
+    }
+
+    /// [`Self::with_bvh_build`], also returning how long the upload and the acceleration
+    /// structure (or BVH) build took.
+    pub fn with_build_times(
+        ctx: &Context,
+        scene: &Scene,
+        backend: Backend,
+        bvh_build: crate::accel::bvh::BvhBuild,
+    ) -> crate::Result<(Self, BuildTimes)> {
+        let start = std::time::Instant::now();
         let gpu_textures = crate::scene::textures::GpuTextures::upload(ctx, scene)?;
         let textures = gpu_textures.descriptors();
         let gpu = GpuScene::upload(ctx, scene, textures.len() as u32)?;
+        let uploaded = std::time::Instant::now();
         let backend = RayBackend::build(ctx, scene, &gpu, backend, bvh_build)?;
-        Ok(Self::from_parts(gpu, backend, gpu_textures, textures))
+        let times = BuildTimes {
+            upload_ms: (uploaded - start).as_secs_f64() * 1e3,
+            accel_build_ms: uploaded.elapsed().as_secs_f64() * 1e3,
+        };
+        let renderer = Self::from_parts(gpu, backend, gpu_textures, textures);
+        Ok((renderer, times))
     }
 
     /// A renderer of an uploaded scene, its backend and textures (`textures` are

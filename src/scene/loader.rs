@@ -97,6 +97,19 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     load_slice(&bytes, path.parent(), &name, opts)
 }
 
+/// Like [`load`], also returning the milliseconds spent decoding images (part of the load):
+/// the texture-decode stage of `rqr batch`'s per-job times.
+pub fn load_timed(path: &Path, opts: &LoadOptions) -> Result<(Scene, f64), SceneError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+        file: name.clone(),
+        source,
+    })?;
+    let mut decode_ms = 0.0;
+    let scene = load_slice_timed(&bytes, path.parent(), &name, opts, &mut decode_ms)?;
+    Ok((scene, decode_ms))
+}
+
 /// Loads glTF or GLB bytes. `base_dir` resolves relative URIs (`None`: only embedded and
 /// data-URI resources are allowed); `name` is the file name used in errors and
 /// [`Scene::source`].
@@ -105,6 +118,16 @@ pub fn load_slice(
     base_dir: Option<&Path>,
     name: &str,
     opts: &LoadOptions,
+) -> Result<Scene, SceneError> {
+    load_slice_timed(bytes, base_dir, name, opts, &mut 0.0)
+}
+
+fn load_slice_timed(
+    bytes: &[u8],
+    base_dir: Option<&Path>,
+    name: &str,
+    opts: &LoadOptions,
+    decode_ms: &mut f64,
 ) -> Result<Scene, SceneError> {
     let format = |message: String| SceneError::Format {
         file: name.to_string(),
@@ -147,7 +170,9 @@ pub fn load_slice(
     loader.check_node_graph()?;
     loader.load_rig()?;
     loader.load_scene()?;
+    let decode_start = std::time::Instant::now();
     loader.decode_images()?;
+    *decode_ms = decode_start.elapsed().as_secs_f64() * 1e3;
     loader.finish()
 }
 

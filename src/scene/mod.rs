@@ -33,8 +33,8 @@ pub use error::SceneError;
 pub use extensions::{ExtensionStatus, ExtensionSupport, SUPPORTED_EXTENSIONS};
 pub use image::MAX_IMAGE_SIZE;
 pub use loader::{
-    load, load_slice, texture_transform_matrix, LoadOptions, MAX_COORDINATE, MAX_INSTANCES,
-    MAX_READ_BYTES, MAX_SCENE_TEXELS, MAX_SCENE_TRIANGLES, MAX_SCENE_VERTICES,
+    load, load_slice, load_timed, texture_transform_matrix, LoadOptions, MAX_COORDINATE,
+    MAX_INSTANCES, MAX_READ_BYTES, MAX_SCENE_TEXELS, MAX_SCENE_TRIANGLES, MAX_SCENE_VERTICES,
 };
 pub use textures::TextureFormat;
 pub use types::*;

@@ -11,7 +11,9 @@ use std::time::Duration;
 use ash::{ext, khr, vk};
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
-use super::instance::{create_instance, device_name, load_entry, select_device, DeviceSelector};
+use super::instance::{
+    create_instance, device_identity, load_entry, select_device, DeviceSelector,
+};
 use super::probe::{describe_device, DeviceInfo};
 use super::{CallExt, VkError, VkResult};
 
@@ -190,6 +192,12 @@ pub struct Context {
     /// [`super::GraphicsPipeline::cached`]; dropped with the context. Typed as `Any` so that
     /// this module does not depend on the pipeline module that depends on it.
     pub(crate) pipelines: Mutex<ObjectCache>,
+    /// The driver's pipeline cache every pipeline is created through.
+    pipeline_cache: vk::PipelineCache,
+    /// Where [`Self::save_pipeline_cache`] (and dropping the context) writes it, if anywhere.
+    pipeline_cache_file: Option<std::path::PathBuf>,
+    /// Checksum of the data the file holds (loaded or last written); 0: unknown.
+    pipeline_cache_sum: AtomicU64,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -279,7 +287,7 @@ impl Context {
             unsafe { instance.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices")?;
         let names: Vec<_> = physicals
             .iter()
-            .map(|&p| device_name(instance, p))
+            .map(|&p| device_identity(instance, p))
             .collect();
         let index = select_device(&names, &opts.device)?;
         let physical = physicals[index];
@@ -324,6 +332,14 @@ impl Context {
         // SAFETY: valid device; on error `shared` drops and cleans up.
         let pool =
             unsafe { device.create_command_pool(&pool_info, None) }.call("vkCreateCommandPool")?;
+        let pipeline_cache = match super::pipeline_cache::create(device, &info, None) {
+            Ok((cache, _)) => cache,
+            Err(e) => {
+                // SAFETY: the pool is unused.
+                unsafe { device.destroy_command_pool(pool, None) };
+                return Err(e);
+            }
+        };
         log::info!(
             "device {}: {} ({}), ray query: {}, validation: {}",
             index,
@@ -345,7 +361,56 @@ impl Context {
             fence_timeout: opts.fence_timeout,
             validation,
             pipelines: Mutex::default(),
+            pipeline_cache,
+            pipeline_cache_file: None,
+            pipeline_cache_sum: AtomicU64::new(0),
         })
+    }
+
+    /// The pipeline cache to create pipelines through.
+    pub fn pipeline_cache(&self) -> vk::PipelineCache {
+        self.pipeline_cache
+    }
+
+    /// Keeps the pipeline cache in `dir` ([`super::pipeline_cache`]): seeds it from this
+    /// device's file there when one is valid (a corrupt or foreign file gives one warning and
+    /// an empty cache), and writes it back when the context is dropped or on
+    /// [`Self::save_pipeline_cache`]. Call before building pipelines; returns whether cached
+    /// data was loaded.
+    pub fn use_pipeline_cache_dir(&mut self, dir: &std::path::Path) -> VkResult<bool> {
+        let path = super::pipeline_cache::cache_file(dir, &self.info);
+        let (cache, sum) = super::pipeline_cache::create(self.device(), &self.info, Some(&path))?;
+        let loaded = sum.is_some();
+        self.pipeline_cache_sum
+            .store(sum.unwrap_or(0), Ordering::Relaxed);
+        // SAFETY: pipelines made through the old cache do not depend on it; nothing else
+        // uses the handle (it is only read by pipeline creation on this thread's context).
+        unsafe {
+            self.device()
+                .destroy_pipeline_cache(self.pipeline_cache, None)
+        };
+        self.pipeline_cache = cache;
+        log::info!(
+            "pipeline cache {} ({})",
+            path.display(),
+            if loaded { "loaded" } else { "empty" }
+        );
+        self.pipeline_cache_file = Some(path);
+        Ok(loaded)
+    }
+
+    /// Writes the pipeline cache to its file now; returns the file (`None` without one).
+    pub fn save_pipeline_cache(&self) -> VkResult<Option<std::path::PathBuf>> {
+        let Some(path) = &self.pipeline_cache_file else {
+            return Ok(None);
+        };
+        let known = match self.pipeline_cache_sum.load(Ordering::Relaxed) {
+            0 => None,
+            sum => Some(sum),
+        };
+        let sum = super::pipeline_cache::save(self.device(), self.pipeline_cache, path, known)?;
+        self.pipeline_cache_sum.store(sum, Ordering::Relaxed);
+        Ok(Some(path.clone()))
     }
 
     fn create_device(
@@ -689,6 +754,10 @@ impl Context {
 
 impl Drop for Context {
     fn drop(&mut self) {
+        // Saved first: a context whose work never finished still compiled its pipelines.
+        if let Err(e) = self.save_pipeline_cache() {
+            log::warn!("{e}");
+        }
         let device = &self.shared.device;
         // A panic while recording poisons the lock; the pool must still be destroyed.
         let sub = self.submission.get_mut().unwrap_or_else(|e| e.into_inner());
@@ -704,9 +773,11 @@ impl Drop for Context {
                 return;
             }
         }
-        // SAFETY: after wait-idle no command buffer is pending; the pool is ours.
+        // SAFETY: after wait-idle no command buffer is pending; the pool and the pipeline
+        // cache are ours (pipelines do not depend on the cache they were made through).
         unsafe {
             let _ = device.device_wait_idle();
+            device.destroy_pipeline_cache(self.pipeline_cache, None);
             for (_, fence) in sub.abandoned.drain(..) {
                 device.destroy_fence(fence, None);
             }

@@ -19,6 +19,30 @@ pub enum DeviceSelector {
     Index(usize),
     /// Case-insensitive substring of the device name.
     Name(String),
+    /// `deviceUUID` (`uuid:GPU-…` or `uuid:…` on the command line: the CUDA / NVML UUID on
+    /// NVIDIA; dashes and a `GPU-` prefix are ignored, a unique prefix is enough).
+    Uuid(String),
+}
+
+/// What [`select_device`] knows of a physical device.
+#[derive(Clone, Debug)]
+pub(crate) struct DeviceIdentity {
+    pub(crate) name: String,
+    pub(crate) device_type: vk::PhysicalDeviceType,
+    pub(crate) uuid: String,
+}
+
+/// A UUID reduced to lowercase hex digits: `GPU-` prefix and dashes dropped.
+pub fn normalize_uuid(uuid: &str) -> String {
+    let u = uuid.trim();
+    let u = u
+        .strip_prefix("GPU-")
+        .or_else(|| u.strip_prefix("gpu-"))
+        .unwrap_or(u);
+    u.chars()
+        .filter(|c| *c != '-')
+        .collect::<String>()
+        .to_lowercase()
 }
 
 impl std::str::FromStr for DeviceSelector {
@@ -26,6 +50,8 @@ impl std::str::FromStr for DeviceSelector {
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Ok(if s.eq_ignore_ascii_case("auto") {
             Self::Auto
+        } else if let Some(uuid) = s.strip_prefix("uuid:") {
+            Self::Uuid(uuid.to_string())
         } else if let Ok(i) = s.parse() {
             Self::Index(i)
         } else {
@@ -40,6 +66,7 @@ impl std::fmt::Display for DeviceSelector {
             Self::Auto => write!(f, "auto"),
             Self::Index(i) => write!(f, "{i}"),
             Self::Name(n) => write!(f, "{n}"),
+            Self::Uuid(u) => write!(f, "uuid:{u}"),
         }
     }
 }
@@ -150,22 +177,36 @@ fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
     }
 }
 
-/// Picks a device index from `(name, type)` pairs.
+/// Picks a device index.
 pub(crate) fn select_device(
-    devices: &[(String, vk::PhysicalDeviceType)],
+    devices: &[DeviceIdentity],
     selector: &DeviceSelector,
 ) -> VkResult<usize> {
     if devices.is_empty() {
         return Err(VkError::NoDevice);
     }
     let found = match selector {
-        DeviceSelector::Auto => (0..devices.len()).min_by_key(|&i| (type_rank(devices[i].1), i)),
+        DeviceSelector::Auto => {
+            (0..devices.len()).min_by_key(|&i| (type_rank(devices[i].device_type), i))
+        }
         DeviceSelector::Index(i) => (*i < devices.len()).then_some(*i),
         DeviceSelector::Name(n) => {
             let n = n.to_lowercase();
             devices
                 .iter()
-                .position(|(name, _)| name.to_lowercase().contains(&n))
+                .position(|d| d.name.to_lowercase().contains(&n))
+        }
+        DeviceSelector::Uuid(u) => {
+            let want = normalize_uuid(u);
+            let hits: Vec<usize> = (0..devices.len())
+                .filter(|&i| {
+                    !want.is_empty() && normalize_uuid(&devices[i].uuid).starts_with(&want)
+                })
+                .collect();
+            match hits.as_slice() {
+                [one] => Some(*one),
+                _ => None,
+            }
         }
     };
     found.ok_or_else(|| VkError::NoMatchingDevice {
@@ -173,21 +214,81 @@ pub(crate) fn select_device(
         available: devices
             .iter()
             .enumerate()
-            .map(|(i, (n, _))| format!("{i}: {n}"))
+            .map(|(i, d)| format!("{i}: {} (uuid {})", d.name, d.uuid))
             .collect::<Vec<_>>()
             .join(", "),
     })
 }
 
-pub(crate) fn device_name(
-    instance: &ash::Instance,
-    pd: vk::PhysicalDevice,
-) -> (String, vk::PhysicalDeviceType) {
-    // SAFETY: `pd` comes from this instance.
-    let props = unsafe { instance.get_physical_device_properties(pd) };
+pub(crate) fn device_identity(instance: &ash::Instance, pd: vk::PhysicalDevice) -> DeviceIdentity {
+    let mut id = vk::PhysicalDeviceIDProperties::default();
+    let props = {
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut id);
+        // SAFETY: `pd` comes from this instance (Vulkan 1.1+: the ID properties are core).
+        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+        props2.properties
+    };
     let name = props
         .device_name_as_c_str()
         .map(|c| c.to_string_lossy().into_owned())
         .unwrap_or_default();
-    (name, props.device_type)
+    DeviceIdentity {
+        name,
+        device_type: props.device_type,
+        uuid: super::probe::uuid_string(&id.device_uuid),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn devices() -> Vec<DeviceIdentity> {
+        [
+            (
+                "llvmpipe",
+                vk::PhysicalDeviceType::CPU,
+                "6c6c766d-7069-7065-5555-494400000000",
+            ),
+            (
+                "NVIDIA H200",
+                vk::PhysicalDeviceType::DISCRETE_GPU,
+                "8932f937-d72c-4106-c12f-20bd9faed9f6",
+            ),
+            (
+                "NVIDIA H200",
+                vk::PhysicalDeviceType::DISCRETE_GPU,
+                "8932aaaa-d72c-4106-c12f-20bd9faed9f6",
+            ),
+        ]
+        .into_iter()
+        .map(|(n, t, u)| DeviceIdentity {
+            name: n.into(),
+            device_type: t,
+            uuid: u.into(),
+        })
+        .collect()
+    }
+
+    #[test]
+    fn uuid_selectors_take_nvml_form_and_unique_prefixes() {
+        let d = devices();
+        let pick = |s: &str| select_device(&d, &s.parse().unwrap());
+        assert_eq!(
+            pick("uuid:GPU-8932f937-d72c-4106-c12f-20bd9faed9f6").unwrap(),
+            1
+        );
+        assert_eq!(pick("uuid:8932AAAAD72C").unwrap(), 2);
+        assert_eq!(pick("uuid:GPU-8932f937").unwrap(), 1);
+        // Ambiguous and unknown prefixes match nothing, listing the UUIDs.
+        let e = pick("uuid:GPU-8932").unwrap_err().to_string();
+        assert!(e.contains("8932f937-d72c"), "{e}");
+        assert!(pick("uuid:GPU-ffff").is_err());
+        assert!(pick("uuid:").is_err());
+        assert_eq!(pick("auto").unwrap(), 1);
+        assert_eq!(
+            "uuid:GPU-1".parse::<DeviceSelector>().unwrap().to_string(),
+            "uuid:GPU-1"
+        );
+    }
 }

@@ -8,6 +8,7 @@ mod context;
 mod instance;
 mod memory;
 mod pipeline;
+pub mod pipeline_cache;
 mod probe;
 mod profiler;
 pub mod requirements;
@@ -15,7 +16,7 @@ mod sampler;
 
 pub(crate) use context::Shared;
 pub use context::{Context, ContextOptions, Features, ABANDONED_WORK_GRACE, DEFAULT_FENCE_TIMEOUT};
-pub use instance::{validation_layer_available, DeviceSelector};
+pub use instance::{normalize_uuid, validation_layer_available, DeviceSelector};
 pub use memory::{host_read_barrier, Buffer, Image};
 pub use pipeline::{
     memory_barrier, rows_of_groups, spirv_words, Binding, ComputePipeline, DescriptorSet,

@@ -190,9 +190,8 @@ impl ComputePipeline {
                 .stage(stage)
                 .layout(layout);
             // SAFETY: valid create info; the module may be destroyed once the pipeline exists.
-            let result = unsafe {
-                device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None)
-            };
+            let result =
+                unsafe { device.create_compute_pipelines(ctx.pipeline_cache(), &[info], None) };
             // SAFETY: the module is no longer needed.
             unsafe { device.destroy_shader_module(module, None) };
             result
@@ -727,7 +726,7 @@ impl GraphicsPipeline {
             .push_next(&mut rendering);
         // SAFETY: every referenced struct lives until the call returns.
         let result =
-            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) };
+            unsafe { device.create_graphics_pipelines(ctx.pipeline_cache(), &[info], None) };
         // SAFETY: modules are no longer needed once the pipeline exists (or failed).
         unsafe {
             modules

@@ -5,10 +5,12 @@
 
 use std::ffi::CStr;
 
-use ash::{khr, vk};
+use ash::{ext, khr, vk};
 use serde::Serialize;
 
-use super::instance::{create_instance, device_name, load_entry, select_device, DeviceSelector};
+use super::instance::{
+    create_instance, device_identity, load_entry, select_device, DeviceIdentity, DeviceSelector,
+};
 use super::requirements::{self, DeviceSupport};
 use super::{CallExt, VkResult};
 
@@ -56,7 +58,7 @@ pub struct AsProperties {
 }
 
 /// Timestamp support on the graphics+compute queue.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct TimestampInfo {
     /// Whether timestamps can be written on that queue.
     pub supported: bool,
@@ -74,7 +76,10 @@ pub struct MemoryHeapInfo {
 }
 
 /// Everything `rqr probe` reports about one physical device.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+///
+/// `Default` is an empty description (no name, no features): a base for device lists
+/// injected in tests of selection rules.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct DeviceInfo {
     /// Enumeration index (what `--device N` takes).
     pub index: usize,
@@ -92,8 +97,16 @@ pub struct DeviceInfo {
     pub driver_info: String,
     /// `VkPhysicalDeviceProperties::driverVersion` (vendor-specific encoding).
     pub driver_version: u32,
-    /// `deviceUUID`, hex with dashes (the autotune cache key, with the driver version).
+    /// `deviceUUID`, hex with dashes (the autotune cache key, with the driver version). On
+    /// NVIDIA it is the CUDA / NVML UUID (`nvidia-smi -L` prints it as `GPU-<this>`).
     pub device_uuid: String,
+    /// PCI device id (`VkPhysicalDeviceProperties::deviceID`).
+    pub device_id: u32,
+    /// PCI address `domain:bus:device.function` (`0000:3b:00.0`, as `nvidia-smi` prints it)
+    /// from `VK_EXT_pci_bus_info`; `None` where the device does not expose it.
+    pub pci_bus_id: Option<String>,
+    /// `pipelineCacheUUID`, hex: pipeline caches are only valid for the same value.
+    pub pipeline_cache_uuid: String,
     /// `shaderBufferInt64Atomics`: the compute rasterizer's one-pass depth test.
     pub buffer_int64_atomics: bool,
     /// `VK_KHR_ray_query` usable.
@@ -185,7 +198,7 @@ fn version_string(v: u32) -> String {
     )
 }
 
-fn uuid_string(bytes: &[u8; vk::UUID_SIZE]) -> String {
+pub(super) fn uuid_string(bytes: &[u8; vk::UUID_SIZE]) -> String {
     let mut s = String::with_capacity(36);
     for (i, b) in bytes.iter().enumerate() {
         if matches!(i, 4 | 6 | 8 | 10) {
@@ -252,6 +265,8 @@ pub(crate) fn describe_device(
     let mut id_props = vk::PhysicalDeviceIDProperties::default();
     let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
     let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+    let has_pci = has(ext::pci_bus_info::NAME);
+    let mut pci = vk::PhysicalDevicePCIBusInfoPropertiesEXT::default();
     let props = {
         let mut props2 = vk::PhysicalDeviceProperties2::default()
             .push_next(&mut driver)
@@ -261,7 +276,11 @@ pub(crate) fn describe_device(
         if has_as {
             props2 = props2.push_next(&mut as_props);
         }
-        // SAFETY: the chain holds only structs the device knows (AS props only with the extension).
+        if has_pci {
+            props2 = props2.push_next(&mut pci);
+        }
+        // SAFETY: the chain holds only structs the device knows (AS and PCI properties only
+        // with their extensions).
         unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
         props2.properties
     };
@@ -325,7 +344,9 @@ pub(crate) fn describe_device(
             device_local: h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL),
         })
         .collect();
-    let (name, device_type) = device_name(instance, pd);
+    let DeviceIdentity {
+        name, device_type, ..
+    } = device_identity(instance, pd);
     DeviceInfo {
         index,
         name,
@@ -343,6 +364,18 @@ pub(crate) fn describe_device(
         driver_info: c_string(&driver.driver_info),
         driver_version: props.driver_version,
         device_uuid: uuid_string(&id_props.device_uuid),
+        device_id: props.device_id,
+        pci_bus_id: has_pci.then(|| {
+            format!(
+                "{:04x}:{:02x}:{:02x}.{:x}",
+                pci.pci_domain, pci.pci_bus, pci.pci_device, pci.pci_function
+            )
+        }),
+        pipeline_cache_uuid: props
+            .pipeline_cache_uuid
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect(),
         buffer_int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
         ray_query,
         bc7_textures,
@@ -405,7 +438,7 @@ pub fn probe_devices(
     let result = physicals.and_then(|physicals| {
         let names: Vec<_> = physicals
             .iter()
-            .map(|&p| device_name(&instance, p))
+            .map(|&p| device_identity(&instance, p))
             .collect();
         let selected = select_device(&names, selector)?;
         let devices = physicals

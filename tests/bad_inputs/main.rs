@@ -12,6 +12,7 @@ mod animation;
 mod corpus;
 mod environment;
 mod extensions;
+mod manifest;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;

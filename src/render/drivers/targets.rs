@@ -258,6 +258,8 @@ pub struct FrameTargets {
     write_aov: bool,
     /// Timestamps of single frames ([`Self::render`]); bursts bring their own.
     profiler: Option<GpuProfiler>,
+    /// Host milliseconds [`Self::render`] last spent reading its image back.
+    last_readback_ms: f64,
 }
 
 impl FrameTargets {
@@ -399,7 +401,14 @@ impl FrameTargets {
             readback,
             write_aov,
             profiler,
+            last_readback_ms: 0.0,
         })
+    }
+
+    /// Host milliseconds the last [`Self::render`] spent reading its image back (mapping
+    /// and copying out of the readback buffer).
+    pub fn last_readback_ms(&self) -> f64 {
+        self.last_readback_ms
     }
 
     fn scopes_per_frame_for(samples: u32) -> u32 {
@@ -613,7 +622,9 @@ impl FrameTargets {
         });
         self.profiler = profiler;
         recorded?;
+        let readback_start = std::time::Instant::now();
         let mut out = self.output(&self.readback, 0)?;
+        self.last_readback_ms = readback_start.elapsed().as_secs_f64() * 1e3;
         if let Some(p) = &self.profiler {
             out.gpu_ms = merge_scopes(p.results()?);
         }
