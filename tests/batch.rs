@@ -351,3 +351,46 @@ fn a_job_past_its_time_limit_fails_alone_and_the_next_one_renders() {
     assert!(!out.join("heavy/001.png").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn jobs_render_under_their_environment_and_a_missing_map_fails_alone() {
+    let dir = work_dir("environment");
+    std::fs::copy(assets().join("Box/Box.glb"), dir.join("Box.glb")).unwrap();
+    let map = rqr::environment::EnvironmentMap::from_fn(32, |d| [0.2 + d.y.max(0.0), 0.3, 0.5]);
+    std::fs::write(dir.join("sky.hdr"), rqr::environment::map::encode_hdr(&map)).unwrap();
+    let lines = [
+        r#"{"defaults": {"width": 16, "height": 16, "cameras": {"orbit": {"n": 1}}}}"#,
+        r#"{"id": "lit", "scene": "Box.glb", "environment": "sky.hdr"}"#,
+        r#"{"id": "plain", "scene": "Box.glb"}"#,
+        r#"{"id": "nomap", "scene": "Box.glb", "environment": "missing.hdr"}"#,
+    ];
+    let manifest = dir.join("manifest.jsonl");
+    std::fs::write(&manifest, lines.join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let run = common::run_rqr(
+        &[
+            "batch",
+            manifest.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[("RQR_CACHE_DIR", dir.join("cache").to_str().unwrap())],
+        LIMIT,
+    )
+    .0;
+    assert_eq!(
+        run.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let r = results(&out.join("results-0-of-1.jsonl"));
+    assert_eq!(by_line(&r, 2)["status"], "ok", "{r:?}");
+    assert_eq!(by_line(&r, 3)["status"], "ok", "{r:?}");
+    let e = by_line(&r, 4);
+    assert_eq!(e["status"], "failed");
+    assert!(e["error"].as_str().unwrap().contains("missing.hdr"), "{e}");
+    let lit = std::fs::read(out.join("lit/000.png")).unwrap();
+    let plain = std::fs::read(out.join("plain/000.png")).unwrap();
+    assert_ne!(lit, plain, "the environment changes the image");
+}

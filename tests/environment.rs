@@ -205,12 +205,12 @@ fn missed_camera_rays_show_the_map_under_the_convention_and_rotation() {
                     }
                     misses += 1;
                     let e = lookup(&map, camera_dir(&scene, x, y), rotation);
-                    for c in 0..3 {
+                    for (c, &e) in e.iter().enumerate() {
                         assert!(
-                            (out.color[i][c] - e[c]).abs() <= 0.01 * e[c],
+                            (out.color[i][c] - e).abs() <= 0.01 * e,
                             "{label} rotation {rotation}: pixel ({x}, {y}) channel {c}: {} against {}",
                             out.color[i][c],
-                            e[c]
+                            e
                         );
                     }
                 }
@@ -350,19 +350,18 @@ fn prepared_levels_match_brute_force_integration() {
             )
         })
         .collect();
-    let reference = |n: Vec3, weight: &dyn Fn(Vec3) -> f32| {
+    let reference = |weight: &dyn Fn(Vec3) -> f32| {
         let mut sum = [0.0f64; 3];
         let mut total = 0.0f64;
         for (i, (l, sin)) in texel_dirs.iter().enumerate() {
             let w = (weight(*l) * sin) as f64;
             if w > 0.0 {
-                for c in 0..3 {
-                    sum[c] += map.texels[i][c] as f64 * w;
+                for (s, &t) in sum.iter_mut().zip(&map.texels[i]) {
+                    *s += t as f64 * w;
                 }
                 total += w;
             }
         }
-        let _ = n;
         sum.map(|s| s / total.max(1e-30))
     };
     let mean_error = |which: EnvTexture, level: u32, weight: &dyn Fn(Vec3, Vec3) -> f32| {
@@ -375,7 +374,7 @@ fn prepared_levels_match_brute_force_integration() {
                     (x as f32 + 0.5) / w as f32,
                     (y as f32 + 0.5) / h as f32,
                 );
-                let r = reference(dir, &|l| weight(dir, l));
+                let r = reference(&|l| weight(dir, l));
                 let g = texels[(y * w + x) as usize];
                 for c in 0..3 {
                     err += ((g[c] as f64 - r[c]) / r[c]).abs();

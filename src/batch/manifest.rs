@@ -96,24 +96,29 @@ impl Shading {
     }
 }
 
-/// Environment lighting. Only none (the settings' background and ambient) exists in this
-/// build; image-based lighting will be one arm in [`Environment::parse`].
+/// Environment lighting of a job: none (the default light rig or the file's lights, the
+/// settings' background and ambient), or an equirectangular `.hdr`/`.exr` map (a path relative
+/// to the manifest's folder), as `--environment`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Environment {
     /// No environment map.
     #[default]
     None,
+    /// An environment map file.
+    File(PathBuf),
 }
 
 impl Environment {
-    /// Parses a manifest value: `null` or `"none"`.
-    pub fn parse(value: &Value) -> Result<Self, String> {
+    /// Parses a manifest value: `null`, `"none"` or a path, resolved against `base`.
+    pub fn parse(value: &Value, base: &Path) -> Result<Self, String> {
         match value {
             Value::Null => Ok(Self::None),
             Value::String(s) if s == "none" => Ok(Self::None),
+            Value::String(s) if s.is_empty() => Err("empty path".into()),
+            Value::String(s) => Ok(Self::File(base.join(s))),
             other => Err(format!(
-                "environment {other} is not supported by this build (supported: null, \"none\")"
+                "environment {other} must be null, \"none\" or the path of a .hdr or .exr file"
             )),
         }
     }
@@ -421,7 +426,7 @@ fn resolve(line_index: usize, f: JobFields, base: &Path) -> Result<Job, FieldErr
         None => Shading::default(),
     };
     let environment = match &f.environment {
-        Some(v) => Environment::parse(v).map_err(|m| ("environment".to_string(), m))?,
+        Some(v) => Environment::parse(v, base).map_err(|m| ("environment".to_string(), m))?,
         None => Environment::default(),
     };
     let aovs = f.aovs.unwrap_or_default();
@@ -500,7 +505,7 @@ mod tests {
              {{\"id\": \"b\", \"scene\": \"s.glb\", {ORBIT}, \"width\": \"wide\"}}\n\
              {{\"id\": \"c\", {ORBIT}}}\n\
              {{\"id\": \"d\", \"scene\": \"s.glb\", {ORBIT}, \"shading\": \"path\"}}\n\
-             {{\"id\": \"e\", \"scene\": \"s.glb\", {ORBIT}, \"environment\": \"sky.hdr\"}}\n\
+             {{\"id\": \"e\", \"scene\": \"s.glb\", {ORBIT}, \"environment\": 7}}\n\
              {{\"id\": \"f\", \"scene\": \"s.glb\", {ORBIT}, \"aovs\": [\"depth\", \"albedo\"]}}\n\
              {{\"id\": \"g\", \"scene\": \"s.glb\", {ORBIT}}}\n\
              {{\"id\": \"g\", \"scene\": \"s.glb\", {ORBIT}}}\n\
@@ -514,7 +519,7 @@ mod tests {
             (2, Some("width"), "invalid type"),
             (3, Some("scene"), "missing"),
             (4, Some("shading"), "not supported by this build"),
-            (5, Some("environment"), "not supported by this build"),
+            (5, Some("environment"), "must be null"),
             (6, Some("aovs[1]"), "unknown AOV 'albedo'"),
             (8, Some("id"), "duplicate id 'g' (first used on line 8)"),
             (9, Some("id"), "cannot be in a directory name"),
@@ -535,10 +540,18 @@ mod tests {
     #[test]
     fn shading_and_environment_accept_what_this_build_has() {
         assert_eq!(Shading::parse("whitted"), Ok(Shading::Whitted));
-        assert_eq!(Environment::parse(&Value::Null), Ok(Environment::None));
+        let base = Path::new("dir");
         assert_eq!(
-            Environment::parse(&Value::String("none".into())),
+            Environment::parse(&Value::Null, base),
             Ok(Environment::None)
+        );
+        assert_eq!(
+            Environment::parse(&Value::String("none".into()), base),
+            Ok(Environment::None)
+        );
+        assert_eq!(
+            Environment::parse(&Value::String("maps/studio.hdr".into()), base),
+            Ok(Environment::File(PathBuf::from("dir/maps/studio.hdr")))
         );
     }
 

@@ -255,6 +255,24 @@ impl std::ops::Deref for RenderedView {
 }
 
 impl LoadedScene {
+    /// Lights the scene with `map` (prepared through the on-disk cache), or with none.
+    pub fn set_environment(
+        &mut self,
+        device: &BatchDevice,
+        map: Option<&crate::environment::EnvironmentMap>,
+    ) -> crate::Result<Option<crate::environment::gpu::PrepareTiming>> {
+        let Some(map) = map else {
+            self.renderer.set_environment(&device.ctx, None)?;
+            return Ok(None);
+        };
+        let cache = crate::environment::gpu::default_cache_dir();
+        let env =
+            crate::environment::GpuEnvironment::prepare_cached(&device.ctx, map, cache.as_deref())?;
+        let timing = env.timing;
+        self.renderer.set_environment(&device.ctx, Some(env))?;
+        Ok(Some(timing))
+    }
+
     /// `n` orbit cameras around the scene (see [`cameras::Orbit`]).
     pub fn orbit(
         &self,

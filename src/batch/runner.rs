@@ -14,9 +14,10 @@ use std::time::{Duration, Instant};
 use image::{ImageBuffer, Rgb, Rgba};
 use serde::Serialize;
 
-use super::manifest::{Entry, Format, Job, Manifest};
+use super::manifest::{Entry, Environment, Format, Job, Manifest};
 use super::shard::Shard;
 use super::{BatchDevice, RenderedView, ViewOptions};
+use crate::environment::EnvironmentSource;
 use crate::render::image::output::aov_value;
 use crate::scene::{LoadOptions, Scene, SceneError};
 use crate::vk::VkError;
@@ -489,7 +490,16 @@ fn render_job(
     times: &mut StageTimes,
     records: &mut Vec<ViewCamera>,
 ) -> crate::Result<usize> {
-    let loaded = device.upload(scene, times.load_ms, times.texture_decode_ms)?;
+    let map = match &job.environment {
+        Environment::None => None,
+        Environment::File(path) => EnvironmentSource::File(path.clone()).load()?,
+    };
+    let mut scene = scene;
+    if map.is_some() {
+        scene.drop_default_lights();
+    }
+    let mut loaded = device.upload(scene, times.load_ms, times.texture_decode_ms)?;
+    loaded.set_environment(device, map.as_ref())?;
     times.upload_ms = loaded.times.build.upload_ms;
     times.accel_build_ms = loaded.times.build.accel_build_ms;
     let aspect = job.width as f32 / job.height as f32;

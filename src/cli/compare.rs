@@ -218,6 +218,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
 
 /// Builds `backend`'s renderer and frame targets (returned as setup time), then times the
 /// ray-traced and hybrid frames (and their depth-1 twins) in alternating bursts.
+// The scene's parts are borrowed apart: each backend reuses them.
+#[allow(clippy::too_many_arguments)]
 fn time_backend(
     args: &CompareArgs,
     ctx: &rqr::vk::Context,

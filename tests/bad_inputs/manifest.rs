@@ -104,10 +104,10 @@ pub const CASES: &[(&str, &str, Option<&str>, &str)] = &[
         "not supported by this build",
     ),
     (
-        "unsupported_environment",
-        r#"{"id": "a", "scene": "Box.glb", "cameras": {"orbit": {"n": 1}}, "environment": "studio.hdr"}"#,
+        "environment_not_a_path",
+        r#"{"id": "a", "scene": "Box.glb", "cameras": {"orbit": {"n": 1}}, "environment": 7}"#,
         Some("environment"),
-        "not supported by this build",
+        "must be null",
     ),
     (
         "unknown_aov",
