@@ -158,7 +158,7 @@ impl std::fmt::Display for Summary {
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     /// The output directory cannot be created or written.
-    #[error("output directory '{dir}' is not writable: {source}")]
+    #[error("output directory '{dir}' is not writable")]
     OutputDir {
         /// The directory.
         dir: PathBuf,
@@ -166,7 +166,7 @@ pub enum RunError {
         source: std::io::Error,
     },
     /// The results file could not be written.
-    #[error("cannot write the results file '{path}': {source}")]
+    #[error("cannot write the results file '{path}'")]
     Results {
         /// The file.
         path: PathBuf,

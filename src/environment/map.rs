@@ -426,6 +426,19 @@ mod tests {
     }
 
     #[test]
+    fn exr_round_trip() {
+        let map = EnvironmentMap::from_fn(16, |d| [d.x.abs() * 40.0, d.y.abs(), 0.5]);
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        let flat: Vec<f32> = map.texels.iter().flatten().copied().collect();
+        image::ImageBuffer::<image::Rgb<f32>, _>::from_raw(16, 8, flat)
+            .unwrap()
+            .write_to(&mut bytes, image::ImageFormat::OpenExr)
+            .unwrap();
+        let back = decode("t.exr", bytes.get_ref()).unwrap();
+        assert_eq!(back, map, "float EXR is lossless");
+    }
+
+    #[test]
     fn bad_texels_are_clamped_and_counted() {
         let mut map = EnvironmentMap::constant(8, [1.0; 3]);
         map.texels[3] = [f32::NAN, -1.0, f32::INFINITY];
