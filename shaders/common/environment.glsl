@@ -7,6 +7,7 @@
 #define RQR_ENVIRONMENT_GLSL
 #include "interface_environment.glsl"
 #include "env_mapping.glsl"
+#include "env_sampling.glsl"
 
 bool env_enabled() { return scene.environment >= 0; }
 
@@ -35,6 +36,23 @@ vec3 env_specular(vec3 r, float roughness) {
 // Split-sum scale and bias of F0 at (n·v, roughness).
 vec2 env_brdf(float n_dot_v, float roughness) {
     return textureLod(textures[nonuniformEXT(uint(scene.environment) + ENV_TEX_BRDF)], vec2(n_dot_v, roughness), 0.0).rg;
+}
+
+// From the map's frame to the world: the inverse of env_map_direction.
+vec3 env_world_direction(vec3 d) {
+    float c = frame.env_rotation.x, s = frame.env_rotation.y;
+    return vec3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+}
+
+// A world direction towards the environment, drawn by luminance × solid angle, and its
+// density (the rotation does not change densities).
+vec3 env_sample(vec2 u, out float pdf) {
+    return env_world_direction(env_sample_map(textures[nonuniformEXT(uint(scene.environment) + ENV_TEX_SAMPLING)], u, pdf));
+}
+
+// The density env_sample draws world direction d with.
+float env_pdf(vec3 d) {
+    return env_pdf_map(textures[nonuniformEXT(uint(scene.environment) + ENV_TEX_SAMPLING)], env_map_direction(d));
 }
 
 // What a ray that found nothing sees: the environment, or for camera rays under

@@ -12,7 +12,7 @@ use super::EnvironmentMap;
 use crate::interface::bindings;
 use crate::interface::environment::{
     EnvPreparePush, BINDING_ENV_SOURCE, ENV_BRDF_SIZE, ENV_IRRADIANCE_WIDTH, ENV_SPECULAR_LEVELS,
-    ENV_SPECULAR_WIDTH,
+    ENV_SPECULAR_WIDTH, ENV_TEXTURES,
 };
 use crate::interface::push_bytes;
 use crate::scene::textures::{barrier, pipeline_barrier};
@@ -30,12 +30,13 @@ const IRRADIANCE_SOURCE_ROWS: u32 = 32;
 /// Version of the cache files' contents: bump when a preparation pass changes its output.
 const CACHE_VERSION: u32 = 1;
 
-/// The four textures of an environment (`ENV_TEX_*` order) and how long preparing took.
+/// The textures of an environment (`ENV_TEX_*` order) and how long preparing took.
 pub struct GpuEnvironment {
     radiance: Image,
     specular: Image,
     irradiance: Image,
     brdf: Image,
+    sampling: Image,
     map_sampler: Sampler,
     table_sampler: Sampler,
     /// Width of the map.
@@ -333,7 +334,9 @@ impl GpuEnvironment {
         // The map with its mips twice (image and staging), the prepared texels twice.
         ctx.check_memory(
             "the environment map",
-            2 * map.device_bytes() + 2 * l.total * 16,
+            2 * map.device_bytes()
+                + 2 * l.total * 16
+                + 2 * u64::from((map.width + 1) * (map.height + 1)) * 4,
         )?;
         let key = cache_dir.map(|_| cache_key(map));
         let cache_file = cache_dir
@@ -374,6 +377,26 @@ impl GpuEnvironment {
         )?;
         let irradiance = image("environment irradiance", irr_w, irr_w / 2, 1)?;
         let brdf = image("environment BRDF table", ENV_BRDF_SIZE, ENV_BRDF_SIZE, 1)?;
+        let tables = super::sampling::SamplingTables::new(map);
+        let sampling = Image::new(
+            ctx,
+            "environment sampling tables",
+            vk::Extent2D {
+                width: map.width + 1,
+                height: map.height + 1,
+            },
+            vk::Format::R32_SFLOAT,
+            usage,
+            1,
+        )?;
+        let mut table_staging = Buffer::new(
+            ctx,
+            "environment sampling staging",
+            tables.table.len() as u64 * 4,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::CpuToGpu,
+        )?;
+        table_staging.write(bytemuck::cast_slice(&tables.table))?;
         let map_sampler = sampler(ctx, vk::SamplerAddressMode::REPEAT, true)?;
         let table_sampler = sampler(ctx, vk::SamplerAddressMode::CLAMP_TO_EDGE, false)?;
 
@@ -416,8 +439,32 @@ impl GpuEnvironment {
                     barrier(specular.raw(), 0..ENV_SPECULAR_LEVELS, NONE, TRANSFER_DST),
                     barrier(irradiance.raw(), 0..1, NONE, TRANSFER_DST),
                     barrier(brdf.raw(), 0..1, NONE, TRANSFER_DST),
+                    barrier(sampling.raw(), 0..1, NONE, TRANSFER_DST),
                 ],
             );
+            let table_copy = vk::BufferImageCopy::default()
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                })
+                .image_extent(vk::Extent3D {
+                    width: map.width + 1,
+                    height: map.height + 1,
+                    depth: 1,
+                });
+            // SAFETY: the staging buffer holds the whole (width + 1) × (height + 1) R32F table;
+            // the image is TRANSFER_DST.
+            unsafe {
+                device.cmd_copy_buffer_to_image(
+                    cmd,
+                    table_staging.raw(),
+                    sampling.raw(),
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[table_copy],
+                )
+            };
             let copies = level_copies(&radiance, levels, 0);
             // SAFETY: the staging buffer holds every level back to back, 16 bytes a texel, at
             // the offsets `level_copies` computes from the same extents; TRANSFER_DST layout.
@@ -475,6 +522,7 @@ impl GpuEnvironment {
                     ),
                     barrier(irradiance.raw(), 0..1, TRANSFER_DST, SHADER_READ),
                     barrier(brdf.raw(), 0..1, TRANSFER_DST, SHADER_READ),
+                    barrier(sampling.raw(), 0..1, TRANSFER_DST, SHADER_READ),
                 ],
             );
             Ok(())
@@ -494,6 +542,7 @@ impl GpuEnvironment {
             specular,
             irradiance,
             brdf,
+            sampling,
             map_sampler,
             table_sampler,
             width: map.width,
@@ -507,13 +556,14 @@ impl GpuEnvironment {
     }
 
     /// The bindless texture entries, in `ENV_TEX_*` order.
-    pub fn descriptors(&self) -> [(vk::ImageView, vk::Sampler); 4] {
+    pub fn descriptors(&self) -> [(vk::ImageView, vk::Sampler); ENV_TEXTURES as usize] {
         let map = self.map_sampler.raw();
         [
             (self.radiance.view(), map),
             (self.specular.view(), map),
             (self.irradiance.view(), map),
             (self.brdf.view(), self.table_sampler.raw()),
+            (self.sampling.view(), self.table_sampler.raw()),
         ]
     }
 

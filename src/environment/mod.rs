@@ -11,6 +11,7 @@
 
 pub mod gpu;
 pub mod map;
+pub mod sampling;
 
 use std::path::PathBuf;
 

@@ -12,8 +12,11 @@ pub const ENV_TEX_SPECULAR: u32 = 1;
 pub const ENV_TEX_IRRADIANCE: u32 = 2;
 /// `+ ENV_TEX_BRDF`: the split-sum BRDF table, (scale, bias) of F0 by (n·v, roughness).
 pub const ENV_TEX_BRDF: u32 = 3;
+/// `+ ENV_TEX_SAMPLING`: the importance-sampling CDFs (R32F, (width + 1) × (height + 1):
+/// each row's conditional CDF, then the rows' marginal CDF; `environment::sampling`).
+pub const ENV_TEX_SAMPLING: u32 = 4;
 /// Textures an environment adds to the bindless array.
-pub const ENV_TEXTURES: u32 = 4;
+pub const ENV_TEXTURES: u32 = 5;
 
 /// Mip levels of the prefiltered specular map (roughness 0, 0.25, 0.5, 0.75, 1).
 pub const ENV_SPECULAR_LEVELS: u32 = 5;
@@ -47,6 +50,38 @@ pub struct EnvPreparePush {
     pub source_levels: u32,
     /// Source mip level the irradiance pass integrates over, texel by texel.
     pub source_level: u32,
+    /// Padding.
+    pub pad0: u32,
+}
+
+/// `shaders/test/env_sampling.comp` mode: draw directions (`u`, direction, pdf, pdf again).
+pub const ENV_TEST_SAMPLE: u32 = 0;
+/// `shaders/test/env_sampling.comp` mode: estimates of the irradiance at +Y, one per
+/// invocation, from `samples` samples of `strategy`.
+pub const ENV_TEST_IRRADIANCE: u32 = 1;
+/// Irradiance estimator: cosine-weighted hemisphere sampling.
+pub const ENV_STRATEGY_COSINE: u32 = 0;
+/// Irradiance estimator: environment importance sampling.
+pub const ENV_STRATEGY_ENVIRONMENT: u32 = 1;
+/// Irradiance estimator: half of each, combined by the power heuristic.
+pub const ENV_STRATEGY_MIS: u32 = 2;
+
+/// Push constant of the sampling test shader (`shaders/test/env_sampling.comp`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct EnvSamplingTestPush {
+    /// Device address of the output: 2 `vec4` per invocation (sample mode), 1 (irradiance).
+    pub texels_out: u64,
+    /// Invocations.
+    pub count: u32,
+    /// `ENV_TEST_*`.
+    pub mode: u32,
+    /// Samples per estimate (irradiance mode).
+    pub samples: u32,
+    /// `ENV_STRATEGY_*`.
+    pub strategy: u32,
+    /// Seed of the random numbers.
+    pub seed: u32,
     /// Padding.
     pub pad0: u32,
 }

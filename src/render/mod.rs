@@ -260,10 +260,13 @@ impl Renderer {
     }
 
     /// Removes the environment (the scene is then lit without one) and hands it back.
-    pub fn take_environment(&mut self) -> Option<crate::environment::GpuEnvironment> {
+    pub fn take_environment(
+        &mut self,
+        ctx: &Context,
+    ) -> crate::Result<Option<crate::environment::GpuEnvironment>> {
         self.textures.truncate(self.scene_texture_count);
-        self.gpu.refs_data.environment = -1;
-        self.environment.take()
+        self.gpu.set_environment(ctx, -1)?;
+        Ok(self.environment.take())
     }
 
     /// The environment lighting the scene, if any.

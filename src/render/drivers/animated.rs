@@ -463,7 +463,7 @@ impl AnimatedFrames {
         time: f32,
     ) -> crate::Result<(Scene, Vec<(String, f64)>)> {
         let posed = self.rest.posed(&self.animations, time);
-        let environment = self.renderer.take_environment();
+        let environment = self.renderer.take_environment(ctx)?;
         self.renderer = frame_renderer(ctx, &posed, self.backend, self.bvh_build)?;
         self.renderer.set_environment(ctx, environment)?;
         self.counters.full_builds += 1;
