@@ -209,15 +209,13 @@ fn light(
             .ok_or_else(|| bad("environment: give a .hdr or .exr path, or None".into()))?;
         let env = rqr::environment::GpuEnvironment::prepare(&d.ctx, &map)
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-        if host.default_lights {
-            if gpu.under_environment.is_none() {
-                let mut unlit = host.clone();
-                unlit.drop_default_lights();
-                gpu.under_environment = Some(
-                    rqr::render::Renderer::with_bvh_build(&d.ctx, &unlit, d.backend, d.bvh_build)
-                        .map_err(crate::to_py_err)?,
-                );
-            }
+        if host.default_lights && gpu.under_environment.is_none() {
+            let mut unlit = host.clone();
+            unlit.drop_default_lights();
+            gpu.under_environment = Some(
+                rqr::render::Renderer::with_bvh_build(&d.ctx, &unlit, d.backend, d.bvh_build)
+                    .map_err(crate::to_py_err)?,
+            );
         }
         let target = match gpu.under_environment.as_mut() {
             Some(r) => r,
