@@ -41,7 +41,7 @@ for i in range(n):
     eye = c[:3, 3]
     at = eye - c[:3, 2]
     subprocess.run([cli, "render", scene_path, "--width", str(size), "--height", str(size),
-                    "--backend", backend, "--look-from", ",".join(map(str, eye)), "--look-at", ",".join(map(str, at)),
+                    "--backend", backend, "--look-from=" + ",".join(map(str, eye)), "--look-at=" + ",".join(map(str, at)),
                     "--fov", "40", "-o", f"{tmp}/v{i}.png"], check=True, capture_output=True)
 t_cli = time.perf_counter() - t2
 print(json.dumps({
