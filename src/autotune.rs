@@ -374,6 +374,12 @@ static MEASURED: Mutex<BTreeMap<String, Measurement>> = Mutex::new(BTreeMap::new
 /// The decision for the opened device: cached numbers, else a measurement (then cached),
 /// else the feature rule. Never fails: problems are logged as warnings.
 pub fn decision(ctx: &Context) -> Decision {
+    decision_with_cache(ctx, cache_path())
+}
+
+/// [`decision`] with the cache file at `path` (`None`: no cache file, measure once per
+/// process), e.g. a directory of the caller's choosing instead of the user cache.
+pub fn decision_with_cache(ctx: &Context, path: Option<PathBuf>) -> Decision {
     let device = ctx.info();
     if disabled() {
         return rule(device, "RQR_NO_AUTOTUNE=1");
@@ -382,7 +388,6 @@ pub fn decision(ctx: &Context) -> Decision {
     if let Some(m) = MEASURED.lock().ok().and_then(|g| g.get(&key).cloned()) {
         return decide(&m, device);
     }
-    let path = cache_path();
     if let Some(path) = &path {
         match load(path, &key) {
             Ok(Some(m)) => return decide(&m, device),
