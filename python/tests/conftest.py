@@ -1,4 +1,4 @@
-"""Shared fixtures: one renderer for the session (opening a device costs ~a second), the
+"""Shared fixtures: one renderer for every test (opening a device costs ~a second), the
 repository's assets and the CLI to compare with."""
 
 import os
@@ -14,13 +14,13 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 ASSETS = ROOT / "assets" / "gltf"
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def renderer():
     with rqr.Renderer() as r:
         yield r
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def builtin(renderer):
     return renderer.load()
 

@@ -182,25 +182,30 @@ const SHADER_READ: (vk::PipelineStageFlags2, vk::AccessFlags2, vk::ImageLayout) 
     vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
 );
 
+/// A copy between a buffer at byte `offset` and mip `level` (`width` × `height`) of a colour image.
+fn level_region(offset: u64, level: u32, width: u32, height: u32) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .buffer_offset(offset)
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: level,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width,
+            height,
+            depth: 1,
+        })
+}
+
 /// Copies of every level of `image`, stored back to back from texel `first` of a buffer.
 fn level_copies(image: &Image, levels: u32, first: u64) -> Vec<vk::BufferImageCopy> {
     let mut offset = first * 16;
     (0..levels)
         .map(|level| {
             let (w, h) = level_extent(image.extent.width, image.extent.height, level);
-            let copy = vk::BufferImageCopy::default()
-                .buffer_offset(offset)
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: level,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                });
+            let copy = level_region(offset, level, w, h);
             offset += u64::from(w * h) * 16;
             copy
         })
@@ -442,18 +447,7 @@ impl GpuEnvironment {
                     barrier(sampling.raw(), 0..1, NONE, TRANSFER_DST),
                 ],
             );
-            let table_copy = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: map.width + 1,
-                    height: map.height + 1,
-                    depth: 1,
-                });
+            let table_copy = level_region(0, 0, map.width + 1, map.height + 1);
             // SAFETY: the staging buffer holds the whole (width + 1) × (height + 1) R32F table;
             // the image is TRANSFER_DST.
             unsafe {
@@ -602,18 +596,7 @@ impl GpuEnvironment {
                     TRANSFER_SRC,
                 )],
             );
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: level,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                });
+            let region = level_region(0, level, w, h);
             // SAFETY: the level is TRANSFER_SRC (barrier above), the image was made with
             // TRANSFER_SRC usage, and the staging buffer holds the whole level.
             unsafe {
