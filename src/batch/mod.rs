@@ -265,9 +265,7 @@ impl LoadedScene {
             self.renderer.set_environment(&device.ctx, None)?;
             return Ok(None);
         };
-        let cache = crate::environment::gpu::default_cache_dir();
-        let env =
-            crate::environment::GpuEnvironment::prepare_cached(&device.ctx, map, cache.as_deref())?;
+        let env = crate::environment::GpuEnvironment::prepare_with_user_cache(&device.ctx, map)?;
         let timing = env.timing;
         self.renderer.set_environment(&device.ctx, Some(env))?;
         Ok(Some(timing))

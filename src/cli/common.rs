@@ -301,8 +301,7 @@ pub fn light_with(
 
 /// Prepares `map` through the on-disk cache (`RQR_CACHE_DIR` or the user's cache folder).
 pub fn prepare_environment(ctx: &Context, map: &EnvironmentMap) -> Result<GpuEnvironment> {
-    let cache = rqr::environment::gpu::default_cache_dir();
-    let env = GpuEnvironment::prepare_cached(ctx, map, cache.as_deref())?;
+    let env = GpuEnvironment::prepare_with_user_cache(ctx, map)?;
     let t = env.timing;
     log::info!(
         "environment {}x{} prepared in {:.1} ms{}",

@@ -326,6 +326,11 @@ impl GpuEnvironment {
         Self::prepare_cached(ctx, map, None)
     }
 
+    /// [`Self::prepare_cached`] through the user's cache ([`default_cache_dir`]).
+    pub fn prepare_with_user_cache(ctx: &Context, map: &EnvironmentMap) -> VkResult<Self> {
+        Self::prepare_cached(ctx, map, default_cache_dir().as_deref())
+    }
+
     /// Uploads `map` and prepares its lighting textures. With `cache_dir`, the prepared
     /// textures are read from (or written to) a file there named by the content hash of the
     /// map and the preparation's settings. The device memory it needs is checked first.
