@@ -169,6 +169,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     if environment.is_some() {
         scene.drop_default_lights();
     }
+    args.image.apply_light_sizes(&mut scene);
     let camera = args
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;

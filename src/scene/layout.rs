@@ -193,8 +193,11 @@ pub struct GpuLight {
     pub inner_cos: f32,
     /// cos(outer cone).
     pub outer_cos: f32,
+    /// Radius of a point or spot light's sphere, or a directional light's angular radius
+    /// (radians); 0 for a punctual light (the distributed model; Whitted ignores it).
+    pub size: f32,
     /// Padding.
-    pub pad: [f32; 3],
+    pub pad: [f32; 2],
 }
 
 /// Addresses and counts of a scene's GPU buffers (uniform at set 0, binding 0).
