@@ -17,6 +17,7 @@ mod common;
 mod compare;
 mod info;
 mod probe;
+mod quality;
 mod progress;
 mod render;
 mod report_html;
