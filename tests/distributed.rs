@@ -549,6 +549,21 @@ fn convergence_slope(
                 false,
                 &settings(spp, 7),
             );
+            let mean = |o: &RenderOutput| {
+                o.color.iter().map(|c| f64::from(c[0])).sum::<f64>() / o.color.len() as f64
+            };
+            let worst = out
+                .color
+                .iter()
+                .zip(&reference.color)
+                .enumerate()
+                .map(|(i, (a, b))| ((a[0] - b[0]).abs(), i, a[0], b[0]))
+                .fold((0.0f32, 0, 0.0, 0.0), |m, x| if x.0 > m.0 { x } else { m });
+            eprintln!(
+                "{label} {spp}: mean {} against {}, worst {worst:?}",
+                mean(&out),
+                mean(&reference)
+            );
             (f64::from(spp).ln(), rmse(&out, &reference).ln())
         })
         .collect();

@@ -210,7 +210,7 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, inout Rng rng) {
             if (max3(f) > 0.0) {
                 rays_by_kind[RAY_SHADOW] += 1u;
                 if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
-                    sum += f * env_radiance(dir) / pdf * power_heuristic(pdf, bsdf_pdf);
+                    sum += f * env_radiance_texel(dir) / pdf * power_heuristic(pdf, bsdf_pdf);
                 }
             }
         }
@@ -279,7 +279,7 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
             if (kind == RAY_PRIMARY) {
                 radiance += miss_radiance(dir, true);
             } else if (env_enabled()) {
-                radiance += throughput * env_radiance(dir) * power_heuristic(bsdf_pdf, env_pdf(dir));
+                radiance += throughput * env_radiance_texel(dir) * power_heuristic(bsdf_pdf, env_pdf(dir));
             } else {
                 radiance += throughput * background_radiance(dir);
             }

@@ -17,8 +17,8 @@ mod common;
 mod compare;
 mod info;
 mod probe;
-mod quality;
 mod progress;
+mod quality;
 mod render;
 mod report_html;
 
