@@ -330,3 +330,29 @@ pub(crate) fn light_size_extra(light: &str, kind: &LightKind, extras: Option<&st
         }
     }
 }
+
+#[cfg(test)]
+mod light_size_tests {
+    use super::*;
+
+    #[test]
+    fn light_sizes_come_from_extras_of_their_kind() {
+        let point = LightKind::Point;
+        let sun = LightKind::Directional;
+        assert_eq!(light_size_extra("l", &point, None), 0.0);
+        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": 0.3}"#)), 0.3);
+        assert_eq!(
+            light_size_extra("l", &sun, Some(r#"{"angularRadius": 0.01}"#)),
+            0.01
+        );
+        // The other kind's key, a wrong type, a negative value, too wide a cone: punctual.
+        assert_eq!(light_size_extra("l", &sun, Some(r#"{"radius": 0.3}"#)), 0.0);
+        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": "1"}"#)), 0.0);
+        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": -1}"#)), 0.0);
+        assert_eq!(
+            light_size_extra("l", &sun, Some(r#"{"angularRadius": 1.6}"#)),
+            0.0
+        );
+        assert_eq!(light_size_extra("l", &point, Some("[1, 2]")), 0.0);
+    }
+}
