@@ -50,7 +50,8 @@ fn render_path(
     })
 }
 
-/// Renders the reference and the ladder on `backend`, writes `reference.png`,
+/// Renders the reference and the ladder on `backend`, writes `reference.png`, the ladder's
+/// ray-traced images (`quality-whitted.png`, `quality-distributed-4-spp.png`, …),
 /// `quality.json` and `quality.md` into `dir`, and returns the markdown table.
 #[allow(clippy::too_many_arguments)]
 pub fn error_against_time(
@@ -103,6 +104,10 @@ pub fn error_against_time(
     for (config, s) in &configs {
         for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
             let out = render_path(ctx, &mut renderer, &draws, s, camera, path)?;
+            if path == RenderPath::RayTraced {
+                let name = format!("quality-{}.png", config.replace(' ', "-"));
+                output::write_png(&dir.join(name), &out)?;
+            }
             let d = compare::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
             rows.push(QualityRow {
                 config: config.clone(),
