@@ -43,8 +43,8 @@ import base64
 import json
 import math
 import os
-import struct
 import sys
+import time
 
 import numpy as np
 
@@ -298,7 +298,6 @@ def render_mitsuba(args):
     global PLY_DIR
     PLY_DIR = os.path.dirname(os.path.abspath(args.out)) or "."
     scene = mi.load_dict(mitsuba_scene(mi, args.width, args.height, args.max_depth, args.light_bsdf))
-    import time
     start = time.time()
     img = mi.render(scene, spp=args.spp, seed=args.seed)
     mi.Bitmap(img).write(args.out)
