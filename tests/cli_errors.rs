@@ -98,7 +98,11 @@ fn bad_settings_fail_before_any_gpu_work() {
             1,
             "--camera 7: the scene has 1 camera(s)",
         ),
-        (vec!["--aov", "albedo"], 1, "unknown AOV 'albedo'"),
+        (
+            vec!["--aov", "albedo,emission"],
+            1,
+            "unknown AOV 'emission' (known: depth, normal, geometric_normal, albedo,",
+        ),
         (
             vec!["-o", "/nonexistent-rqr-dir/out.png"],
             1,
@@ -113,7 +117,12 @@ fn bad_settings_fail_before_any_gpu_work() {
         (
             vec!["-o", "out.txt"],
             1,
-            "output 'out.txt' must end in .png or .exr",
+            "output 'out.txt' must end in .png (tonemapped sRGB), .exr or .pfm (linear HDR)",
+        ),
+        (
+            vec!["-o", "out.tiff", "--aov", "albedo"],
+            1,
+            "output 'out.tiff' must end in .png (tonemapped sRGB), .exr or .pfm",
         ),
         (
             vec![missing_scene.to_str().unwrap()],

@@ -236,7 +236,7 @@ def test_bad_arguments(renderer, builtin, tmp_path):
         dict(mode="path"),
         dict(shading="pbr"),
         dict(aovs=("rgb", "nope")),
-        dict(aovs=("albedo",)),
+        dict(aovs=("albedo", "emission")),
         dict(aovs=()),
         dict(tonemap="filmic"),
         dict(spp=0),
