@@ -226,3 +226,100 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<f32>), OutputError> {
         .collect();
     Ok((width, height, rgb))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("rqr-output-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    #[test]
+    fn pfm_has_the_header_oidn_reads_and_rows_bottom_to_top() {
+        // 2x2: top row (0, 1, 2) (3, 4, 5), bottom row (6, 7, 8) (9, 10, 11).
+        let rgb: Vec<f32> = (0..12).map(|v| v as f32).collect();
+        let path = tmp("order.pfm");
+        write_pfm(&path, 2, 2, &rgb).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let header = b"PF\n2 2\n-1.0\n";
+        assert_eq!(&bytes[..header.len()], header);
+        assert_eq!(bytes.len(), header.len() + 12 * 4);
+        // The first stored row is the image's bottom row.
+        let first = f32::from_le_bytes(bytes[header.len()..header.len() + 4].try_into().unwrap());
+        assert_eq!(first, 6.0);
+        let (w, h, back) = read_pfm(&path).unwrap();
+        assert_eq!((w, h), (2, 2));
+        assert_eq!(back, rgb);
+    }
+
+    #[test]
+    fn pfm_round_trips_floats_exactly_and_rejects_bad_files() {
+        let rgb = [1.5e-8, -0.75, 3.4e38, 0.1, f32::MIN_POSITIVE, 65504.0];
+        let path = tmp("exact.pfm");
+        write_pfm(&path, 2, 1, &rgb).unwrap();
+        assert_eq!(read_pfm(&path).unwrap().2, rgb);
+        assert!(write_pfm(&path, 3, 1, &rgb)
+            .unwrap_err()
+            .to_string()
+            .contains("size mismatch"));
+        std::fs::write(&path, b"Pf\n1 1\n-1.0\n\0\0\0\0").unwrap();
+        assert!(read_pfm(&path)
+            .unwrap_err()
+            .to_string()
+            .contains("not a colour PFM"));
+        std::fs::write(&path, b"PF\n4 4\n-1.0\n\0\0\0\0").unwrap();
+        assert!(read_pfm(&path)
+            .unwrap_err()
+            .to_string()
+            .contains("truncated"));
+    }
+
+    #[test]
+    fn aov_files_take_the_output_format_extension() {
+        let base = Path::new("/x/frame.pfm");
+        assert_eq!(
+            aov_path(base, "albedo", FloatFormat::Pfm),
+            Path::new("/x/frame.albedo.pfm")
+        );
+        assert_eq!(
+            aov_path(Path::new("/x/frame.png"), "normal", FloatFormat::Exr),
+            Path::new("/x/frame.normal.exr")
+        );
+    }
+
+    #[test]
+    fn aov_values_read_the_record_fields() {
+        let a = Aov {
+            normal_depth: [0.0, 1.0, 0.0, 2.5],
+            geometric_samples: [0.0, 0.0, 1.0, 4.0],
+            position: [1.0, 2.0, 3.0, 0.0],
+            albedo: [0.2, 0.4, 0.6, 1.0],
+            bary: [0.25, 0.5],
+            instance: 7,
+            primitive: 9,
+        };
+        assert_eq!(aov_value(&a, "depth"), [2.5; 3]);
+        assert_eq!(aov_value(&a, "normal"), [0.0, 1.0, 0.0]);
+        assert_eq!(aov_value(&a, "geometric_normal"), [0.0, 0.0, 1.0]);
+        assert_eq!(aov_value(&a, "albedo"), [0.2, 0.4, 0.6]);
+        assert_eq!(aov_value(&a, "instance"), [7.0; 3]);
+        assert_eq!(aov_value(&a, "primitive"), [9.0; 3]);
+        assert_eq!(aov_value(&a, "barycentrics"), [0.25, 0.5, 0.0]);
+        assert_eq!(aov_value(&a, "position"), [1.0, 2.0, 3.0]);
+        let miss = Aov {
+            instance: crate::interface::AOV_NO_ID,
+            primitive: crate::interface::AOV_NO_ID,
+            ..Default::default()
+        };
+        assert_eq!(aov_value(&miss, "instance"), [-1.0; 3]);
+        assert_eq!(aov_value(&miss, "primitive"), [-1.0; 3]);
+        // Every documented name has its own arm (position is the fallback arm).
+        for name in AOV_NAMES {
+            let v = aov_value(&a, name);
+            assert!(name == "position" || v != [1.0, 2.0, 3.0], "{name}");
+        }
+    }
+}
