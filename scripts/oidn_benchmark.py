@@ -61,10 +61,20 @@ def mse(a, b):
     return float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
 
 
+def mse_display(a, ref):
+    """MSE of the values clamped to [0, 1] (as a display shows them: the HDR MSE is dominated
+    by the few pixels of the lamp)."""
+    return mse(np.clip(a, 0, 1), np.clip(ref, 0, 1))
+
+
 def psnr(a, ref):
-    """PSNR of the values clamped to [0, 1] (as a display would show them)."""
-    e = mse(np.clip(a, 0, 1), np.clip(ref, 0, 1))
+    """PSNR of the values clamped to [0, 1]."""
+    e = mse_display(a, ref)
     return float("inf") if e == 0 else 10 * np.log10(1.0 / e)
+
+
+def scores(a, ref):
+    return {"mse": mse_display(a, ref), "psnr": psnr(a, ref), "mse_hdr": mse(a, ref)}
 
 
 def render(rqr, scene, out, size, spp, sampler, seed, aovs):
@@ -113,7 +123,7 @@ def main():
     albedo = read_pfm(os.path.join(work, "color.albedo.pfm"))
     normal = read_pfm(os.path.join(work, "color.normal.pfm"))
     ref = read_pfm(ref_path)
-    rows = [{"method": "rqr 1 spp (jitter), no denoiser", "mse": mse(color, ref), "psnr": psnr(color, ref), "ms": None}]
+    rows = [{"method": "rqr 1 spp (jitter), no denoiser", **scores(color, ref), "ms": None}]
     for quality in ("high", "fast"):
         for guides in (True, False):
             times, out = [], None
@@ -128,7 +138,7 @@ def main():
                 )
                 times.append((time.perf_counter() - t) * 1e3)
             label = f"OIDN {quality}" + (" + albedo + normal" if guides else ", colour only")
-            rows.append({"method": label, "mse": mse(out, ref), "psnr": psnr(out, ref), "ms": sorted(times)[len(times) // 2]})
+            rows.append({"method": label, **scores(out, ref), "ms": sorted(times)[len(times) // 2]})
             if quality == "high" and guides:
                 write_pfm(os.path.join(work, "denoised_pyoidn.pfm"), out)
                 high_guided = out
@@ -145,8 +155,7 @@ def main():
             out = read_pfm(out_path)
             cli_result = {
                 "command": " ".join(["oidnDenoise"] + cmd[1:]),
-                "mse": mse(out, ref),
-                "psnr": psnr(out, ref),
+                **scores(out, ref),
                 "process_ms": wall,
                 "max_abs_diff_vs_pyoidn_high": float(np.max(np.abs(out - high_guided))),
             }
@@ -162,7 +171,6 @@ def main():
             "albedo_range": [float(albedo.min()), float(albedo.max())],
             "normal_length_on_hits": float(np.median(np.linalg.norm(normal, axis=2)[np.linalg.norm(normal, axis=2) > 0])) if np.any(normal) else 0.0,
         },
-        "oidn_version": getattr(pyoidn.version, "__version__", None) if hasattr(pyoidn, "version") else None,
         "rows": rows,
         "oidnDenoise": cli_result,
         "folder": work,
@@ -171,11 +179,11 @@ def main():
         print(json.dumps(result, indent=2))
         return
     print(f"{result['scene']} {size[0]}x{size[1]}, reference {args.reference_spp} spp (sobol); images in {work}")
-    print("| method | MSE | PSNR (dB) | denoiser ms |")
-    print("|---|---|---|---|")
+    print("| method | MSE (clamped to [0, 1]) | PSNR (dB) | HDR MSE | denoiser ms |")
+    print("|---|---|---|---|---|")
     for r in rows:
         ms = "" if r["ms"] is None else f"{r['ms']:.0f}"
-        print(f"| {r['method']} | {r['mse']:.3e} | {r['psnr']:.2f} | {ms} |")
+        print(f"| {r['method']} | {r['mse']:.3e} | {r['psnr']:.2f} | {r['mse_hdr']:.3g} | {ms} |")
     if cli_result:
         print(f"oidnDenoise: {json.dumps(cli_result)}")
     else:
