@@ -223,10 +223,11 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
     let out_png = dir.join("out.png");
     let out_png = out_png.to_str().unwrap();
 
-    // A square image whose 48-byte-per-pixel AOV buffer (allocated only for --aov) exceeds
+    // A square image whose per-pixel AOV buffer (80 bytes, allocated only for --aov) exceeds
     // maxStorageBufferRange.
     let range = dev["max_storage_buffer_range"].as_u64().unwrap();
-    let side = ((range / 48) as f64).sqrt() as u64 + 2;
+    let aov_bytes = std::mem::size_of::<rqr::interface::Aov>() as u64;
+    let side = ((range / aov_bytes) as f64).sqrt() as u64 + 2;
     assert!(
         side <= 16384,
         "maxStorageBufferRange {range} fits any image"
