@@ -5,8 +5,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Instance or primitive id of a pixel whose primary ray hit nothing ([`Aov::instance`] and
-/// [`Aov::primitive`]; -1 as an `int32`).
+/// Instance or primitive id of a pixel whose primary ray hit nothing (the `instance` and
+/// `primitive` fields of [`Aov`]; -1 as an `int32`).
 pub const AOV_NO_ID: u32 = u32::MAX;
 
 /// Per-pixel arbitrary output variables of the primary hit (ray-traced and hybrid passes).

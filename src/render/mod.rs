@@ -43,7 +43,7 @@ impl Aov {
     pub fn instance(&self) -> i32 {
         self.instance as i32
     }
-    /// Primitive index, -1 on a miss (as [`Self::instance`]).
+    /// Primitive index, -1 on a miss (the GPU's `uint` reinterpreted, as for the instance).
     pub fn primitive(&self) -> i32 {
         self.primitive as i32
     }
