@@ -369,3 +369,25 @@ fn pfm_and_exr_outputs_hold_the_same_colour_albedo_normal_and_depth() {
         .chunks_exact(3)
         .any(|c| (c[0] - c[1]).abs() > 0.2 || (c[1] - c[2]).abs() > 0.2));
 }
+
+#[test]
+fn sequences_write_linear_pfm_frames() {
+    let dir = tmpdir("pfm-seq");
+    let out = dir.join("seq.pfm");
+    let o = rqr()
+        .args(["render", "--width", "16", "--height", "12", "--frames", "2"])
+        .args(["--camera-path", "orbit:5", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let frames: Vec<Vec<f32>> = (0..2)
+        .map(|k| {
+            let (w, h, rgb) = read_pfm(&dir.join(format!("seq_{k:04}.pfm")));
+            assert_eq!((w, h), (16, 12));
+            assert!(rgb.iter().all(|v| v.is_finite() && *v >= 0.0));
+            rgb
+        })
+        .collect();
+    assert_ne!(frames[0], frames[1], "the camera moved between the frames");
+}
