@@ -389,9 +389,9 @@ fn gbuffer_motion_vectors_follow_moving_objects() {
                 continue;
             }
             let (inst, prim) = (a.instance() as usize, a.primitive() as usize);
-            let b = Vec2::new(a.bary_prim[0], a.bary_prim[1]);
+            let b = Vec2::from(a.bary);
             let now = world_point(&posed1, inst, prim, b);
-            let seen = Vec3::from_slice(&a.position_inst[..3]);
+            let seen = a.world_position();
             assert!(
                 (now - seen).length() <= 1e-4 * rest.bounds.diagonal(),
                 "{name} pixel {p}: the G-buffer point {seen} is not the posed scene's {now}"

@@ -98,7 +98,11 @@ fn bad_settings_fail_before_any_gpu_work() {
             1,
             "--camera 7: the scene has 1 camera(s)",
         ),
-        (vec!["--aov", "albedo"], 1, "unknown AOV 'albedo'"),
+        (
+            vec!["--aov", "albedo,emission"],
+            1,
+            "unknown AOV 'emission' (known: depth, normal, geometric_normal, albedo,",
+        ),
         (
             vec!["-o", "/nonexistent-rqr-dir/out.png"],
             1,
@@ -113,7 +117,12 @@ fn bad_settings_fail_before_any_gpu_work() {
         (
             vec!["-o", "out.txt"],
             1,
-            "output 'out.txt' must end in .png or .exr",
+            "output 'out.txt' must end in .png (tonemapped sRGB), .exr or .pfm (linear HDR)",
+        ),
+        (
+            vec!["-o", "out.tiff", "--aov", "albedo"],
+            1,
+            "output 'out.tiff' must end in .png (tonemapped sRGB), .exr or .pfm",
         ),
         (
             vec![missing_scene.to_str().unwrap()],
@@ -251,10 +260,11 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
     let out_png = dir.join("out.png");
     let out_png = out_png.to_str().unwrap();
 
-    // A square image whose 48-byte-per-pixel AOV buffer (allocated only for --aov) exceeds
+    // A square image whose per-pixel AOV buffer (80 bytes, allocated only for --aov) exceeds
     // maxStorageBufferRange.
     let range = dev["max_storage_buffer_range"].as_u64().unwrap();
-    let side = ((range / 48) as f64).sqrt() as u64 + 2;
+    let aov_bytes = std::mem::size_of::<rqr::interface::Aov>() as u64;
+    let side = ((range / aov_bytes) as f64).sqrt() as u64 + 2;
     assert!(
         side <= 16384,
         "maxStorageBufferRange {range} fits any image"

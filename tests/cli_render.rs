@@ -294,3 +294,100 @@ fn bench_reports_build_and_ray_throughput_per_backend() {
     assert!(gpu["refit"]["tlas_rebuild_gpu_ms"].as_f64().unwrap() > 0.0);
     assert!(gpu["peak_scratch_bytes"].as_u64().unwrap() > 0);
 }
+
+/// A colour PFM as (width, height, RGB rows top to bottom).
+fn read_pfm(path: &Path) -> (u32, u32, Vec<f32>) {
+    rqr::render::image::output::read_pfm(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn pfm_and_exr_outputs_hold_the_same_colour_albedo_normal_and_depth() {
+    let dir = tmpdir("pfm");
+    let (w, h) = (24u32, 16u32);
+    let render = |out: &Path| {
+        let o = rqr()
+            .args(["render", "--width", "24", "--height", "16"])
+            .args(["--aov", "albedo,normal,depth,instance", "-o"])
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let (pfm, exr) = (dir.join("f.pfm"), dir.join("f.exr"));
+    render(&pfm);
+    render(&exr);
+    let (pw, ph, colour) = read_pfm(&pfm);
+    assert_eq!((pw, ph), (w, h));
+    let hdr = image::open(&exr).unwrap().to_rgba32f();
+    let from_exr: Vec<f32> = hdr.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect();
+    assert_eq!(colour, from_exr, "PFM and EXR colour differ");
+    assert!(
+        colour.iter().any(|&c| c > 1.0),
+        "linear HDR keeps values above 1"
+    );
+    let aov = |name: &str| {
+        let (aw, ah, p) = read_pfm(&dir.join(format!("f.{name}.pfm")));
+        assert_eq!((aw, ah), (w, h), "{name}");
+        let e: Vec<f32> = image::open(dir.join(format!("f.{name}.exr")))
+            .unwrap()
+            .to_rgb32f()
+            .pixels()
+            .flat_map(|p| p.0)
+            .collect();
+        assert_eq!(p, e, "{name}: PFM and EXR differ");
+        p
+    };
+    let (albedo, normal, depth, instance) =
+        (aov("albedo"), aov("normal"), aov("depth"), aov("instance"));
+    let mut hits = 0;
+    for px in 0..(w * h) as usize {
+        let at = |v: &[f32]| glam::Vec3::from_slice(&v[px * 3..px * 3 + 3]);
+        let id = instance[px * 3];
+        assert_eq!(id, id.round(), "integer ids");
+        if id < 0.0 {
+            assert_eq!(at(&albedo), glam::Vec3::ZERO);
+            assert_eq!(at(&normal), glam::Vec3::ZERO);
+            assert_eq!(depth[px * 3], 0.0);
+            continue;
+        }
+        hits += 1;
+        let a = at(&albedo);
+        assert!(
+            a.min_element() >= 0.0 && a.max_element() <= 1.0,
+            "albedo {a}"
+        );
+        assert!(
+            (at(&normal).length() - 1.0).abs() < 1e-3,
+            "normal {}",
+            at(&normal)
+        );
+        assert!(depth[px * 3] > 0.0);
+    }
+    assert!(hits > (w * h) as usize / 2, "{hits} hits");
+    // Some surface of the room is coloured (a wall's base colour is not grey).
+    assert!(albedo
+        .chunks_exact(3)
+        .any(|c| (c[0] - c[1]).abs() > 0.2 || (c[1] - c[2]).abs() > 0.2));
+}
+
+#[test]
+fn sequences_write_linear_pfm_frames() {
+    let dir = tmpdir("pfm-seq");
+    let out = dir.join("seq.pfm");
+    let o = rqr()
+        .args(["render", "--width", "16", "--height", "12", "--frames", "2"])
+        .args(["--camera-path", "orbit:5", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let frames: Vec<Vec<f32>> = (0..2)
+        .map(|k| {
+            let (w, h, rgb) = read_pfm(&dir.join(format!("seq_{k:04}.pfm")));
+            assert_eq!((w, h), (16, 12));
+            assert!(rgb.iter().all(|v| v.is_finite() && *v >= 0.0));
+            rgb
+        })
+        .collect();
+    assert_ne!(frames[0], frames[1], "the camera moved between the frames");
+}

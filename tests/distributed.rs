@@ -181,8 +181,8 @@ fn visible_fraction(x: f64) -> f64 {
 
 fn floor_pixels(out: &RenderOutput) -> Vec<(usize, f64)> {
     (0..out.color.len())
-        .filter(|&i| out.aov[i].position_inst[3] == 0.0)
-        .map(|i| (i, f64::from(out.aov[i].position_inst[0])))
+        .filter(|&i| out.aov[i].hit() && out.aov[i].instance() == 0)
+        .map(|i| (i, f64::from(out.aov[i].world_position().x)))
         .collect()
 }
 
@@ -327,7 +327,7 @@ fn furnace_lambert_sphere_shows_its_albedo() {
                 &furnace_settings(),
             );
             let hits: Vec<f64> = (0..out.color.len())
-                .filter(|&i| out.aov[i].position_inst[3] >= 0.0)
+                .filter(|&i| out.aov[i].hit())
                 .map(|i| f64::from(out.color[i][0]))
                 .collect();
             assert!(hits.len() > 200, "{} hits", hits.len());
@@ -407,10 +407,10 @@ fn furnace_rough_metal_reflects_its_single_scattering_albedo() {
             let (mut sum, mut expected, mut n) = (0.0, 0.0, 0);
             for (i, c) in out.color.iter().enumerate() {
                 let a = &out.aov[i];
-                if a.position_inst[3] < 0.0 {
+                if !a.hit() {
                     continue;
                 }
-                let p = Vec3::new(a.position_inst[0], a.position_inst[1], a.position_inst[2]);
+                let p = a.world_position();
                 let mu = f64::from(p.normalize().dot((eye - p).normalize()));
                 sum += f64::from(c[0]);
                 expected += albedo_at(mu);

@@ -73,7 +73,7 @@ fn settings() -> RenderSettings {
 }
 
 fn hit(out: &RenderOutput, i: usize) -> bool {
-    out.aov[i].position_inst[3] >= 0.0
+    out.aov[i].hit()
 }
 
 /// Every combination of backend and path, with a label.
@@ -252,7 +252,7 @@ fn mirror_sphere_reflects_the_map() {
                 continue;
             }
             let a = out.aov[i];
-            let p = Vec3::new(a.position_inst[0], a.position_inst[1], a.position_inst[2]);
+            let p = a.world_position();
             let n = p.normalize();
             let v = (p - from).normalize();
             if -n.dot(v) < 0.3 {
@@ -625,7 +625,7 @@ fn reprojected_misses_show_the_environment_under_camera_motion() {
                     let miss_around = (-1..=1).all(|dy| {
                         (-1..=1).all(|dx| {
                             let (nx, ny) = ((x + dx).clamp(0, 63), (y + dy).clamp(0, 63));
-                            misses[(ny * 64 + nx) as usize].position_inst[3] < 0.0
+                            !misses[(ny * 64 + nx) as usize].hit()
                         })
                     });
                     // (Pixels next to a hit may show a reprojected hit: disocclusion.)

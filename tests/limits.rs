@@ -23,6 +23,9 @@ use rqr::scene::textures::GpuTextures;
 use rqr::scene::{ImageData, Instance, Material, Scene};
 use rqr::vk::VkError;
 
+/// Bytes of one pixel's AOV record.
+const AOV: u64 = std::mem::size_of::<rqr::interface::Aov>() as u64;
+
 fn settings(width: u32, height: u32, spp: u32) -> RenderSettings {
     RenderSettings {
         width,
@@ -55,16 +58,16 @@ fn dense_sphere(segments: u32) -> Scene {
 fn render_estimates_grow_with_what_they_allocate() {
     let s = settings(640, 480, 1);
     let rt = s.estimate_bytes(RenderPath::RayTraced, true);
-    // Colour (16 B) + AOVs (48 B) + tonemap (4 B) per pixel, plus the adaptive corners, plus
-    // the readback slot: tonemapped and linear colour (20 B) and the AOVs again (48 B).
-    assert!(rt >= 640 * 480 * (16 + 48 + 4 + 16 + 20 + 48), "{rt}");
-    assert!(rt <= 640 * 480 * 200, "{rt}");
+    // Colour (16 B) + AOVs (80 B) + tonemap (4 B) per pixel, plus the adaptive corners, plus
+    // the readback slot: tonemapped and linear colour (20 B) and the AOVs again (80 B).
+    assert!(rt >= 640 * 480 * (16 + AOV + 4 + 16 + 20 + AOV), "{rt}");
+    assert!(rt <= 640 * 480 * 300, "{rt}");
     // The readback slot is what the frame allocates (counters, 20 B per pixel, AOVs).
     let counters = 4 * rqr::render::drivers::targets::RING_COUNTERS as u64;
     for aov in [false, true] {
         assert_eq!(
             readback_bytes(&s, aov),
-            counters + 640 * 480 * if aov { 20 + 48 } else { 20 }
+            counters + 640 * 480 * if aov { 20 + AOV } else { 20 }
         );
     }
     // Without AOVs, no AOV buffer (a one-element placeholder is bound instead) and none in
@@ -72,7 +75,7 @@ fn render_estimates_grow_with_what_they_allocate() {
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
         assert_eq!(
             s.estimate_bytes(path, true) - s.estimate_bytes(path, false),
-            640 * 480 * 2 * 48,
+            640 * 480 * 2 * AOV,
             "{path:?}"
         );
     }
@@ -103,7 +106,7 @@ fn render_estimates_grow_with_what_they_allocate() {
     );
     assert!(settings(1280, 960, 1).estimate_bytes(RenderPath::RayTraced, true) > 3 * rt);
     // The largest storage buffer is the AOV array; without AOVs, the adaptive corners.
-    assert_eq!(s.largest_buffer_bytes(true), 640 * 480 * 48);
+    assert_eq!(s.largest_buffer_bytes(true), 640 * 480 * AOV);
     assert_eq!(s.largest_buffer_bytes(false), 641 * 481 * 16);
     // Absurd requests saturate instead of overflowing.
     let huge = settings(16384, 16384, 4096).estimate_bytes(RenderPath::Hybrid, true);
@@ -214,7 +217,7 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
 
     // A resolution whose AOV buffer exceeds maxStorageBufferRange (lavapipe: 128 MiB).
     let info = ctx.info();
-    let side = ((u64::from(info.max_storage_buffer_range) / 48) as f64).sqrt() as u32 + 2;
+    let side = ((u64::from(info.max_storage_buffer_range) / AOV) as f64).sqrt() as u32 + 2;
     if side <= info.max_image_dimension_2d {
         let err = renderer
             .render_rt(&ctx, &settings(side, side, 1), &camera, true)
@@ -364,13 +367,13 @@ fn aovs_alone_exceed_the_storage_range_at_2048() {
         // Colour and corners: 16 B per pixel, 64 MiB.
         s.check_device(&info, path, false, 0)
             .unwrap_or_else(|e| panic!("{path:?} without AOVs: {e}"));
-        // AOVs: 48 B per pixel, 192 MiB.
+        // AOVs: 80 B per pixel, 320 MiB.
         let err = s
             .check_device(&info, path, true, 0)
-            .expect_err("192 MiB of AOVs in a 128 MiB storage range");
+            .expect_err("320 MiB of AOVs in a 128 MiB storage range");
         let msg = err.to_string();
         for needle in [
-            "resolution 2048x2048 with AOVs needs a 192 MiB per-pixel buffer",
+            "resolution 2048x2048 with AOVs needs a 320 MiB per-pixel buffer",
             "at most 128 MiB per storage buffer (maxStorageBufferRange)",
             "render without AOVs",
         ] {

@@ -189,7 +189,7 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
                     "{gbuffer:?} pixel {x},{y}: depth {} vs {expected}",
                     a.depth()
                 );
-                let normal = Vec3::from_slice(&a.normal_depth[..3]);
+                let normal = a.geometric_normal();
                 assert!(
                     (normal - Vec3::Y).length() < 1e-5,
                     "{gbuffer:?} normal {normal}"
@@ -306,7 +306,7 @@ fn adaptive_sampling_refines_edges_only() {
     // Corners are shared: (w+1)(h+1) + w·h base samples ≈ 2 per pixel, plus refinement.
     let spp = out.mean_spp();
     assert!(spp > 2.0 && spp < 6.0, "mean samples per pixel {spp}");
-    let extra: Vec<f32> = out.aov.iter().map(|a| a.bary_prim[3]).collect();
+    let extra: Vec<f32> = out.aov.iter().map(|a| a.samples()).collect();
     let refined = extra.iter().filter(|&&n| n > 1.0).count();
     assert!(
         refined > 0 && refined < extra.len() / 2,

@@ -411,7 +411,7 @@ fn disocclusions_on(ctx: &Context, scene: &Scene, r: &Renderer) {
             .filter(|&i| {
                 let a = a1.aov[i];
                 a.instance() == 0
-                    && project(&f0.camera, size, Vec3::from_slice(&a.position_inst[..3]))
+                    && project(&f0.camera, size, a.world_position())
                         .is_some_and(|j| a0.aov[j].instance() == 1)
             })
             .collect();

@@ -62,7 +62,7 @@ fn lambert_plane_matches_inverse_square_cosine_law() {
         if a.instance() < 0 {
             continue;
         }
-        let p = Vec3::from_slice(&a.position_inst[..3]);
+        let p = a.world_position();
         let d = light - p;
         let r2 = d.length_squared();
         let cos = d.normalize().y;

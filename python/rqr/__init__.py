@@ -10,9 +10,13 @@ numpy arrays.
 Conventions:
   * ``depth`` is the distance along the camera ray (as Mitsuba and Kubric), ``z`` the
     view-space depth along the optical axis (as pyrender); both are +inf on a miss.
-  * ``instance`` and ``primitive`` are int32, -1 on a miss. The renderer stores them as
-    float32 on the GPU: they are exact for ids below 2**24 (16 777 216), which
-    ``AOV_ID_EXACT_LIMIT`` names; ``Renderer.render`` refuses scenes past it.
+  * ``instance`` and ``primitive`` are int32, -1 on a miss, exact at any scene size: the
+    renderer stores them as uint32 on the GPU. ``AOV_ID_EXACT_LIMIT`` (2**31) is where int32
+    would overflow; ``Renderer.render`` refuses scenes with that many instances.
+  * ``normal`` is the world-space shading normal (normal-mapped, facing the camera),
+    ``geometric_normal`` the triangle's, ``albedo`` the linear base colour after texture,
+    vertex colour and factor in [0, 1]: the guides Intel Open Image Denoise takes. All are 0 on
+    a miss.
   * Cameras: ``convention="opengl"`` (glTF: the camera looks down -Z, +Y up) or
     ``"opencv"`` (looks down +Z, +Y down). Pixels are square and the principal point is the
     image centre.
@@ -45,7 +49,7 @@ __all__ = [
 ]
 
 #: Every AOV ``Renderer.render`` returns by default.
-AOVS = ("rgb", "depth", "z", "normal", "instance", "primitive", "mask")
+AOVS = ("rgb", "depth", "z", "normal", "geometric_normal", "albedo", "instance", "primitive", "mask")
 
 # OpenCV camera axes from OpenGL ones: x stays, y and z flip.
 _FLIP_YZ = np.diag([1.0, -1.0, -1.0, 1.0])
@@ -218,8 +222,9 @@ def _look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
 
 
 class RenderResult(dict):
-    """The arrays of a render (keys as requested: rgb, depth, z, normal, instance,
-    primitive, mask; each with a leading view axis), plus ``cameras`` and ``stats``."""
+    """The arrays of a render (keys as requested: rgb, depth, z, normal, geometric_normal,
+    albedo, instance, primitive, mask; each with a leading view axis), plus ``cameras`` and
+    ``stats``."""
 
     def __init__(self, arrays: dict, cameras: dict, stats: dict):
         super().__init__(arrays)
@@ -352,7 +357,7 @@ class Renderer:
         if not aovs:
             raise ValueError("aovs is empty")
         if len(scene.instances) >= AOV_ID_EXACT_LIMIT:
-            raise ValueError(f"{scene.source}: {len(scene.instances)} instances; ids are exact below 2**24")
+            raise ValueError(f"{scene.source}: {len(scene.instances)} instances; int32 ids end at 2**31")
         if environment is not None:
             environment = os.fspath(environment)
             if not os.path.isfile(environment):

@@ -65,6 +65,7 @@ fn _rqr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::Scene>()?;
     m.add_function(wrap_pyfunction!(scene::parse, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
-    m.add("AOV_ID_EXACT_LIMIT", 1u32 << 24)?;
+    // Ids are uint32 on the GPU and int32 in numpy: exact below int32's overflow.
+    m.add("AOV_ID_EXACT_LIMIT", 1u64 << 31)?;
     Ok(())
 }

@@ -1,11 +1,11 @@
 //! Rendering a batch of views of one uploaded scene into numpy arrays: one set of frame
 //! targets for the batch, one submission per view, the AOVs converted on the host (ids from
-//! the GPU's floats to int32).
+//! the GPU's uint32, where a miss is `u32::MAX`, to int32 with -1 on a miss).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use glam::{Mat4, Vec3};
+use glam::Mat4;
 use numpy::ndarray::{Array1, Array3, Array4};
 use numpy::IntoPyArray;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -24,13 +24,24 @@ pub const AOVS: &[&str] = &[
     "depth",
     "z",
     "normal",
+    "geometric_normal",
+    "albedo",
     "instance",
     "primitive",
     "mask",
 ];
 
 /// AOVs that need the renderer's per-pixel primary-hit buffer.
-const HIT_AOVS: &[&str] = &["depth", "z", "normal", "instance", "primitive", "mask"];
+const HIT_AOVS: &[&str] = &[
+    "depth",
+    "z",
+    "normal",
+    "geometric_normal",
+    "albedo",
+    "instance",
+    "primitive",
+    "mask",
+];
 
 /// Largest image side (as the CLI).
 const MAX_SIDE: u32 = 16384;
@@ -91,11 +102,6 @@ impl Request {
             }
         };
         for a in &aovs {
-            if a == "albedo" {
-                return Err(bad(
-                    "aov 'albedo' is not available yet: the renderer's primary-hit AOVs are normal, depth, position, instance and primitive".into(),
-                ));
-            }
             if !AOVS.contains(&a.as_str()) {
                 return Err(bad(format!(
                     "unknown aov {a:?} (known: {})",
@@ -178,6 +184,8 @@ struct Batch {
     depth: Vec<f32>,
     z: Vec<f32>,
     normal: Vec<f32>,
+    geometric_normal: Vec<f32>,
+    albedo: Vec<f32>,
     instance: Vec<i32>,
     primitive: Vec<i32>,
     gpu_ms: Vec<(String, f64)>,
@@ -325,34 +333,38 @@ fn run(device: &SharedDevice, scene: &Scene, req: &Request) -> PyResult<Batch> {
     Ok(batch)
 }
 
-/// Converts one view's primary-hit AOVs: ids from float to int32 (exact below 2^24), ray
-/// distance and view-space depth (+inf on a miss).
+/// Converts one view's primary-hit AOVs: ids from the GPU's uint32 to int32 (-1 on a miss;
+/// exact at any scene size), ray distance and view-space depth (+inf on a miss).
 fn convert_hits(batch: &mut Batch, aov: &[rqr::render::Aov], cam: &Camera, req: &Request) {
     let origin = cam.camera_to_world.w_axis.truncate();
     let forward = -cam.camera_to_world.z_axis.truncate().normalize_or_zero();
     for a in aov {
+        let hit = a.hit();
         let instance = a.instance();
-        let hit = instance >= 0;
         if req.wants("depth") {
             batch
                 .depth
                 .push(if hit { a.depth() } else { f32::INFINITY });
         }
         if req.wants("z") {
-            let p = Vec3::new(a.position_inst[0], a.position_inst[1], a.position_inst[2]);
+            let p = a.world_position();
             batch.z.push(if hit {
                 (p - origin).dot(forward)
             } else {
                 f32::INFINITY
             });
         }
+        // The GPU writes zero normals and albedo on a miss.
         if req.wants("normal") {
-            let nrm = if hit {
-                [a.normal_depth[0], a.normal_depth[1], a.normal_depth[2]]
-            } else {
-                [0.0; 3]
-            };
-            batch.normal.extend(nrm);
+            batch.normal.extend(a.shading_normal().to_array());
+        }
+        if req.wants("geometric_normal") {
+            batch
+                .geometric_normal
+                .extend(a.geometric_normal().to_array());
+        }
+        if req.wants("albedo") {
+            batch.albedo.extend(a.albedo_rgb().to_array());
         }
         if req.wants("instance") || req.wants("mask") {
             batch.instance.push(if hit { instance } else { -1 });
@@ -398,9 +410,15 @@ pub(crate) fn render<'py>(
     if req.wants("z") {
         out.set_item("z", plane(batch.z).map_err(shape_err)?.into_pyarray(py))?;
     }
-    if req.wants("normal") {
-        let a = Array4::from_shape_vec((n, h, w, 3), batch.normal).map_err(shape_err)?;
-        out.set_item("normal", a.into_pyarray(py))?;
+    for (name, data) in [
+        ("normal", batch.normal),
+        ("geometric_normal", batch.geometric_normal),
+        ("albedo", batch.albedo),
+    ] {
+        if req.wants(name) {
+            let a = Array4::from_shape_vec((n, h, w, 3), data).map_err(shape_err)?;
+            out.set_item(name, a.into_pyarray(py))?;
+        }
     }
     if req.wants("mask") {
         let mask: Vec<bool> = batch.instance.iter().map(|&i| i >= 0).collect();

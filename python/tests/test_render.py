@@ -2,6 +2,7 @@
 
 import gc
 import os
+import pathlib
 import threading
 import time
 
@@ -18,7 +19,7 @@ def test_import_touches_no_device():
     # The module imported (conftest did) without a renderer: nothing is open yet, and the
     # native module names the documented exception and limit.
     assert issubclass(rqr.SceneError, Exception)
-    assert rqr.AOV_ID_EXACT_LIMIT == 2**24
+    assert rqr.AOV_ID_EXACT_LIMIT == 2**31
 
 
 def test_device_info(renderer):
@@ -38,6 +39,40 @@ def test_builtin_rgb_equals_cli_exr(renderer, builtin, tmp_path):
     assert got.shape == (H, W, 3) and got.dtype == np.float32
     assert np.abs(got - want).max() <= 1e-6, np.abs(got - want).max()
     assert got.max() > 0.05, "the image is black"
+
+
+def test_albedo_normal_ids_equal_cli_pfm_and_exr(renderer, builtin, tmp_path):
+    # The same frame through the CLI (PFM colour, PFM and EXR AOVs) and through the package.
+    pfm = tmp_path / "cli.pfm"
+    backend = ("--backend", renderer.device["backend"])
+    run_cli("render", "--width", str(W), "--height", str(H), "-o", str(pfm), "--aov", "albedo,normal,instance", *backend)
+    exr = tmp_path / "cli.exr"
+    run_cli("render", "--width", str(W), "--height", str(H), "-o", str(exr), "--aov", "albedo", *backend)
+    cams = builtin.default_camera(W, H)
+    out = renderer.render(builtin, cams, W, H, aovs=("rgb", "albedo", "normal", "instance", "mask"))
+    albedo, normal, inst, mask = out.albedo[0], out.normal[0], out.instance[0], out.mask[0]
+    assert albedo.dtype == np.float32 and albedo.shape == (H, W, 3)
+    assert inst.dtype == np.int32
+    assert mask.any(), "the room is in view"
+    assert albedo.min() >= 0.0 and albedo.max() <= 1.0
+    assert albedo[mask].max() > 0.1, "lit surfaces have a base colour"
+    assert np.all(albedo[~mask] == 0) and np.all(normal[~mask] == 0)
+    lengths = np.linalg.norm(normal[mask], axis=-1)
+    assert np.abs(lengths - 1).max() < 1e-3, "unit shading normals on hits"
+    assert np.abs(_read_pfm(pfm) - out.rgb[0]).max() <= 1e-6
+    assert np.array_equal(_read_pfm(tmp_path / "cli.albedo.pfm"), albedo)
+    assert np.array_equal(_read_pfm(tmp_path / "cli.normal.pfm"), normal)
+    assert np.array_equal(_read_pfm(tmp_path / "cli.instance.pfm")[..., 0], inst.astype(np.float32))
+    assert np.array_equal(rqr.read_exr(tmp_path / "cli.albedo.exr")[..., :3], albedo)
+
+
+def _read_pfm(path):
+    """A colour PFM (as rqr writes it: little-endian, rows bottom to top) as [H, W, 3]."""
+    data = pathlib.Path(path).read_bytes()
+    magic, size, scale, rest = data.split(b"\n", 3)
+    assert magic == b"PF" and float(scale) < 0
+    w, h = (int(v) for v in size.split())
+    return np.frombuffer(rest, dtype="<f4", count=w * h * 3).reshape(h, w, 3)[::-1]
 
 
 def test_srgb8(renderer, builtin):
@@ -236,7 +271,7 @@ def test_bad_arguments(renderer, builtin, tmp_path):
         dict(mode="path"),
         dict(shading="pbr"),
         dict(aovs=("rgb", "nope")),
-        dict(aovs=("albedo",)),
+        dict(aovs=("albedo", "emission")),
         dict(aovs=()),
         dict(tonemap="filmic"),
         dict(spp=0),

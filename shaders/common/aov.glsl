@@ -4,13 +4,19 @@
 #define RQR_AOV_GLSL
 #include "interface_passes.glsl"
 
-// The AOVs of `info` after `samples` camera samples: a miss has t 0 and instance and
-// primitive -1.
+// The AOVs of `info` after `samples` camera samples. A miss has t 0, zero normals, position and
+// albedo, and ids AOV_NO_ID. The albedo is the surface's base colour for every material (the
+// diffuse colour of a dielectric, F0 of a metal, the tint of a transmissive surface), clamped to
+// [0, 1] as an external denoiser's albedo guide expects.
 Aov primary_aov(PrimaryInfo info, uint samples) {
     Aov a;
-    a.normal_depth = vec4(info.normal, info.hit ? info.t : 0.0);
-    a.position_inst = vec4(info.position, float(info.hit ? info.instance : -1));
-    a.bary_prim = vec4(info.bary, float(info.hit ? info.primitive : -1), float(samples));
+    a.normal_depth = vec4(info.hit ? info.shading_normal : vec3(0.0), info.hit ? info.t : 0.0);
+    a.geometric_samples = vec4(info.hit ? info.normal : vec3(0.0), float(samples));
+    a.position = vec4(info.hit ? info.position : vec3(0.0), 0.0);
+    a.albedo = info.hit ? clamp(info.albedo, 0.0, 1.0) : vec4(0.0);
+    a.bary = info.hit ? info.bary : vec2(0.0);
+    a.instance = info.hit ? uint(info.instance) : AOV_NO_ID;
+    a.primitive = info.hit ? uint(info.primitive) : AOV_NO_ID;
     return a;
 }
 #endif

@@ -271,6 +271,8 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
                 if (first) {
                     info.normal = s.ng_front;
                     info.position = s.position;
+                    info.shading_normal = s.n;
+                    info.albedo = vec4(s.base_color, s.alpha);
                 }
             }
         }

@@ -68,6 +68,8 @@ void main() {
         info.bary = vec2(0.0);
         info.normal = vec3(0.0);
         info.position = vec3(0.0);
+        info.shading_normal = vec3(0.0);
+        info.albedo = vec4(0.0);
     }
 #else
     vec4 p = imageLoad(g_position, ip);
@@ -94,6 +96,8 @@ void main() {
         info.bary = b.xy;
         info.normal = s.ng_front;
         info.position = s.position;
+        info.shading_normal = s.n;
+        info.albedo = vec4(s.base_color, s.alpha);
     } else {
         c = miss_radiance(camera.dir, true);
 #ifdef SHADING_DISTRIBUTED

@@ -25,12 +25,6 @@ layout(set = 0, binding = BINDING_RT_AOV, scalar) writeonly buffer AovOut { Aov 
 layout(set = 0, binding = BINDING_RT_COUNTERS, std430) buffer Counters { uint counters[]; };  // by RAY_* kind, then samples
 layout(set = 0, binding = BINDING_RT_CORNERS, scalar) buffer Corners { vec4 corners[]; };
 
-PrimaryInfo no_info() {
-    PrimaryInfo i;
-    i.hit = false; i.t = 0.0; i.instance = -1; i.primitive = -1; i.bary = vec2(0.0); i.normal = vec3(0.0); i.position = vec3(0.0);
-    return i;
-}
-
 Surface unused_surface;
 Hit unused_hit;
 
@@ -80,7 +74,7 @@ void main() {
     bool adaptive = !corner_pass && frame.sampler_kind == SAMPLER_ADAPTIVE;
     uint stride = frame.width + 1u;
 
-    PrimaryInfo info = no_info();
+    PrimaryInfo info = primary_miss();
     vec3 sum = vec3(0.0);
     float weight_sum = 0.0;
     uint samples = 0u;
@@ -138,7 +132,7 @@ void main() {
             }
         }
 
-        PrimaryInfo sample_info = no_info();
+        PrimaryInfo sample_info = primary_miss();
         current_pixel = pix;
         current_sample = frame.sample_base + job;
         vec3 c = radiance_at(film, sample_info);

@@ -129,13 +129,15 @@ struct PrimaryInfo {
     int instance;
     int primitive;
     vec2 bary;
-    vec3 normal;
+    vec3 normal;          // geometric normal of the glTF front face
     vec3 position;
+    vec3 shading_normal;  // Surface::n (normal-mapped, towards the viewer)
+    vec4 albedo;          // Surface::base_color, alpha
 };
 
 // What a pixel whose primary ray found nothing reports.
 PrimaryInfo primary_miss() {
-    return PrimaryInfo(false, 0.0, -1, -1, vec2(0.0), vec3(0.0), vec3(0.0));
+    return PrimaryInfo(false, 0.0, -1, -1, vec2(0.0), vec3(0.0), vec3(0.0), vec3(0.0), vec4(0.0));
 }
 
 PathRay path_stack[STACK_SIZE];
@@ -313,6 +315,8 @@ vec3 whitted(Ray camera, uint primary, Surface primary_surface, Hit primary_hit,
             if (first) {
                 info.normal = s.ng_front;
                 info.position = s.position;
+                info.shading_normal = s.n;
+                info.albedo = vec4(s.base_color, s.alpha);
                 first = false;
             }
         }

@@ -506,7 +506,7 @@ mod tests {
              {{\"id\": \"c\", {ORBIT}}}\n\
              {{\"id\": \"d\", \"scene\": \"s.glb\", {ORBIT}, \"shading\": \"path\"}}\n\
              {{\"id\": \"e\", \"scene\": \"s.glb\", {ORBIT}, \"environment\": 7}}\n\
-             {{\"id\": \"f\", \"scene\": \"s.glb\", {ORBIT}, \"aovs\": [\"depth\", \"albedo\"]}}\n\
+             {{\"id\": \"f\", \"scene\": \"s.glb\", {ORBIT}, \"aovs\": [\"depth\", \"albedo\", \"emission\"]}}\n\
              {{\"id\": \"g\", \"scene\": \"s.glb\", {ORBIT}}}\n\
              {{\"id\": \"g\", \"scene\": \"s.glb\", {ORBIT}}}\n\
              {{\"id\": \"../up\", \"scene\": \"s.glb\", {ORBIT}}}\n\
@@ -520,7 +520,7 @@ mod tests {
             (3, Some("scene"), "missing"),
             (4, Some("shading"), "not supported by this build"),
             (5, Some("environment"), "must be null"),
-            (6, Some("aovs[1]"), "unknown AOV 'albedo'"),
+            (6, Some("aovs[2]"), "unknown AOV 'emission'"),
             (8, Some("id"), "duplicate id 'g' (first used on line 8)"),
             (9, Some("id"), "cannot be in a directory name"),
             (10, Some("defaults"), "first line"),

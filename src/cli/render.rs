@@ -40,11 +40,13 @@ pub struct RenderArgs {
     /// Rendering path.
     #[arg(long, value_enum, default_value_t = RenderPath::RayTraced)]
     mode: RenderPath,
-    /// Output: .png (tonemapped sRGB) or .exr (linear HDR).
+    /// Output: .png (tonemapped sRGB), .exr (linear HDR) or .pfm (linear HDR, the portable
+    /// float map that Intel Open Image Denoise's `oidnDenoise` reads).
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
-    /// Also write 32-bit float EXR AOVs next to the output: depth, normal, instance,
-    /// primitive, barycentrics, position (comma-separated).
+    /// Also write 32-bit float AOVs next to the output (comma-separated): depth, normal
+    /// (shading), geometric_normal, albedo, instance, primitive, barycentrics, position. They
+    /// are `.pfm` when the output is, else `.exr`.
     #[arg(long, value_delimiter = ',')]
     aov: Vec<String>,
     /// Print a JSON summary (device, backend, per-pass GPU ms, rays by kind, Mrays/s); for a
@@ -230,9 +232,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_lowercase();
-    if ext != "png" && ext != "exr" {
+    if !["png", "exr", "pfm"].contains(&ext.as_str()) {
         bail!(
-            "output '{}' must end in .png or .exr",
+            "output '{}' must end in .png (tonemapped sRGB), .exr or .pfm (linear HDR)",
             args.output.display()
         );
     }
@@ -270,12 +272,17 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             renderer.render_hybrid(&ctx, &gbuffer::draws(&scene), &settings, &camera, write_aov)?
         }
     };
-    if ext == "exr" {
-        output::write_exr(&args.output, &out)?;
-    } else {
-        output::write_png(&args.output, &out)?;
+    match ext.as_str() {
+        "exr" => output::write_exr(&args.output, &out)?,
+        "pfm" => output::write_color_pfm(&args.output, &out)?,
+        _ => output::write_png(&args.output, &out)?,
     }
-    let aovs = output::write_aovs(&args.output, &out, &args.aov)?;
+    let aov_format = if ext == "pfm" {
+        output::FloatFormat::Pfm
+    } else {
+        output::FloatFormat::Exr
+    };
+    let aovs = output::write_aovs(&args.output, &out, &args.aov, aov_format)?;
     if args.json {
         let summary = json!({
             "device": ctx.info().name,
@@ -331,8 +338,8 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let settings = args.image.settings()?;
     let range = seq.range()?;
     let mut reuse = seq.reuse();
-    // Only EXR frames read the linear colour.
-    reuse.linear_color = ext == "exr";
+    // Only float (EXR, PFM) frames read the linear colour.
+    reuse.linear_color = ext != "png";
     reuse.validate().map_err(anyhow::Error::msg)?;
     if !args.aov.is_empty() {
         bail!("--aov is for single images; sequences write colour only");
@@ -477,7 +484,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         (false, true) => {
             let contents = RingContents {
                 rgba8: true,
-                color: ext == "exr",
+                color: ext != "png",
                 aov: false,
                 states: seq.sources,
             };
@@ -626,10 +633,10 @@ fn write_frame(
     let seq = &args.sequence;
     let k = frame.index;
     let file = frame_path(&args.output, k);
-    if ext == "exr" {
-        output::write_exr(&file, &frame.output)?;
-    } else {
-        output::write_png(&file, &frame.output)?;
+    match ext {
+        "exr" => output::write_exr(&file, &frame.output)?,
+        "pfm" => output::write_color_pfm(&file, &frame.output)?,
+        _ => output::write_png(&file, &frame.output)?,
     }
     if seq.sources {
         let rgb: Vec<u8> = frame

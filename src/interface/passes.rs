@@ -5,16 +5,32 @@
 
 use bytemuck::{Pod, Zeroable};
 
+/// Instance or primitive id of a pixel whose primary ray hit nothing (the `instance` and
+/// `primitive` fields of [`Aov`]; -1 as an `int32`).
+pub const AOV_NO_ID: u32 = u32::MAX;
+
 /// Per-pixel arbitrary output variables of the primary hit (ray-traced and hybrid passes).
+/// Ids are integers end to end (exact at any scene size); the rest is float.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Aov {
-    /// xyz: geometric world normal of the glTF front face; w: hit distance (0 on a miss).
+    /// xyz: world-space shading normal (after normal mapping, unit length, turned towards the
+    /// camera; 0 on a miss); w: hit distance along the unit primary ray (0 on a miss).
     pub normal_depth: [f32; 4],
-    /// xyz: world position; w: instance index (-1 on a miss).
-    pub position_inst: [f32; 4],
-    /// xy: barycentrics; z: primitive index (-1 on a miss); w: samples traced for the pixel.
-    pub bary_prim: [f32; 4],
+    /// xyz: world-space geometric normal of the glTF front face (0 on a miss); w: samples
+    /// traced for the pixel.
+    pub geometric_samples: [f32; 4],
+    /// xyz: world position (0 on a miss); w: 0.
+    pub position: [f32; 4],
+    /// rgb: linear base colour after texture, vertex colour and factor, in [0, 1] (0 on a
+    /// miss); a: its alpha.
+    pub albedo: [f32; 4],
+    /// Barycentrics of the hit in its triangle.
+    pub bary: [f32; 2],
+    /// Instance index ([`AOV_NO_ID`] on a miss).
+    pub instance: u32,
+    /// Primitive (triangle) index in the instance's mesh ([`AOV_NO_ID`] on a miss).
+    pub primitive: u32,
 }
 
 /// raytrace.comp: [`Aov`] per pixel (written under `FLAG_WRITE_AOV`).

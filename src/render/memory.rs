@@ -91,7 +91,7 @@ impl RenderSettings {
         let range = u64::from(info.max_storage_buffer_range);
         let largest = self.largest_buffer_bytes(aov);
         if largest > range {
-            // Name the way out: AOVs alone need three times the colour's range.
+            // Name the way out: AOVs alone need five times the colour's range.
             let (what, hint) = if aov && self.largest_buffer_bytes(false) <= range {
                 (
                     " with AOVs",

@@ -35,13 +35,37 @@ impl Aov {
     pub fn depth(&self) -> f32 {
         self.normal_depth[3]
     }
-    /// Instance index, -1 on a miss.
-    pub fn instance(&self) -> i32 {
-        self.position_inst[3] as i32
+    /// Whether the primary ray hit a surface.
+    pub fn hit(&self) -> bool {
+        self.instance != crate::interface::AOV_NO_ID
     }
-    /// Primitive index, -1 on a miss.
+    /// Instance index, -1 on a miss (the GPU's `uint` reinterpreted: exact at any scene size).
+    pub fn instance(&self) -> i32 {
+        self.instance as i32
+    }
+    /// Primitive index, -1 on a miss (the GPU's `uint` reinterpreted, as for the instance).
     pub fn primitive(&self) -> i32 {
-        self.bary_prim[2] as i32
+        self.primitive as i32
+    }
+    /// World-space shading normal (after normal mapping, towards the camera; 0 on a miss).
+    pub fn shading_normal(&self) -> glam::Vec3 {
+        glam::Vec3::from_slice(&self.normal_depth[..3])
+    }
+    /// World-space geometric normal of the glTF front face (0 on a miss).
+    pub fn geometric_normal(&self) -> glam::Vec3 {
+        glam::Vec3::from_slice(&self.geometric_samples[..3])
+    }
+    /// World-space hit position (0 on a miss).
+    pub fn world_position(&self) -> glam::Vec3 {
+        glam::Vec3::from_slice(&self.position[..3])
+    }
+    /// Linear base colour of the hit, clamped to [0, 1] (0 on a miss).
+    pub fn albedo_rgb(&self) -> glam::Vec3 {
+        glam::Vec3::from_slice(&self.albedo[..3])
+    }
+    /// Camera samples traced for the pixel.
+    pub fn samples(&self) -> f32 {
+        self.geometric_samples[3]
     }
 }
 
@@ -304,7 +328,7 @@ impl Renderer {
     }
 
     /// Renders one image with the pure ray-traced path. With `write_aov` it also fills
-    /// [`RenderOutput::aov`], which takes a 48-byte-per-pixel buffer (checked against the
+    /// [`RenderOutput::aov`], which takes an 80-byte-per-pixel buffer (checked against the
     /// device's `maxStorageBufferRange` and heap first); without, no such buffer is allocated.
     /// Allocates the frame's resources for this one image: frame loops keep a
     /// [`FrameTargets`] instead.

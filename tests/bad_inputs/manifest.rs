@@ -111,9 +111,9 @@ pub const CASES: &[(&str, &str, Option<&str>, &str)] = &[
     ),
     (
         "unknown_aov",
-        r#"{"id": "a", "scene": "Box.glb", "cameras": {"orbit": {"n": 1}}, "aovs": ["albedo"]}"#,
-        Some("aovs[0]"),
-        "unknown AOV",
+        r#"{"id": "a", "scene": "Box.glb", "cameras": {"orbit": {"n": 1}}, "aovs": ["albedo", "emission"]}"#,
+        Some("aovs[1]"),
+        "unknown AOV 'emission'",
     ),
     (
         "late_defaults",

@@ -266,7 +266,7 @@ impl FrameTargets {
     /// Allocates everything frames of `path` at `settings` need, after checking that it fits
     /// the device ([`RenderSettings::check_device`]). `draws` are the scene's raster draws
     /// (hybrid path; ignored by the ray-traced one). With `write_aov` frames also write the
-    /// primary-hit AOVs (48 bytes per pixel).
+    /// primary-hit AOVs (80 bytes per pixel).
     pub fn new(
         ctx: &Context,
         renderer: &Renderer,

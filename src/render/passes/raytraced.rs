@@ -72,7 +72,7 @@ fn spirv(backend: Backend, shading: Shading) -> &'static [u8] {
 
 impl RaytracedPass {
     /// Creates the pipeline and buffers for `settings`' resolution; the per-pixel AOV buffer
-    /// only when `write_aov` (48 bytes per pixel: at full size it alone limits the resolution
+    /// only when `write_aov` (80 bytes per pixel: at full size it alone limits the resolution
     /// on devices with a small `maxStorageBufferRange`). `frame_buf` is the Frame uniform
     /// buffer, written by [`Self::record`].
     pub fn new(
