@@ -113,7 +113,7 @@ struct GpuLight {
     vec3 radiance;
     float inner_cos;
     float outer_cos;
-    float pad0;
+    float angular_radius;
     float pad1;
     float pad2;
 };

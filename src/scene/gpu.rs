@@ -165,7 +165,8 @@ pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
                 radiance: (l.color * l.intensity).to_array(),
                 inner_cos,
                 outer_cos,
-                pad: [0.0; 3],
+                angular_radius: l.angular_radius,
+                pad: [0.0; 2],
             }
         })
         .collect()

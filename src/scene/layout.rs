@@ -193,8 +193,11 @@ pub struct GpuLight {
     pub inner_cos: f32,
     /// cos(outer cone).
     pub outer_cos: f32,
+    /// Angular radius of the source, radians (`Light::angular_radius`; 0: a point or a
+    /// direction).
+    pub angular_radius: f32,
     /// Padding.
-    pub pad: [f32; 3],
+    pub pad: [f32; 2],
 }
 
 /// Addresses and counts of a scene's GPU buffers (uniform at set 0, binding 0).

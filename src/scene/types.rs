@@ -448,6 +448,10 @@ pub struct Light {
     pub position: Vec3,
     /// World direction the light points to (unit; unused for point).
     pub direction: Vec3,
+    /// Angular radius of the source seen from the scene, radians: 0 for glTF's punctual
+    /// lights, the sun's 0.2665° for the sky's sun (`--environment sky`). Carried to the GPU
+    /// record (`GpuLight::angular_radius`) for soft shadows.
+    pub angular_radius: f32,
 }
 
 /// Camera projection.

@@ -281,6 +281,7 @@ impl Loader<'_> {
             direction: world
                 .transform_vector3(Vec3::NEG_Z)
                 .normalize_or(Vec3::NEG_Z),
+            angular_radius: 0.0,
         })
     }
 }
