@@ -91,17 +91,15 @@ fn the_model_matches_an_independent_evaluation_of_the_published_dataset() {
         let azimuth = 37.0;
         let model = sky(e, azimuth, t);
         let d = direction(azimuth, theta, dphi);
-        let got = if theta == 0.0 || dphi == 0.0 {
-            // θ = 0 or the sun's own azimuth: compare the model at (θ, γ) directly too.
+        if theta == 0.0 || dphi == 0.0 {
+            // θ = 0 or the sun's own azimuth: γ = |90° - e - θ|; the model at (θ, γ) directly.
             let gamma = (90.0 - e - theta).abs().to_radians();
             let direct = model.model_radiance(theta.to_radians(), gamma);
             for c in 0..3 {
                 assert!(rel(direct[c], expected[c]) < 1e-3, "{t} {e} {theta} {dphi}");
             }
-            model.sky_radiance(d)
-        } else {
-            model.sky_radiance(d)
-        };
+        }
+        let got = model.sky_radiance(d);
         for c in 0..3 {
             let g = got[c] / SKY_RADIANCE_SCALE;
             assert!(
@@ -152,7 +150,11 @@ fn the_baked_map_reproduces_the_model_within_one_percent() {
             // Below the horizon: one uniform ground colour, darker than the sky above it.
             let ground = map.texels[map.texels.len() - 1];
             let (u, v) = direction_to_uv(Vec3::new(0.3, -0.5, 0.8).normalize());
-            assert_eq!(map.bilinear(u, v), ground);
+            let below = map.bilinear(u, v);
+            assert!(
+                (0..3).all(|c| rel(below[c], ground[c]) < 1e-5),
+                "{below:?} {ground:?}"
+            );
             assert!(ground.iter().all(|&g| g > 0.0 && g.is_finite()));
         }
     }
@@ -167,7 +169,10 @@ fn the_sun_follows_elevation_and_azimuth_under_the_map_convention() {
         assert!((s.y.asin().to_degrees() - e).abs() < 1e-3, "{e} {a}");
         // The azimuth is the map's u × 360°: the sun sits at u = azimuth / 360.
         let (u, v) = direction_to_uv(s);
-        assert!((u * 360.0 - a.rem_euclid(360.0)).abs() < 1e-2, "{e} {a}: u {u}");
+        assert!(
+            (u * 360.0 - a.rem_euclid(360.0)).abs() < 1e-2,
+            "{e} {a}: u {u}"
+        );
         assert!((v * 180.0 - (90.0 - e)).abs() < 1e-2);
         // The baked sky is brightest around the sun (its circumsolar glow), so the bake and
         // the sun agree on where the sun is.
@@ -181,9 +186,20 @@ fn the_sun_follows_elevation_and_azimuth_under_the_map_convention() {
             (bx as f32 + 0.5) / map.width as f32,
             (by as f32 + 0.5) / map.height as f32,
         );
+        // (The brightest texel may sit on the horizon below a high sun, the model's horizon
+        // glow, but always at the sun's azimuth.)
+        let azimuth_of = |d: Vec3| direction_to_uv(d).0 * 360.0;
+        let off = (azimuth_of(d) - azimuth_of(s)).rem_euclid(360.0);
         assert!(
-            d.dot(s).acos().to_degrees() < 2.0,
+            off.min(360.0 - off) < 3.0,
             "{e} {a}: brightest texel {d} vs sun {s}"
+        );
+        let (su, sv) = direction_to_uv(s);
+        let toward = lum(&map.bilinear(su, sv));
+        let away = lum(&map.bilinear(su + 0.5, sv));
+        assert!(
+            toward > 3.0 * away,
+            "{e} {a}: {toward} towards the sun, {away} away"
         );
         // The light shines from the sun, turned with the map.
         for rotation in [0.0f32, 90.0, -35.0] {
@@ -217,13 +233,19 @@ fn the_sun_is_a_disc_of_the_model_sky_units_and_dims_with_the_air_mass() {
     assert!(e(5.0, 3.0).y < e(30.0, 3.0).y && e(30.0, 3.0).y < e(60.0, 3.0).y);
     assert!(e(30.0, 6.0).y < e(30.0, 2.0).y);
     let low = e(5.0, 3.0);
-    assert!(low.x > low.y && low.y > low.z, "a low sun is reddish: {low}");
+    assert!(
+        low.x > low.y && low.y > low.z,
+        "a low sun is reddish: {low}"
+    );
     // Direct sun at 45° is brighter than the sky's light on a horizontal plane, as on a clear
     // day (the ratio measured in daylight is about 2–5).
     let map = model.bake(256);
     let sky_e = irradiance_up(&map);
     let sun_e = model.sun_irradiance().y * 45f32.to_radians().sin();
-    assert!(sun_e > 1.5 * sky_e && sun_e < 8.0 * sky_e, "sun {sun_e} sky {sky_e}");
+    assert!(
+        sun_e > 1.5 * sky_e && sun_e < 8.0 * sky_e,
+        "sun {sun_e} sky {sky_e}"
+    );
 }
 
 /// Irradiance (green) on a plane facing +Y from a map's texels.
@@ -342,7 +364,12 @@ fn a_white_plane_under_the_sky_is_lit_and_the_sun_casts_a_shadow() {
         }
         let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
         let label = if hybrid { "hybrid" } else { "rt" };
-        assert!(lit.len() > 100 && shadow.len() > 20, "{label}: {} lit, {} shadow", lit.len(), shadow.len());
+        assert!(
+            lit.len() > 100 && shadow.len() > 20,
+            "{label}: {} lit, {} shadow",
+            lit.len(),
+            shadow.len()
+        );
         let (l, s) = (mean(&lit), mean(&shadow));
         assert!(
             rel(l, lit_expected) < 0.05,
@@ -401,12 +428,11 @@ fn missed_camera_rays_show_the_model_sky_through_the_gpu_lookup() {
             }
             let want = model.sky_radiance(d);
             let i = (y * SIZE + x) as usize;
-            for c in 0..3 {
+            for (c, &w) in want.iter().enumerate() {
                 assert!(
-                    rel(out.color[i][c], want[c]) < 0.01,
-                    "pixel ({x}, {y}) channel {c}: {} against the model's {}",
+                    rel(out.color[i][c], w) < 0.01,
+                    "pixel ({x}, {y}) channel {c}: {} against the model's {w}",
                     out.color[i][c],
-                    want[c]
                 );
             }
             checked += 1;
@@ -419,7 +445,12 @@ fn missed_camera_rays_show_the_model_sky_through_the_gpu_lookup() {
 fn rqr_png(args: &[&str]) -> Vec<u8> {
     let dir = std::env::temp_dir().join(format!("rqr-sky-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join(format!("{}.png", args.join("_").replace([':', ',', '/', '.'], "-")));
+    let name = if args.is_empty() {
+        "default".to_string()
+    } else {
+        args.join("_").replace([':', ',', '/', '.'], "-")
+    };
+    let out = dir.join(format!("{name}.png"));
     let mut all: Vec<&str> = vec![
         "render",
         "assets/gltf/Box/Box.glb",
@@ -441,7 +472,11 @@ fn rqr_png(args: &[&str]) -> Vec<u8> {
         ],
         std::time::Duration::from_secs(300),
     );
-    assert!(o.status.success(), "{all:?}: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "{all:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     std::fs::read(&out).unwrap()
 }
 
@@ -451,5 +486,8 @@ fn a_scene_without_lights_renders_under_the_built_in_environment_unless_told_non
     let builtin = rqr_png(&["--environment", "sky"]);
     let none = rqr_png(&["--environment", "none"]);
     assert_eq!(default, builtin, "no --environment is the built-in sky");
-    assert_ne!(default, none, "--environment none keeps the default light rig");
+    assert_ne!(
+        default, none,
+        "--environment none keeps the default light rig"
+    );
 }

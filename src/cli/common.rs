@@ -395,7 +395,7 @@ pub struct ImageArgs {
     /// TURBIDITY]]` (the Hosek-Wilkie sky and its sun; `sky` alone: 45,150,3), or `none` (the
     /// default light rig and --ambient) [default: a built-in environment for a scene
     /// without lights, none for a scene with lights].
-    #[arg(long, value_parser = parse_environment, value_name = "PATH|sky[:E,A[,T]]|none")]
+    #[arg(long, value_parser = parse_environment, value_name = "PATH|sky[:E,A[,T]]|studio|none")]
     pub environment: Option<EnvironmentSource>,
     /// Turns the environment about +Y, degrees counter-clockwise seen from above.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]

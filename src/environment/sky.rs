@@ -117,7 +117,7 @@ impl SkySpec {
     pub fn check(&self) -> Result<(), String> {
         if !(0.0..=90.0).contains(&self.elevation_deg) {
             return Err(format!(
-                "sun elevation {}° is outside 0..90 (the Hosek-Wilkie model has no sun below the horizon)",
+                "sun elevation {}° is outside 0..90 (the Hosek-Wilkie model covers suns from the horizon to the zenith)",
                 self.elevation_deg
             ));
         }
@@ -158,7 +158,12 @@ pub struct SkyModel {
 impl SkyModel {
     /// Sets the model up (checks the ranges first).
     pub fn new(spec: SkySpec) -> Result<Self, EnvironmentError> {
-        let given = || format!("sky:{},{},{}", spec.elevation_deg, spec.azimuth_deg, spec.turbidity);
+        let given = || {
+            format!(
+                "sky:{},{},{}",
+                spec.elevation_deg, spec.azimuth_deg, spec.turbidity
+            )
+        };
         spec.check().map_err(|message| EnvironmentError::Argument {
             given: given(),
             message,
@@ -206,8 +211,8 @@ impl SkyModel {
     /// gases are left out, each under 5 % in the visible at the zenith).
     pub fn sun_transmittance(&self) -> [f32; 3] {
         let zenith_deg = 90.0 - self.spec.elevation_deg;
-        let air_mass = 1.0
-            / (zenith_deg.to_radians().cos() + 0.15 * (93.885 - zenith_deg).powf(-1.253));
+        let air_mass =
+            1.0 / (zenith_deg.to_radians().cos() + 0.15 * (93.885 - zenith_deg).powf(-1.253));
         let beta = 0.04608 * self.spec.turbidity - 0.04586;
         RGB_WAVELENGTHS_UM.map(|l| {
             let rayleigh = (-0.008735 * l.powf(-4.08) * air_mass).exp();
@@ -239,7 +244,8 @@ impl SkyModel {
     fn ground_radiance(&self, sky_map: &EnvironmentMap) -> [f32; 3] {
         let (w, h) = (sky_map.width as usize, sky_map.height as usize);
         let mut e = [0.0f64; 3];
-        let texel_angle = (2.0 * std::f64::consts::PI / w as f64) * (std::f64::consts::PI / h as f64);
+        let texel_angle =
+            (2.0 * std::f64::consts::PI / w as f64) * (std::f64::consts::PI / h as f64);
         for y in 0..h / 2 {
             let theta = std::f64::consts::PI * (y as f64 + 0.5) / h as f64;
             let weight = theta.cos() * theta.sin() * texel_angle;
