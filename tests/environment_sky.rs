@@ -207,7 +207,7 @@ fn the_sun_follows_elevation_and_azimuth_under_the_map_convention() {
             assert_eq!(light.kind, LightKind::Directional);
             let towards_sun = rotate_into_map(-light.direction, rotation);
             assert!((towards_sun - s).length() < 1e-5, "rotation {rotation}");
-            assert!((light.angular_radius - SUN_ANGULAR_RADIUS_DEG.to_radians()).abs() < 1e-9);
+            assert!((light.size - SUN_ANGULAR_RADIUS_DEG.to_radians()).abs() < 1e-9);
         }
     }
     // Azimuth 0 is -Z, 90 is +X, 180 is +Z.

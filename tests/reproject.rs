@@ -360,7 +360,7 @@ fn block_before_wall() -> Scene {
             range: f32::INFINITY,
             position: Vec3::new(2.0, 3.0, 9.0),
             direction: -Vec3::Z,
-            angular_radius: 0.0,
+            size: 0.0,
         }],
         vec![camera],
     )

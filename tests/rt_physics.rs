@@ -31,7 +31,7 @@ fn lit_plane(intensity: f32, height: f32) -> rqr::scene::Scene {
             range: f32::INFINITY,
             position: Vec3::new(0.3, height, -0.2),
             direction: -Vec3::Y,
-            angular_radius: 0.0,
+            size: 0.0,
         }],
         vec![look_at(Vec3::new(0.0, 6.0, 4.0), Vec3::ZERO, 50.0)],
     )

@@ -25,6 +25,16 @@ vec4 env_texture(uint which, vec3 d, float lod) {
 // Radiance arriving along -d (seen looking towards d), at the map's full resolution.
 vec3 env_radiance(vec3 d) { return frame.env_intensity * env_texture(ENV_TEX_RADIANCE, d, 0.0).rgb; }
 
+// Radiance arriving along -d from the map's texel at d, unfiltered: the piecewise-constant
+// function env_sample draws from, so light sampling's radiance / density stays bounded next to
+// a bright sun (a bilinear lookup spreads it into texels the sampler rarely draws).
+vec3 env_radiance_texel(vec3 d) {
+    uint which = uint(scene.environment) + ENV_TEX_RADIANCE;
+    ivec2 size = textureSize(textures[nonuniformEXT(which)], 0);
+    ivec2 texel = clamp(ivec2(env_uv(env_map_direction(d)) * vec2(size)), ivec2(0), size - 1);
+    return frame.env_intensity * texelFetch(textures[nonuniformEXT(which)], texel, 0).rgb;
+}
+
 // Cosine-weighted mean radiance around normal n (irradiance / π).
 vec3 env_irradiance(vec3 n) { return frame.env_intensity * env_texture(ENV_TEX_IRRADIANCE, n, 0.0).rgb; }
 

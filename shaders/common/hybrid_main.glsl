@@ -1,6 +1,7 @@
 // Hybrid path, shading pass (main of hybrid.comp and hybrid_vis.comp): primary visibility
 // comes from the raster pass; shadows, reflections and refractions go through the same whitted()
-// loop as the pure ray-traced pass.
+// loop as the pure ray-traced pass, or with SHADING_DISTRIBUTED the same distributed() one
+// (camera sample frame.sample_base: each sample's uniform has its own).
 // Bindings (src/interface/passes.rs): the shared ones, BINDING_HYBRID_ACCUM (rgb sum, weight
 // sum), _AOV, _COUNTERS, then the raster pass's images from BINDING_HYBRID_GBUFFER on: with
 // HYBRID_VISIBILITY one visibility image (instance, primitive), otherwise the full G-buffer in
@@ -14,6 +15,12 @@
 #include "counters.glsl"
 #include "aov.glsl"
 #include "gbuffer_decode.glsl"
+#ifdef SHADING_DISTRIBUTED
+#include "distributed.glsl"
+#define SHADE_CAMERA_RAY(camera, primary, surface, hit, info) distributed(camera, primary, surface, hit, info, pix, frame.sample_base)
+#else
+#define SHADE_CAMERA_RAY(camera, primary, surface, hit, info) whitted(camera, primary, surface, hit, info)
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(push_constant) uniform Push { HybridPush pc; };
@@ -55,7 +62,7 @@ void main() {
         h.primitive = int(vis.y);
         h.barycentrics = bt.xy;
     }
-    c = whitted(camera, PRIMARY_HIT, unused_surface, h, info);
+    c = SHADE_CAMERA_RAY(camera, PRIMARY_HIT, unused_surface, h, info);
     if (!info.hit) {
         info.t = 0.0;
         info.bary = vec2(0.0);
@@ -79,7 +86,7 @@ void main() {
         gbuffer_decode(g, s);
         Hit at = miss_hit(BIG_FLOAT);
         at.t = p.w;
-        c = whitted(camera, PRIMARY_SURFACE, s, at, info);
+        c = SHADE_CAMERA_RAY(camera, PRIMARY_SURFACE, s, at, info);
         vec4 b = imageLoad(g_bary, ip);
         info.t = p.w;
         info.instance = int(ids.x);
@@ -89,6 +96,9 @@ void main() {
         info.position = s.position;
     } else {
         c = miss_radiance(camera.dir, true);
+#ifdef SHADING_DISTRIBUTED
+        c += lights_met(camera.origin, camera.dir, BIG_FLOAT, 0.0);
+#endif
         info = primary_miss();
     }
 #endif
@@ -101,4 +111,7 @@ void main() {
         COUNTER_ADD(counters[ray_counter_slot(k)], rays_by_kind[k]);
     }
     COUNTER_ADD(counters[ray_counter_slot(COUNTER_SAMPLES)], 1u);
+#ifdef SHADING_DISTRIBUTED
+    COUNTER_ADD(counters[ray_counter_slot(RAY_DIFFUSE)], diffuse_rays);
+#endif
 }

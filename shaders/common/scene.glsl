@@ -113,7 +113,7 @@ struct GpuLight {
     vec3 radiance;
     float inner_cos;
     float outer_cos;
-    float angular_radius;
+    float size;  // sphere radius, or a directional light's angular radius; 0: punctual
     float pad1;
     float pad2;
 };

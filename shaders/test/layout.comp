@@ -44,5 +44,5 @@ void main() {
 
     GpuLight l = scene_light(0u);
     put3(l.position); put(l.kind); put3(l.direction); putf(l.range); put3(l.radiance);
-    putf(l.inner_cos); putf(l.outer_cos); putf(l.angular_radius); putf(l.pad1); putf(l.pad2);
+    putf(l.inner_cos); putf(l.outer_cos); putf(l.size); putf(l.pad1); putf(l.pad2);
 }

@@ -12,7 +12,7 @@ use rqr::accel::{Backend, BackendChoice};
 use rqr::environment::{EnvironmentMap, EnvironmentSource, GpuEnvironment};
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::passes::raster_compute::{RasterChoice, RasterMode};
-use rqr::render::{FilterKind, RenderSettings, SamplerKind, Tonemap};
+use rqr::render::{FilterKind, RenderSettings, SamplerKind, Shading, Tonemap};
 use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene, TextureFormat};
 use rqr::vk::{Context, ContextOptions, DeviceSelector};
 
@@ -276,7 +276,44 @@ fn parse_environment(s: &str) -> Result<EnvironmentSource, String> {
     })
 }
 
+/// A finite number ≥ 0 (`--light-radius`).
+fn parse_non_negative(s: &str) -> std::result::Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        Ok(v) => Err(format!("{v} must be a finite number >= 0")),
+        Err(e) => Err(format!("'{s}' is not a number: {e}")),
+    }
+}
+
+/// An angle in degrees in [0, 90) (`--sun-angle`).
+fn parse_sun_angle(s: &str) -> std::result::Result<f32, String> {
+    let v = parse_non_negative(s)?;
+    if v >= 90.0 {
+        return Err(format!("{v} degrees must be below 90"));
+    }
+    Ok(v)
+}
+
 impl ImageArgs {
+    /// Applies `--light-radius` and `--sun-angle` to `scene`'s lights (they override the
+    /// sizes the file gave).
+    pub fn apply_light_sizes(&self, scene: &mut Scene) {
+        for light in &mut scene.lights {
+            match light.kind {
+                rqr::scene::LightKind::Directional => {
+                    if let Some(deg) = self.sun_angle {
+                        light.size = deg.to_radians();
+                    }
+                }
+                _ => {
+                    if let Some(r) = self.light_radius {
+                        light.size = r;
+                    }
+                }
+            }
+        }
+    }
+
     /// Loads `--environment`'s map before any device work (a bad file fails fast); `None`
     /// also when the flag was not given ([`ImageArgs::light_scene`] then chooses).
     pub fn load_environment(&self) -> Result<Option<EnvironmentMap>> {
@@ -418,6 +455,23 @@ pub struct ImageArgs {
     /// Seed of the random samplers.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+    /// Shading model: `whitted` (hard shadows, perfect mirrors, deterministic) or
+    /// `distributed` (soft shadows from lights with a size, glossy reflection, rough
+    /// transmission, shadowed environment light; noisy, converges with --spp).
+    #[arg(long, value_enum, default_value_t = Shading::Whitted)]
+    pub shading: Shading,
+    /// Distributed shading: diffuse bounces per path (0: direct light only on diffuse
+    /// surfaces, Cook's model; N: a path tracer with Russian roulette).
+    #[arg(long, default_value_t = 0)]
+    pub diffuse_bounces: u32,
+    /// Distributed shading: radius of every point and spot light's sphere, in scene units
+    /// (overrides the lights' glTF `extras.radius`; 0 = punctual).
+    #[arg(long, value_name = "R", value_parser = parse_non_negative)]
+    pub light_radius: Option<f32>,
+    /// Distributed shading: angular radius of every directional light, in degrees
+    /// (overrides `extras.angularRadius`; 0 = punctual; the sun is about 0.27).
+    #[arg(long, value_name = "DEG", value_parser = parse_sun_angle)]
+    pub sun_angle: Option<f32>,
     /// Hybrid path: what the raster pass writes (`visibility`: instance + primitive, the
     /// material is evaluated in the shading pass; `full`: the classic 7-attachment G-buffer).
     #[arg(long, value_enum, default_value_t = GbufferLayout::Visibility)]
@@ -465,6 +519,8 @@ impl ImageArgs {
             gbuffer: self.gbuffer,
             // Resolved on the opened device (ImageArgs::raster).
             raster: Default::default(),
+            shading: self.shading,
+            diffuse_bounces: self.diffuse_bounces,
         };
         s.validate(MAX_SIDE)?;
         Ok(s)

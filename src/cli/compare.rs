@@ -54,6 +54,11 @@ pub struct CompareArgs {
     /// after warm-up bursts that run until two consecutive ones agree within 3 %.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeat: u32,
+    /// Also render a converged reference (distributed shading, ray traced, N spp) and report
+    /// the Whitted model and distributed shading at 1, 4 and 16 spp, on both paths, against it:
+    /// FLIP and PSNR next to GPU ms (quality.md, quality.json, reference.png).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
+    reference_spp: Option<u32>,
 }
 
 /// Median, smallest and largest GPU ms per pass over the timed frames (pass order of the first
@@ -167,6 +172,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let environment = args.image.load_environment()?;
     let mut scene = args.scene.load()?;
     let environment = args.image.light_scene(&mut scene, environment)?;
+    args.image.apply_light_sizes(&mut scene);
     let camera = args
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
@@ -211,7 +217,22 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     // Everything below is host work after the timing: images, FLIP, reports.
-    write_outputs(args, &ctx, &settings, &runs, started, startup)
+    write_outputs(args, &ctx, &settings, &runs, started, startup)?;
+    if let Some(spp) = args.reference_spp {
+        let md = super::quality::error_against_time(
+            &ctx,
+            &scene,
+            environment.as_ref(),
+            &settings,
+            &camera,
+            first,
+            spp,
+            &args.output,
+        )?;
+        outln!("{md}")?;
+        super::common::check_validation(&ctx)?;
+    }
+    Ok(())
 }
 
 /// Builds `backend`'s renderer and frame targets (returned as setup time), then times the

@@ -18,6 +18,7 @@ mod compare;
 mod info;
 mod probe;
 mod progress;
+mod quality;
 mod render;
 mod report_html;
 

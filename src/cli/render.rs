@@ -243,6 +243,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let environment = args.image.load_environment()?;
     let mut scene = args.scene.load()?;
     let environment = args.image.light_scene(&mut scene, environment)?;
+    args.image.apply_light_sizes(&mut scene);
     let camera = args
         .camera
         .resolve(&scene, settings.width as f32 / settings.height as f32)?;
@@ -334,6 +335,9 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     if !args.aov.is_empty() {
         bail!("--aov is for single images; sequences write colour only");
     }
+    if reuse.any() && settings.shading != rqr::render::Shading::Whitted {
+        bail!("--reproject, --frameless and --adaptive-subsample shade in the Whitted model: drop --shading distributed, or render the sequence without reuse");
+    }
     if reuse.any() && (settings.spp != 1 || settings.sampler != rqr::render::SamplerKind::Center) {
         bail!("--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1 --sampler center");
     }
@@ -350,6 +354,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let environment = args.image.load_environment()?;
     let (mut rest, animations) = args.scene.load_rest()?;
     let environment = args.image.light_scene(&mut rest, environment)?;
+    args.image.apply_light_sizes(&mut rest);
     // A skinned or morphed scene is posed even without animation (the bind pose is not the
     // rest pose); it changes between frames only when an animation moves more than cameras.
     let deformable = rest.is_animated();

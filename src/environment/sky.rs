@@ -292,7 +292,7 @@ impl SkyModel {
             range: f32::INFINITY,
             position: Vec3::ZERO,
             direction: -to_sun,
-            angular_radius: SUN_ANGULAR_RADIUS_DEG.to_radians(),
+            size: SUN_ANGULAR_RADIUS_DEG.to_radians(),
         }
     }
 }

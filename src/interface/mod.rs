@@ -78,8 +78,11 @@ const _: () = assert!(
     reproject::COUNTER_STRIPES == RAY_COUNTER_STRIPES
         && reproject::COUNTER_STRIPE_WORDS == RAY_COUNTER_STRIDE
 );
-const _: () =
-    assert!(COUNTER_SAMPLES == RAY_REFRACTION + 1 && COUNTER_SLOTS == COUNTER_SAMPLES + 1);
+const _: () = assert!(
+    COUNTER_SAMPLES == RAY_REFRACTION + 1
+        && RAY_DIFFUSE == COUNTER_SAMPLES + 1
+        && COUNTER_SLOTS == RAY_DIFFUSE + 1
+);
 const _: () = assert!(reproject::C_STRIPE_DONE < reproject::COUNTER_STRIPE_WORDS);
 const _: () = assert!(
     reproject::C_HISTOGRAM == (reproject::COUNTER_STRIPES + 1) * reproject::COUNTER_STRIPE_WORDS

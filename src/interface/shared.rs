@@ -54,8 +54,11 @@ pub const RAY_REFLECTION: u32 = 2;
 pub const RAY_REFRACTION: u32 = 3;
 /// Counter slot after the four ray kinds: camera samples traced.
 pub const COUNTER_SAMPLES: u32 = 4;
-/// Counter slots of the ray-traced and hybrid passes (ray kinds, then samples), per stripe.
-pub const COUNTER_SLOTS: u32 = 5;
+/// Ray kind and counter slot after the samples: diffuse rays (distributed model).
+pub const RAY_DIFFUSE: u32 = 5;
+/// Counter slots of the ray-traced and hybrid passes (four ray kinds, samples, diffuse rays),
+/// per stripe.
+pub const COUNTER_SLOTS: u32 = 6;
 /// Copies of those counters: a run of consecutive workgroups counts into one copy, so that a
 /// CPU device's threads (each runs a contiguous range of workgroups) do not share their cache
 /// lines; a count is the sum over copies (as reprojection's `COUNTER_STRIPES`).
@@ -128,4 +131,10 @@ pub struct GpuFrame {
     pub background: [f32; 3],
     /// Scale of the environment's radiance (`--environment-intensity`).
     pub env_intensity: f32,
+    /// Number of this dispatch's first camera sample (distributed model's random numbers:
+    /// sample k of the ray-traced pass is `sample_base + k`; each hybrid sample's uniform has
+    /// its own; sequences advance it by spp per frame).
+    pub sample_base: u32,
+    /// Diffuse bounces a distributed path may take.
+    pub diffuse_bounces: u32,
 }

@@ -130,6 +130,8 @@ impl GpuFrame {
             },
             background: settings.background.to_array(),
             env_intensity: settings.environment_intensity,
+            sample_base: 0,
+            diffuse_bounces: settings.diffuse_bounces,
         }
     }
 }

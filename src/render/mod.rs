@@ -26,7 +26,7 @@ use crate::scene::{Camera, Scene};
 use crate::vk::{Context, DescriptorSet};
 pub use drivers::targets::FrameTargets;
 pub use frame::{CameraSetup, GpuFrame};
-pub use settings::{FilterKind, RenderPath, RenderSettings, SamplerKind, Tonemap};
+pub use settings::{FilterKind, RenderPath, RenderSettings, SamplerKind, Shading, Tonemap};
 
 pub use crate::interface::Aov;
 
@@ -90,12 +90,14 @@ pub struct RayCounts {
     pub reflection: u64,
     /// Refraction (and alpha-blend continuation) rays.
     pub refraction: u64,
+    /// Diffuse rays (distributed model; the Whitted model traces none).
+    pub diffuse: u64,
 }
 
 impl RayCounts {
     /// All rays.
     pub fn total(&self) -> u64 {
-        self.primary + self.shadow + self.reflection + self.refraction
+        self.primary + self.shadow + self.reflection + self.refraction + self.diffuse
     }
 }
 

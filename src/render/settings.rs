@@ -74,6 +74,33 @@ pub enum Tonemap {
     KhronosNeutral,
 }
 
+/// Shading model (`--shading`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Shading {
+    /// Whitted (1980): hard shadows from punctual lights, perfect mirror and refraction rays,
+    /// rough surfaces fading their mirror term; deterministic.
+    #[default]
+    Whitted,
+    /// Distributed ray tracing (Cook 1984): lights with a size, every lobe sampled (glossy
+    /// reflection, rough transmission), shadowed environment light, multiple importance
+    /// sampling; noisy at low spp, converging to the reference.
+    Distributed,
+}
+
+impl Shading {
+    /// The `--shading` name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Whitted => "whitted",
+            Self::Distributed => "distributed",
+        }
+    }
+}
+
+/// Largest `--diffuse-bounces`.
+pub const MAX_DIFFUSE_BOUNCES: u32 = 16;
+
 /// Everything that shapes one rendered image.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct RenderSettings {
@@ -122,6 +149,11 @@ pub struct RenderSettings {
     pub gbuffer: super::passes::gbuffer::GbufferLayout,
     /// What runs the hybrid path's visibility pass.
     pub raster: super::passes::raster_compute::RasterMode,
+    /// Shading model.
+    pub shading: Shading,
+    /// Distributed model: diffuse bounces a path may take (0: direct light only on diffuse
+    /// surfaces, as in Cook's model; more: a path tracer with Russian roulette).
+    pub diffuse_bounces: u32,
 }
 
 impl Default for RenderSettings {
@@ -149,6 +181,8 @@ impl Default for RenderSettings {
             exposure: 0.0,
             gbuffer: Default::default(),
             raster: Default::default(),
+            shading: Shading::Whitted,
+            diffuse_bounces: 0,
         }
     }
 }
@@ -233,6 +267,25 @@ impl RenderSettings {
                 "--adaptive-threshold {} must be a finite non-negative number",
                 self.adaptive_threshold
             ));
+        }
+        if self.shading == Shading::Distributed && self.sampler == SamplerKind::Adaptive {
+            return bad(
+                "--sampler adaptive subdivides where samples differ, and every sample of \
+                 --shading distributed differs (noise): use sobol, halton or another sampler"
+                    .into(),
+            );
+        }
+        if self.diffuse_bounces > MAX_DIFFUSE_BOUNCES {
+            return bad(format!(
+                "--diffuse-bounces {} must be at most {MAX_DIFFUSE_BOUNCES}",
+                self.diffuse_bounces
+            ));
+        }
+        if self.diffuse_bounces > 0 && self.shading != Shading::Distributed {
+            return bad(
+                "--diffuse-bounces needs --shading distributed (the Whitted model traces no diffuse rays)"
+                    .into(),
+            );
         }
         if let Some(e) = self.epsilon {
             if !(e.is_finite() && e >= 0.0) {

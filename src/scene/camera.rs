@@ -155,7 +155,7 @@ pub fn default_lights() -> Vec<Light> {
         range: f32::INFINITY,
         position: Vec3::ZERO,
         direction: Vec3::new(-0.3, -1.0, -0.5).normalize(),
-        angular_radius: 0.0,
+        size: 0.0,
     }]
 }
 

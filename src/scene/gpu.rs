@@ -165,7 +165,7 @@ pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
                 radiance: (l.color * l.intensity).to_array(),
                 inner_cos,
                 outer_cos,
-                angular_radius: l.angular_radius,
+                size: l.size.max(0.0),
                 pad: [0.0; 2],
             }
         })

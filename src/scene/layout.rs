@@ -193,9 +193,9 @@ pub struct GpuLight {
     pub inner_cos: f32,
     /// cos(outer cone).
     pub outer_cos: f32,
-    /// Angular radius of the source, radians (`Light::angular_radius`; 0: a point or a
-    /// direction).
-    pub angular_radius: f32,
+    /// Radius of a point or spot light's sphere, or a directional light's angular radius
+    /// (radians); 0 for a punctual light (the distributed model; Whitted ignores it).
+    pub size: f32,
     /// Padding.
     pub pad: [f32; 2],
 }

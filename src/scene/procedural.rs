@@ -239,7 +239,7 @@ pub fn cornell() -> Scene {
             range: f32::INFINITY,
             position: Vec3::new(0.0, 3.6, 0.0),
             direction: -Vec3::Y,
-            angular_radius: 0.0,
+            size: 0.0,
         },
         Light {
             kind: LightKind::Spot {
@@ -251,7 +251,7 @@ pub fn cornell() -> Scene {
             range: f32::INFINITY,
             position: Vec3::new(1.5, 3.5, 1.8),
             direction: (Vec3::new(0.0, 0.0, -0.5) - Vec3::new(1.5, 3.5, 1.8)).normalize(),
-            angular_radius: 0.0,
+            size: 0.0,
         },
     ];
     let _ = Vec4::ZERO;

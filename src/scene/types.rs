@@ -448,10 +448,10 @@ pub struct Light {
     pub position: Vec3,
     /// World direction the light points to (unit; unused for point).
     pub direction: Vec3,
-    /// Angular radius of the source seen from the scene, radians: 0 for glTF's punctual
-    /// lights, the sun's 0.2665° for the sky's sun (`--environment sky`). Carried to the GPU
-    /// record (`GpuLight::angular_radius`) for soft shadows.
-    pub angular_radius: f32,
+    /// Size for the distributed model: the radius of a point or spot light's sphere (scene
+    /// units), or a directional light's angular radius (radians); 0 is a punctual light, and
+    /// the Whitted model always treats the light as punctual.
+    pub size: f32,
 }
 
 /// Camera projection.

@@ -569,6 +569,48 @@ fn node_cases(out: &mut Vec<Case>) {
         &d,
         fails(&["expands to more than"]),
     ));
+    // Light sizes in `extras` (distributed shading): a wrong type or range is a warning that
+    // names the light, and the light stays punctual.
+    for (name, kind, extras, warning) in [
+        (
+            "light_radius_string",
+            "point",
+            json!({"radius": "big"}),
+            "light 0 (node 1): extras.radius must be a non-negative number",
+        ),
+        (
+            "light_radius_negative",
+            "spot",
+            json!({"radius": -1.0}),
+            "light 0 (node 1): extras.radius must be a non-negative number",
+        ),
+        (
+            "light_angular_radius_too_wide",
+            "directional",
+            json!({"angularRadius": 2.0}),
+            "light 0 (node 1): extras.angularRadius must be an angle in radians",
+        ),
+        (
+            "light_radius_on_directional",
+            "directional",
+            json!({"radius": 0.5}),
+            "extras.radius does not apply to this kind of light",
+        ),
+    ] {
+        let mut d = quad_gltf();
+        d["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        d["extensions"] = json!({"KHR_lights_punctual": {"lights": [{"type": kind, "intensity": 5.0, "extras": extras}]}});
+        d["nodes"] = json!([{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": [0.0, 2.0, 0.0]}]);
+        d["scenes"] = json!([{"nodes": [0, 1]}]);
+        out.push(gltf(
+            name,
+            &d,
+            Expect::Loads {
+                warning: Some(warning),
+                render: false,
+            },
+        ));
+    }
 }
 
 /// Big inputs, each generated on demand (seconds each): 10^6 nodes side by side and in one

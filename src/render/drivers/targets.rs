@@ -351,8 +351,16 @@ impl FrameTargets {
                         settings.raster,
                         draws,
                     )?;
-                    let shading =
-                        HybridPass::new(ctx, &pass, &frame, &accum, &aov, &counters, &gbuffer)?;
+                    let shading = HybridPass::new(
+                        ctx,
+                        &pass,
+                        settings.shading,
+                        &frame,
+                        &accum,
+                        &aov,
+                        &counters,
+                        &gbuffer,
+                    )?;
                     samples.push(HybridSample {
                         frame,
                         gbuffer,
@@ -441,6 +449,15 @@ impl FrameTargets {
         GpuFrame::new(s, &setup, self.scene_scale)
     }
 
+    /// The frame uniform for frame `number` of a sequence through `camera`: its camera
+    /// samples are numbered after the earlier frames' (`number` × spp on), so the distributed
+    /// model draws new random numbers every frame.
+    pub fn sequence_frame(&self, camera: &Camera, number: u32) -> GpuFrame {
+        let mut frame = self.gpu_frame(camera);
+        frame.sample_base = number.wrapping_mul(self.settings.spp);
+        frame
+    }
+
     /// Records one frame seen through `frame` into `cmd`: a barrier against the previous
     /// frame's work, the passes, tonemapping, and, with `out`, the copies of its outputs into
     /// that ring slot ([`Self::output`] reads them once the submission has completed).
@@ -466,9 +483,10 @@ impl FrameTargets {
             PathPasses::Hybrid {
                 samples, counters, ..
             } => {
-                for s in samples {
+                for (i, s) in (0u32..).zip(samples) {
                     let mut f = *frame;
                     f.jitter = s.jitter;
+                    f.sample_base = frame.sample_base + i;
                     s.frame.record_update(device, cmd, bytemuck::bytes_of(&f));
                 }
                 // SAFETY: recording command buffer; the counters buffer is ours.

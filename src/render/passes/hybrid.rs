@@ -9,7 +9,7 @@ use ash::vk;
 use super::gbuffer::{GbufferLayout, GbufferPass};
 use crate::accel::Backend;
 use crate::interface::{self as io, bindings, push_bytes, scene_bindings, HybridPush};
-use crate::render::PassContext;
+use crate::render::{PassContext, Shading};
 use crate::vk::{Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, VkResult};
 
 pub use crate::interface::{HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
@@ -20,20 +20,32 @@ pub struct HybridPass {
     set: DescriptorSet,
 }
 
-fn spirv(backend: Backend, layout: GbufferLayout) -> &'static [u8] {
-    match (backend, layout) {
-        (Backend::Hw, GbufferLayout::Full) => crate::shaders::HYBRID_COMP_HW,
-        (Backend::Bvh, GbufferLayout::Full) => crate::shaders::HYBRID_COMP_BVH,
-        (Backend::Hw, GbufferLayout::Visibility) => crate::shaders::HYBRID_VIS_COMP_HW,
-        (Backend::Bvh, GbufferLayout::Visibility) => crate::shaders::HYBRID_VIS_COMP_BVH,
+fn spirv(backend: Backend, layout: GbufferLayout, shading: Shading) -> &'static [u8] {
+    use crate::shaders as s;
+    match (shading, backend, layout) {
+        (Shading::Whitted, Backend::Hw, GbufferLayout::Full) => s::HYBRID_COMP_HW,
+        (Shading::Whitted, Backend::Bvh, GbufferLayout::Full) => s::HYBRID_COMP_BVH,
+        (Shading::Whitted, Backend::Hw, GbufferLayout::Visibility) => s::HYBRID_VIS_COMP_HW,
+        (Shading::Whitted, Backend::Bvh, GbufferLayout::Visibility) => s::HYBRID_VIS_COMP_BVH,
+        (Shading::Distributed, Backend::Hw, GbufferLayout::Full) => s::HYBRID_DISTRIBUTED_COMP_HW,
+        (Shading::Distributed, Backend::Bvh, GbufferLayout::Full) => s::HYBRID_DISTRIBUTED_COMP_BVH,
+        (Shading::Distributed, Backend::Hw, GbufferLayout::Visibility) => {
+            s::HYBRID_VIS_DISTRIBUTED_COMP_HW
+        }
+        (Shading::Distributed, Backend::Bvh, GbufferLayout::Visibility) => {
+            s::HYBRID_VIS_DISTRIBUTED_COMP_BVH
+        }
     }
 }
 
 impl HybridPass {
-    /// Binds the scene, the frame uniform, the outputs and the G-buffer images.
+    /// Binds the scene, the frame uniform, the outputs and the G-buffer images; shades in
+    /// the `shading` model.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &Context,
         pass: &PassContext<'_>,
+        shading: Shading,
         frame: &Buffer,
         accum: &Buffer,
         aov: &Buffer,
@@ -53,7 +65,7 @@ impl HybridPass {
         let pipeline = ComputePipeline::cached(
             ctx,
             crate::render::PassScope::HybridShading.name(),
-            spirv(pass.backend.kind(), gbuffer.layout()),
+            spirv(pass.backend.kind(), gbuffer.layout(), shading),
             &bindings(&entries),
             std::mem::size_of::<HybridPush>() as u32,
         )?;

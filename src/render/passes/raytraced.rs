@@ -10,7 +10,7 @@ use crate::interface::{
     FLAG_WRITE_AOV,
 };
 use crate::render::{Aov, PassContext};
-use crate::render::{GpuFrame, RenderSettings, SamplerKind};
+use crate::render::{GpuFrame, RenderSettings, SamplerKind, Shading};
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler,
     MemoryLocation, VkResult,
@@ -39,6 +39,7 @@ pub fn ray_counts(c: &[u32]) -> (crate::render::RayCounts, u64) {
             shadow: count(io::RAY_SHADOW),
             reflection: count(io::RAY_REFLECTION),
             refraction: count(io::RAY_REFRACTION),
+            diffuse: count(io::RAY_DIFFUSE),
         },
         count(io::COUNTER_SAMPLES),
     )
@@ -60,10 +61,12 @@ pub struct RaytracedPass {
     write_aov: bool,
 }
 
-fn spirv(backend: Backend) -> &'static [u8] {
-    match backend {
-        Backend::Hw => crate::shaders::RAYTRACE_COMP_HW,
-        Backend::Bvh => crate::shaders::RAYTRACE_COMP_BVH,
+fn spirv(backend: Backend, shading: Shading) -> &'static [u8] {
+    match (shading, backend) {
+        (Shading::Whitted, Backend::Hw) => crate::shaders::RAYTRACE_COMP_HW,
+        (Shading::Whitted, Backend::Bvh) => crate::shaders::RAYTRACE_COMP_BVH,
+        (Shading::Distributed, Backend::Hw) => crate::shaders::RAYTRACE_DISTRIBUTED_COMP_HW,
+        (Shading::Distributed, Backend::Bvh) => crate::shaders::RAYTRACE_DISTRIBUTED_COMP_BVH,
     }
 }
 
@@ -93,7 +96,7 @@ impl RaytracedPass {
         let pipeline = ComputePipeline::cached(
             ctx,
             "raytrace",
-            spirv(pass.backend.kind()),
+            spirv(pass.backend.kind(), settings.shading),
             &layout,
             std::mem::size_of::<RaytracePush>() as u32,
         )?;

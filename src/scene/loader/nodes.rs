@@ -272,6 +272,7 @@ impl Loader<'_> {
         if j.range.is_some_and(|r| r <= 0.0) {
             return Err(self.err(&el, "range must be positive"));
         }
+        let size = light_size_extra(&el, &kind, j.extras.as_deref().map(|r| r.get()));
         Ok(Light {
             kind,
             color: Vec3::from(j.color),
@@ -281,7 +282,77 @@ impl Loader<'_> {
             direction: world
                 .transform_vector3(Vec3::NEG_Z)
                 .normalize_or(Vec3::NEG_Z),
-            angular_radius: 0.0,
+            size,
         })
+    }
+}
+
+/// The light's size from its glTF `extras` (the distributed model's soft shadows):
+/// `{"radius": R}` for point and spot lights (scene units), `{"angularRadius": θ}` for
+/// directional ones (radians). A missing key is 0 (punctual); a value of the wrong type, a
+/// negative or non-finite one, or the other light kind's key is a warning naming the light,
+/// and 0 is used.
+pub(crate) fn light_size_extra(light: &str, kind: &LightKind, extras: Option<&str>) -> f32 {
+    let Some(text) = extras else {
+        return 0.0;
+    };
+    let Ok(serde_json::Value::Object(map)) = serde_json::from_str::<serde_json::Value>(text) else {
+        return 0.0;
+    };
+    let (key, other) = match kind {
+        LightKind::Directional => ("angularRadius", "radius"),
+        _ => ("radius", "angularRadius"),
+    };
+    if map.contains_key(other) {
+        log::warn!("{light}: extras.{other} does not apply to this kind of light (it takes extras.{key}); ignored");
+    }
+    let Some(value) = map.get(key) else {
+        return 0.0;
+    };
+    match value.as_f64() {
+        Some(v)
+            if v.is_finite()
+                && v >= 0.0
+                && (key == "radius" || v < std::f64::consts::FRAC_PI_2) =>
+        {
+            v as f32
+        }
+        _ => {
+            let what = if key == "radius" {
+                "a non-negative number (scene units)"
+            } else {
+                "an angle in radians in [0, π/2)"
+            };
+            log::warn!(
+                "{light}: extras.{key} must be {what}, not {value}; using 0 (a punctual light)"
+            );
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod light_size_tests {
+    use super::*;
+
+    #[test]
+    fn light_sizes_come_from_extras_of_their_kind() {
+        let point = LightKind::Point;
+        let sun = LightKind::Directional;
+        assert_eq!(light_size_extra("l", &point, None), 0.0);
+        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": 0.3}"#)), 0.3);
+        assert_eq!(
+            light_size_extra("l", &sun, Some(r#"{"angularRadius": 0.01}"#)),
+            0.01
+        );
+        // The other kind's key, a wrong type, a negative value, too wide a cone: punctual.
+        assert_eq!(light_size_extra("l", &sun, Some(r#"{"radius": 0.3}"#)), 0.0);
+        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": "1"}"#)), 0.0);
+        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": -1}"#)), 0.0);
+        assert_eq!(
+            light_size_extra("l", &sun, Some(r#"{"angularRadius": 1.6}"#)),
+            0.0
+        );
+        assert_eq!(light_size_extra("l", &point, Some("[1, 2]")), 0.0);
     }
 }

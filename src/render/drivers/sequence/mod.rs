@@ -332,6 +332,7 @@ impl Sequence {
             }
             for (slot, camera) in cameras.iter().enumerate() {
                 let slot = slot as u32;
+                let number = frames.start + slot;
                 if let Some(p) = profiler.as_mut() {
                     p.begin_frame(cmd);
                 }
@@ -352,7 +353,7 @@ impl Sequence {
                         full.record(
                             ctx,
                             cmd,
-                            &full.gpu_frame(camera),
+                            &full.sequence_frame(camera, number),
                             profiler.as_mut(),
                             Some((&burst.frames, slot)),
                         );
@@ -368,7 +369,7 @@ impl Sequence {
                     full.record(
                         ctx,
                         cmd,
-                        &full.gpu_frame(camera),
+                        &full.sequence_frame(camera, number),
                         profiler.as_mut(),
                         Some((ring, slot)),
                     );

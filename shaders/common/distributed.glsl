@@ -1,0 +1,345 @@
+// Distributed ray tracing (Cook, Porter & Carpenter 1984) shared by the pure ray-traced and
+// hybrid passes: the Whitted model's materials (bsdf.glsl) with every lobe sampled, so rough
+// surfaces reflect and transmit glossily, and direct light at every vertex from lights with a
+// size: point and spot lights are spheres of radius GpuLight::size sampled by solid angle
+// (spherical caps), directional lights cones of angular radius GpuLight::size, and the
+// environment importance-sampled; one shadow ray per light sample through trace_any(). The
+// sphere and cone lights and the environment are also found by the BSDF's own rays, and the
+// two strategies are combined by multiple importance sampling (power heuristic). A size of 0
+// keeps the punctual light (found by light sampling only, as in the Whitted model).
+//
+// One continuation ray per vertex follows a lobe chosen by its weight, up to frame.max_depth
+// segments. Diffuse inter-reflection is off as in Cook's model (a diffuse ray then only
+// collects the light it meets: emission, a light, the environment) until
+// frame.diffuse_bounces allows that many diffuse bounces, with Russian roulette: a path tracer.
+// Random numbers: Owen-scrambled Sobol (0,2) pairs (sampling.glsl's sobol_owen), indexed by
+// the sample number and decorrelated by a hash of (seed, pixel, dimension): "padded" 2-D
+// Sobol as in Burley 2020.
+// Include after scene.glsl, trace.glsl, frame.glsl, sampling.glsl, brdf.glsl and shade.glsl.
+#ifndef RQR_DISTRIBUTED_GLSL
+#define RQR_DISTRIBUTED_GLSL
+#include "bsdf.glsl"
+
+// Diffuse rays traced by this invocation (RAY_DIFFUSE; the other kinds are in rays_by_kind).
+uint diffuse_rays = 0u;
+
+struct Rng {
+    uint stream;  // hash of seed and pixel
+    uint index;   // sample number
+    uint dim;     // next pair
+};
+
+Rng rng_new(uvec2 pixel, uint sample_index) {
+    Rng r;
+    r.stream = hash_u32(hash_u32(frame.seed ^ 0x5bd1e995u) ^ (pixel.x * 73856093u) ^ (pixel.y * 19349663u));
+    r.index = sample_index;
+    r.dim = 0u;
+    return r;
+}
+
+vec2 rng_next(inout Rng r) {
+    uint scramble = hash_u32(r.stream ^ ((r.dim + 1u) * 0x9e3779b9u));
+    r.dim += 1u;
+    return sobol_owen(r.index, scramble);
+}
+
+float power_heuristic(float a, float b) {
+    float a2 = a * a;
+    float b2 = b * b;
+    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
+}
+
+// 1 - cos of the cap a sphere of radius r subtends at distance d > r, without cancellation.
+float cap_one_minus_cos(float r, float d) {
+    float sin2 = (r * r) / (d * d);
+    return sin2 / (1.0 + sqrt(max(1.0 - sin2, 0.0)));
+}
+
+// The distance window and spot cone of light `l` towards point p (as light_incidence).
+float light_falloff(GpuLight l, vec3 p) {
+    vec3 d = l.position - p;
+    float dist = length(d);
+    float window = l.range < 1e30 ? pow(clamp(1.0 - pow(dist / l.range, 4.0), 0.0, 1.0), 2.0) : 1.0;
+    if (l.kind == LIGHT_SPOT) {
+        float cd = dot(l.direction, -d / max(dist, 1e-12));
+        float t = clamp((cd - l.outer_cos) / max(l.inner_cos - l.outer_cos, 1e-4), 0.0, 1.0);
+        window *= t * t;
+    }
+    return window;
+}
+
+// Radiance of light `l` (size > 0) seen from p: a sphere of radius size emitting
+// intensity / (π size²), or a cone of half-angle size giving irradiance `radiance` at normal
+// incidence.
+vec3 light_radiance(GpuLight l, vec3 p) {
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        float s = sin(l.size);
+        return l.radiance / (PI * s * s);
+    }
+    return l.radiance * light_falloff(l, p) / (PI * l.size * l.size);
+}
+
+// Samples light `l` from p with u: the direction, the distance to the sampled point
+// (BIG_FLOAT for directional lights), the solid-angle density (0 for a punctual light, whose
+// return value is then its incident irradiance), and radiance / density.
+vec3 light_sample(GpuLight l, vec3 p, vec2 u, out vec3 dir, out float dist, out float pdf) {
+    pdf = 0.0;
+    if (l.size <= 0.0) {
+        return light_incidence(l, p, dir, dist);
+    }
+    vec3 axis;
+    float one_minus_cos;
+    float center_dist = BIG_FLOAT;
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        axis = -l.direction;
+        one_minus_cos = 1.0 - cos(l.size);
+    } else {
+        vec3 d = l.position - p;
+        center_dist = length(d);
+        if (center_dist <= l.size * 1.0001) {
+            // Inside the sphere: it surrounds p; light it as a point.
+            return light_incidence(l, p, dir, dist);
+        }
+        axis = d / center_dist;
+        one_minus_cos = cap_one_minus_cos(l.size, center_dist);
+    }
+    float cos_t = 1.0 - u.x * one_minus_cos;
+    float sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    float phi = 2.0 * PI * u.y;
+    dir = to_world(vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t), axis);
+    pdf = 1.0 / (2.0 * PI * one_minus_cos);
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        dist = BIG_FLOAT;
+    } else {
+        float b = center_dist * cos_t;
+        dist = b - sqrt(max(l.size * l.size - center_dist * center_dist * sin_t * sin_t, 0.0));
+    }
+    return light_radiance(l, p) / pdf;
+}
+
+// The solid-angle density light_sample draws direction `dir` from p with (0 outside the
+// light, or for punctual lights).
+float light_pdf(GpuLight l, vec3 p, vec3 dir) {
+    if (l.size <= 0.0) {
+        return 0.0;
+    }
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        float one_minus_cos = 1.0 - cos(l.size);
+        return 1.0 - dot(dir, -l.direction) <= one_minus_cos ? 1.0 / (2.0 * PI * one_minus_cos) : 0.0;
+    }
+    vec3 d = l.position - p;
+    float dist = length(d);
+    if (dist <= l.size * 1.0001) {
+        return 0.0;
+    }
+    float one_minus_cos = cap_one_minus_cos(l.size, dist);
+    return 1.0 - dot(dir, d / dist) <= one_minus_cos ? 1.0 / (2.0 * PI * one_minus_cos) : 0.0;
+}
+
+// Distance along the ray (o, d) to sphere light `l`, or BIG_FLOAT.
+float light_hit(GpuLight l, vec3 o, vec3 d) {
+    if (l.size <= 0.0 || l.kind == LIGHT_DIRECTIONAL) {
+        return BIG_FLOAT;
+    }
+    vec3 oc = o - l.position;
+    float b = dot(oc, d);
+    float c = dot(oc, oc) - l.size * l.size;
+    float disc = b * b - c;
+    if (c <= 0.0 || disc < 0.0) {
+        return BIG_FLOAT;
+    }
+    float t = -b - sqrt(disc);
+    return t > 0.0 ? t : BIG_FLOAT;
+}
+
+// Light the segment (o, d) up to distance t_max meets: sphere lights in front of t_max, and
+// when the segment escapes (t_max = BIG_FLOAT) the cones of directional lights. `bsdf_pdf` is
+// the density the segment was drawn with; 0 for camera rays (no MIS: nothing else finds it).
+vec3 lights_met(vec3 o, vec3 d, float t_max, float bsdf_pdf) {
+    vec3 sum = vec3(0.0);
+    for (uint i = 0u; i < scene.light_count; ++i) {
+        GpuLight l = scene_light(i);
+        if (l.size <= 0.0) {
+            continue;
+        }
+        bool met = l.kind == LIGHT_DIRECTIONAL
+            ? t_max >= BIG_FLOAT && light_pdf(l, o, d) > 0.0
+            : light_hit(l, o, d) < t_max;
+        if (met) {
+            float w = bsdf_pdf > 0.0 ? power_heuristic(bsdf_pdf, light_pdf(l, o, d)) : 1.0;
+            sum += w * light_radiance(l, o);
+        }
+    }
+    return sum;
+}
+
+// Direct light at surface s from every light (one sample each) and the environment (one
+// sample), each through one shadow ray, weighted against BSDF sampling.
+vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, inout Rng rng) {
+    vec3 sum = vec3(0.0);
+    vec3 origin = s.position + s.ng * eps_offset();
+    for (uint i = 0u; i < scene.light_count; ++i) {
+        GpuLight l = scene_light(i);
+        vec2 u = rng_next(rng);
+        vec3 dir;
+        float dist, pdf;
+        vec3 li = light_sample(l, s.position, u, dir, dist, pdf);
+        if (max3(li) <= 0.0 || dot(s.ng, dir) <= 0.0) {
+            continue;
+        }
+        float bsdf_pdf;
+        vec3 f = bsdf_eval(s, b, v, dir, bsdf_pdf);
+        if (max3(f) <= 0.0) {
+            continue;
+        }
+        float tmax = dist < BIG_FLOAT ? dist - 2.0 * eps_offset() : BIG_FLOAT;
+        rays_by_kind[RAY_SHADOW] += 1u;
+        if (trace_any(origin, dir, 0.0, tmax)) {
+            continue;
+        }
+        float w = pdf > 0.0 ? power_heuristic(pdf, bsdf_pdf) : 1.0;
+        sum += f * li * w;
+    }
+    if (env_enabled()) {
+        vec2 u = rng_next(rng);
+        float pdf;
+        vec3 dir = env_sample(u, pdf);
+        if (pdf > 0.0 && dot(s.ng, dir) > 0.0) {
+            float bsdf_pdf;
+            vec3 f = bsdf_eval(s, b, v, dir, bsdf_pdf);
+            if (max3(f) > 0.0) {
+                rays_by_kind[RAY_SHADOW] += 1u;
+                if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
+                    sum += f * env_radiance_texel(dir) / pdf * power_heuristic(pdf, bsdf_pdf);
+                }
+            }
+        }
+    }
+    return sum;
+}
+
+// Alpha-blended surfaces a path may pass straight through before it stops.
+#define MAX_PASS_THROUGH 16u
+
+// Radiance along a camera ray in the distributed model, for camera sample `sample_index` of
+// `pixel`. `primary` as whitted(): the hybrid path hands in what its raster pass saw.
+vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_hit, inout PrimaryInfo info, uvec2 pixel, uint sample_index) {
+    Rng rng = rng_new(pixel, sample_index);
+    vec3 radiance = vec3(0.0);
+    vec3 throughput = vec3(1.0);
+    vec3 origin = camera.origin;
+    vec3 dir = camera.dir;
+    uint kind = RAY_PRIMARY;
+    float bsdf_pdf = 0.0;
+    float cone_width = 0.0;
+    uint diffuse_used = 0u;
+    uint passes = 0u;
+    bool collect_only = false;
+    bool first = true;
+    for (uint depth = 1u; depth <= frame.max_depth; ) {
+        Surface s;
+        float t;
+        bool found;
+        if (first && primary == PRIMARY_SURFACE) {
+            s = primary_surface;
+            t = primary_hit.t;
+            found = true;
+        } else {
+            Hit h;
+            if (first && primary == PRIMARY_HIT) {
+                h = primary_hit;
+            } else {
+                if (kind == RAY_DIFFUSE) {
+                    diffuse_rays += 1u;
+                } else {
+                    rays_by_kind[kind] += 1u;
+                }
+                h = trace_closest(origin, dir, 0.0, BIG_FLOAT);
+            }
+            found = hit_found(h);
+            t = found ? h.t : BIG_FLOAT;
+            if (first) {
+                info.hit = found;
+                info.t = found ? h.t : 0.0;
+                info.instance = h.instance;
+                info.primitive = h.primitive;
+                info.bary = h.barycentrics;
+            }
+            if (found) {
+                s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, dir, cone_width + frame.pixel_spread * h.t);
+                if (first) {
+                    info.normal = s.ng_front;
+                    info.position = s.position;
+                }
+            }
+        }
+        first = false;
+        radiance += throughput * lights_met(origin, dir, t, bsdf_pdf);
+        if (!found) {
+            if (kind == RAY_PRIMARY) {
+                radiance += miss_radiance(dir, true);
+            } else if (env_enabled()) {
+                radiance += throughput * env_radiance_texel(dir) * power_heuristic(bsdf_pdf, env_pdf(dir));
+            } else {
+                radiance += throughput * background_radiance(dir);
+            }
+            break;
+        }
+        cone_width += frame.pixel_spread * t;
+        throughput *= volume_absorption(s, t);
+        vec3 v = -dir;
+        if (s.alpha_mode == ALPHA_BLEND && passes < MAX_PASS_THROUGH) {
+            // Blending by coverage, stochastically: pass straight through with 1 - alpha.
+            if (rng_next(rng).x >= clamp(s.alpha, 0.0, 1.0)) {
+                passes += 1u;
+                origin = s.position - s.ng * eps_offset();
+                kind = RAY_REFRACTION;
+                continue;
+            }
+        }
+        BsdfFrame b = bsdf_frame(s, v);
+        radiance += throughput * s.emissive * (1.0 - b.coat);
+        if (collect_only) {
+            break;
+        }
+        if (!env_enabled() && frame.diffuse_bounces == 0u) {
+            // The Whitted model's ambient term stands in for the untraced diffuse
+            // inter-reflection (a path tracer, with diffuse bounces, traces it instead).
+            radiance += throughput * frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
+        }
+        radiance += throughput * direct_light_sampled(s, b, v, rng);
+        if (depth >= frame.max_depth) {
+            break;
+        }
+        vec2 u_choice = rng_next(rng);
+        vec2 u_dir = rng_next(rng);
+        vec3 l, weight;
+        uint lobe;
+        if (!bsdf_sample(s, b, v, u_choice.x, u_dir, l, weight, bsdf_pdf, lobe)) {
+            break;
+        }
+        throughput *= weight;
+        if (lobe == LOBE_DIFFUSE) {
+            kind = RAY_DIFFUSE;
+            if (diffuse_used >= frame.diffuse_bounces) {
+                collect_only = true;
+            }
+            diffuse_used += 1u;
+        } else {
+            kind = lobe == LOBE_TRANSMISSION ? RAY_REFRACTION : RAY_REFLECTION;
+        }
+        if (frame.diffuse_bounces > 0u && depth >= 3u) {
+            float q = min(max3(throughput), 0.95);
+            if (u_choice.y >= q) {
+                break;
+            }
+            throughput /= q;
+        }
+        origin = s.position + (dot(l, s.ng) > 0.0 ? s.ng : -s.ng) * eps_offset();
+        dir = l;
+        depth += 1u;
+    }
+    return radiance;
+}
+
+#endif

@@ -1,0 +1,8 @@
+// variants: hw bvh
+#version 460
+// Hybrid shading pass in the distributed model, reading the visibility buffer; see
+// hybrid_main.glsl.
+#extension GL_GOOGLE_include_directive : require
+#define SHADING_DISTRIBUTED 1
+#define HYBRID_VISIBILITY 1
+#include "hybrid_main.glsl"

@@ -1,0 +1,162 @@
+//! `rqr compare --reference-spp N`: error against time. A converged image of the distributed
+//! model (ray traced, N samples per pixel) is the reference; the Whitted model and the
+//! distributed one at 1, 4 and 16 spp, on both paths, are rendered once each and reported with
+//! their FLIP and PSNR against it next to their GPU milliseconds.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{Context as _, Result};
+use rqr::accel::Backend;
+use rqr::environment::EnvironmentMap;
+use rqr::render::image::{compare, output};
+use rqr::render::passes::gbuffer;
+use rqr::render::{RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading};
+use rqr::scene::{Camera, Scene};
+use rqr::vk::Context;
+use serde_json::json;
+
+/// One rendered configuration against the reference.
+#[derive(serde::Serialize)]
+pub struct QualityRow {
+    /// `whitted`, or `distributed N spp`.
+    pub config: String,
+    /// `rt` or `hybrid`.
+    pub path: &'static str,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// GPU milliseconds of the frame (timestamps of one frame, every pass).
+    pub gpu_ms: f64,
+    /// Mean FLIP against the reference (tonemapped 8-bit images).
+    pub flip_mean: f32,
+    /// PSNR against the reference, dB.
+    pub psnr_db: f64,
+}
+
+/// The distributed spp the ladder shows.
+const LADDER_SPP: [u32; 3] = [1, 4, 16];
+
+fn render_path(
+    ctx: &Context,
+    renderer: &mut Renderer,
+    draws: &[gbuffer::Draw],
+    settings: &RenderSettings,
+    camera: &Camera,
+    path: RenderPath,
+) -> Result<RenderOutput> {
+    Ok(match path {
+        RenderPath::RayTraced => renderer.render_rt(ctx, settings, camera, false)?,
+        RenderPath::Hybrid => renderer.render_hybrid(ctx, draws, settings, camera, false)?,
+    })
+}
+
+/// Renders the reference and the ladder on `backend`, writes `reference.png`,
+/// `quality.json` and `quality.md` into `dir`, and returns the markdown table.
+#[allow(clippy::too_many_arguments)]
+pub fn error_against_time(
+    ctx: &Context,
+    scene: &Scene,
+    environment: Option<&EnvironmentMap>,
+    settings: &RenderSettings,
+    camera: &Camera,
+    backend: Backend,
+    reference_spp: u32,
+    dir: &Path,
+) -> Result<String> {
+    let mut renderer = Renderer::new(ctx, scene, backend)?;
+    super::common::light_with(ctx, &mut renderer, environment)?;
+    let draws = gbuffer::draws(scene);
+    let distributed = |spp: u32, seed: u32| RenderSettings {
+        spp,
+        sampler: SamplerKind::Sobol,
+        shading: Shading::Distributed,
+        seed,
+        ..settings.clone()
+    };
+    // Another seed than the ladder's, so the reference's noise is independent of theirs.
+    let reference_settings = distributed(reference_spp, settings.seed.wrapping_add(0x9e37));
+    reference_settings.validate(u32::MAX)?;
+    let reference = render_path(
+        ctx,
+        &mut renderer,
+        &draws,
+        &reference_settings,
+        camera,
+        RenderPath::RayTraced,
+    )?;
+    output::write_png(&dir.join("reference.png"), &reference)?;
+    let mut configs = vec![(
+        "whitted".to_string(),
+        RenderSettings {
+            shading: Shading::Whitted,
+            diffuse_bounces: 0,
+            ..settings.clone()
+        },
+    )];
+    for spp in LADDER_SPP {
+        configs.push((
+            format!("distributed {spp} spp"),
+            distributed(spp, settings.seed),
+        ));
+    }
+    let mut rows = Vec::new();
+    for (config, s) in &configs {
+        for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+            let out = render_path(ctx, &mut renderer, &draws, s, camera, path)?;
+            let d = compare::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
+            rows.push(QualityRow {
+                config: config.clone(),
+                path: path.as_str(),
+                spp: s.spp,
+                gpu_ms: out.total_ms(),
+                flip_mean: d.flip_mean,
+                psnr_db: d.psnr_db,
+            });
+        }
+    }
+    let mut md = format!(
+        "Error against a converged reference (distributed, ray traced, {reference_spp} spp, {} ms GPU), {} backend, {}x{}; one frame each, GPU timestamps:\n\n| shading | path | spp | GPU ms | FLIP mean | PSNR dB |\n|---|---|---:|---:|---:|---:|\n",
+        fmt_ms(reference.total_ms()),
+        backend.as_str(),
+        settings.width,
+        settings.height
+    );
+    for r in &rows {
+        writeln!(
+            md,
+            "| {} | {} | {} | {} | {:.4} | {:.2} |",
+            r.config,
+            r.path,
+            r.spp,
+            fmt_ms(r.gpu_ms),
+            r.flip_mean,
+            r.psnr_db
+        )?;
+    }
+    std::fs::write(dir.join("quality.md"), &md)
+        .with_context(|| format!("cannot write '{}'", dir.join("quality.md").display()))?;
+    let report = json!({
+        "reference": {
+            "spp": reference_spp,
+            "path": "rt",
+            "shading": "distributed",
+            "gpu_ms": reference.total_ms(),
+        },
+        "backend": backend.as_str(),
+        "rows": rows,
+    });
+    std::fs::write(
+        dir.join("quality.json"),
+        serde_json::to_string_pretty(&report)?,
+    )
+    .with_context(|| format!("cannot write '{}'", dir.join("quality.json").display()))?;
+    Ok(md)
+}
+
+fn fmt_ms(ms: f64) -> String {
+    if ms >= 100.0 {
+        format!("{ms:.0}")
+    } else {
+        format!("{ms:.2}")
+    }
+}
