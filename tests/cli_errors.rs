@@ -142,8 +142,16 @@ fn bad_settings_fail_before_any_gpu_work() {
             2,
             "-0.5 must be a finite number >= 0",
         ),
-        (vec!["--light-radius", "NaN"], 2, "NaN must be a finite number >= 0"),
-        (vec!["--sun-angle", "inf"], 2, "inf must be a finite number >= 0"),
+        (
+            vec!["--light-radius", "NaN"],
+            2,
+            "NaN must be a finite number >= 0",
+        ),
+        (
+            vec!["--sun-angle", "inf"],
+            2,
+            "inf must be a finite number >= 0",
+        ),
         (vec!["--sun-angle", "95"], 2, "95 degrees must be below 90"),
         (vec!["--light-radius", "big"], 2, "'big' is not a number"),
         (
@@ -161,7 +169,11 @@ fn bad_settings_fail_before_any_gpu_work() {
             1,
             "--diffuse-bounces 99 must be at most 16",
         ),
-        (vec!["--shading", "cook"], 2, "invalid value 'cook' for '--shading"),
+        (
+            vec!["--shading", "cook"],
+            2,
+            "invalid value 'cook' for '--shading",
+        ),
         (vec!["--ambient", "1,2"], 2, "expected x,y,z"),
     ];
     for (extra, code, needle) in cases {

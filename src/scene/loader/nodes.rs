@@ -340,15 +340,24 @@ mod light_size_tests {
         let point = LightKind::Point;
         let sun = LightKind::Directional;
         assert_eq!(light_size_extra("l", &point, None), 0.0);
-        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": 0.3}"#)), 0.3);
+        assert_eq!(
+            light_size_extra("l", &point, Some(r#"{"radius": 0.3}"#)),
+            0.3
+        );
         assert_eq!(
             light_size_extra("l", &sun, Some(r#"{"angularRadius": 0.01}"#)),
             0.01
         );
         // The other kind's key, a wrong type, a negative value, too wide a cone: punctual.
         assert_eq!(light_size_extra("l", &sun, Some(r#"{"radius": 0.3}"#)), 0.0);
-        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": "1"}"#)), 0.0);
-        assert_eq!(light_size_extra("l", &point, Some(r#"{"radius": -1}"#)), 0.0);
+        assert_eq!(
+            light_size_extra("l", &point, Some(r#"{"radius": "1"}"#)),
+            0.0
+        );
+        assert_eq!(
+            light_size_extra("l", &point, Some(r#"{"radius": -1}"#)),
+            0.0
+        );
         assert_eq!(
             light_size_extra("l", &sun, Some(r#"{"angularRadius": 1.6}"#)),
             0.0
