@@ -647,3 +647,38 @@ fn spheres_on_a_floor(material: Material) -> Scene {
         vec![],
     )
 }
+
+#[test]
+fn host_tonemapping_matches_the_gpu() {
+    // References accumulated over several renders are tonemapped on the host.
+    use rqr::render::image::tonemap::tonemap_rgba8;
+    use rqr::render::Tonemap;
+    let ctx = common::gpu();
+    let scene = cornell();
+    let camera = scene.cameras[0].clone();
+    for (op, exposure) in [
+        (Tonemap::KhronosNeutral, 0.0),
+        (Tonemap::Aces, 1.0),
+        (Tonemap::None, -0.5),
+    ] {
+        let settings = RenderSettings {
+            width: 32,
+            height: 32,
+            tonemap: op,
+            exposure,
+            ..Default::default()
+        };
+        let out = render(&ctx, &scene, &camera, None, Backend::Bvh, false, &settings);
+        for (i, c) in out.color.iter().enumerate() {
+            let host = tonemap_rgba8([c[0], c[1], c[2]], op, exposure);
+            for k in 0..4 {
+                let gpu = out.rgba8[4 * i + k];
+                assert!(
+                    host[k].abs_diff(gpu) <= 1,
+                    "{op:?}: pixel {i} channel {k}: host {} against GPU {gpu}",
+                    host[k]
+                );
+            }
+        }
+    }
+}

@@ -174,8 +174,9 @@ vec3 lights_met(vec3 o, vec3 d, float t_max, float bsdf_pdf) {
 }
 
 // Direct light at surface s from every light (one sample each) and the environment (one
-// sample), each through one shadow ray, weighted against BSDF sampling.
-vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, inout Rng rng) {
+// sample), each through one shadow ray, weighted against BSDF sampling; at the `last` vertex
+// of a path, whose BSDF ray is not traced, light sampling alone carries the light (weight 1).
+vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng rng) {
     vec3 sum = vec3(0.0);
     vec3 origin = s.position + s.ng * eps_offset();
     for (uint i = 0u; i < scene.light_count; ++i) {
@@ -197,7 +198,7 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, inout Rng rng) {
         if (trace_any(origin, dir, 0.0, tmax)) {
             continue;
         }
-        float w = pdf > 0.0 ? power_heuristic(pdf, bsdf_pdf) : 1.0;
+        float w = pdf > 0.0 && !last ? power_heuristic(pdf, bsdf_pdf) : 1.0;
         sum += f * li * w;
     }
     if (env_enabled()) {
@@ -210,7 +211,7 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, inout Rng rng) {
             if (max3(f) > 0.0) {
                 rays_by_kind[RAY_SHADOW] += 1u;
                 if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
-                    sum += f * env_radiance_texel(dir) / pdf * power_heuristic(pdf, bsdf_pdf);
+                    sum += f * env_radiance_texel(dir) / pdf * (last ? 1.0 : power_heuristic(pdf, bsdf_pdf));
                 }
             }
         }
@@ -307,8 +308,9 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
             // inter-reflection (a path tracer, with diffuse bounces, traces it instead).
             radiance += throughput * frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
         }
-        radiance += throughput * direct_light_sampled(s, b, v, rng);
-        if (depth >= frame.max_depth) {
+        bool last = depth >= frame.max_depth;
+        radiance += throughput * direct_light_sampled(s, b, v, last, rng);
+        if (last) {
             break;
         }
         vec2 u_choice = rng_next(rng);

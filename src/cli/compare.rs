@@ -56,7 +56,8 @@ pub struct CompareArgs {
     repeat: u32,
     /// Also render a converged reference (distributed shading, ray traced, N spp) and report
     /// the Whitted model and distributed shading at 1, 4 and 16 spp, on both paths, against it:
-    /// FLIP and PSNR next to GPU ms (quality.md, quality.json, reference.png).
+    /// FLIP and PSNR next to GPU ms (quality.md, quality.json, reference.png and the
+    /// ray-traced images quality-*.png).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
     reference_spp: Option<u32>,
 }

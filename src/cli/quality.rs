@@ -9,6 +9,7 @@ use std::path::Path;
 use anyhow::{Context as _, Result};
 use rqr::accel::Backend;
 use rqr::environment::EnvironmentMap;
+use rqr::render::image::tonemap::tonemap_rgba8;
 use rqr::render::image::{compare, output};
 use rqr::render::passes::gbuffer;
 use rqr::render::{RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading};
@@ -50,7 +51,69 @@ fn render_path(
     })
 }
 
-/// Renders the reference and the ladder on `backend`, writes `reference.png`,
+/// Camera samples per render of the reference: a long one is cut into renders this size, so
+/// that no submission nears the GPU timeout.
+const REFERENCE_BATCH: u32 = 16;
+
+/// The ray-traced image of `settings` at `spp` samples per pixel, rendered in batches of
+/// [`REFERENCE_BATCH`] samples with successive seeds (independent samples), their linear
+/// colours averaged and tonemapped on the host. Its `gpu_ms` sums the batches'.
+fn render_reference(
+    ctx: &Context,
+    renderer: &mut Renderer,
+    settings: &RenderSettings,
+    camera: &Camera,
+    spp: u32,
+) -> Result<RenderOutput> {
+    let mut sum: Vec<[f64; 3]> = vec![[0.0; 3]; settings.pixels() as usize];
+    let mut total: Option<RenderOutput> = None;
+    let mut done = 0;
+    for batch in 0.. {
+        if done >= spp {
+            break;
+        }
+        let n = REFERENCE_BATCH.min(spp - done);
+        let s = RenderSettings {
+            spp: n,
+            seed: settings.seed.wrapping_add(batch),
+            ..settings.clone()
+        };
+        s.validate(u32::MAX)?;
+        let out = renderer.render_rt(ctx, &s, camera, false)?;
+        for (acc, c) in sum.iter_mut().zip(&out.color) {
+            for k in 0..3 {
+                acc[k] += f64::from(c[k]) * f64::from(n);
+            }
+        }
+        done += n;
+        total = Some(match total {
+            None => out,
+            Some(mut t) => {
+                t.rays = t.rays + out.rays;
+                t.samples += out.samples;
+                t.gpu_ms.extend(out.gpu_ms);
+                t
+            }
+        });
+    }
+    let mut out = total.context("a reference needs at least one sample")?;
+    out.color = sum
+        .iter()
+        .map(|c| {
+            let m = c.map(|v| (v / f64::from(spp)) as f32);
+            [m[0], m[1], m[2], 1.0]
+        })
+        .collect();
+    out.rgba8 = out
+        .color
+        .iter()
+        .flat_map(|c| tonemap_rgba8([c[0], c[1], c[2]], settings.tonemap, settings.exposure))
+        .collect();
+    Ok(out)
+}
+
+/// Renders the reference and the ladder on `backend`, writes `reference.png`, the ladder's
+/// ray-traced images (`quality-whitted.png`, `quality-distributed-4-spp.png`, …),
 /// `quality.json` and `quality.md` into `dir`, and returns the markdown table.
 #[allow(clippy::too_many_arguments)]
 pub fn error_against_time(
@@ -73,16 +136,13 @@ pub fn error_against_time(
         seed,
         ..settings.clone()
     };
-    // Another seed than the ladder's, so the reference's noise is independent of theirs.
-    let reference_settings = distributed(reference_spp, settings.seed.wrapping_add(0x9e37));
-    reference_settings.validate(u32::MAX)?;
-    let reference = render_path(
+    // Other seeds than the ladder's, so the reference's noise is independent of theirs.
+    let reference = render_reference(
         ctx,
         &mut renderer,
-        &draws,
-        &reference_settings,
+        &distributed(1, settings.seed.wrapping_add(0x9e37)),
         camera,
-        RenderPath::RayTraced,
+        reference_spp,
     )?;
     output::write_png(&dir.join("reference.png"), &reference)?;
     let mut configs = vec![(
@@ -103,6 +163,10 @@ pub fn error_against_time(
     for (config, s) in &configs {
         for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
             let out = render_path(ctx, &mut renderer, &draws, s, camera, path)?;
+            if path == RenderPath::RayTraced {
+                let name = format!("quality-{}.png", config.replace(' ', "-"));
+                output::write_png(&dir.join(name), &out)?;
+            }
             let d = compare::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
             rows.push(QualityRow {
                 config: config.clone(),

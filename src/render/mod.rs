@@ -94,6 +94,19 @@ pub struct RayCounts {
     pub diffuse: u64,
 }
 
+impl std::ops::Add for RayCounts {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self {
+            primary: self.primary + o.primary,
+            shadow: self.shadow + o.shadow,
+            reflection: self.reflection + o.reflection,
+            refraction: self.refraction + o.refraction,
+            diffuse: self.diffuse + o.diffuse,
+        }
+    }
+}
+
 impl RayCounts {
     /// All rays.
     pub fn total(&self) -> u64 {
