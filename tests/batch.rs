@@ -326,13 +326,14 @@ fn a_job_past_its_time_limit_fails_alone_and_the_next_one_renders() {
     let dir = work_dir("timeout");
     std::fs::copy(assets().join("Box/Box.glb"), dir.join("Box.glb")).unwrap();
     let manifest = dir.join("m.jsonl");
-    // About 4 s per view on lavapipe, against a 1.5 s limit; the light job takes milliseconds.
+    // About 4 s per view on lavapipe, against a 1.5 s limit; the light job takes milliseconds
+    // (without an environment: preparing the built-in sky alone takes 0.5-2 s on lavapipe).
     std::fs::write(
         &manifest,
         concat!(
-            r#"{"id": "heavy", "scene": "Box.glb", "width": 2048, "height": 2048, "spp": 16, "cameras": {"orbit": {"n": 2}}}"#,
+            r#"{"id": "heavy", "scene": "Box.glb", "width": 2048, "height": 2048, "spp": 16, "cameras": {"orbit": {"n": 2}}, "environment": "none"}"#,
             "\n",
-            r#"{"id": "light", "scene": "Box.glb", "width": 16, "height": 16, "cameras": {"orbit": {"n": 2}}}"#,
+            r#"{"id": "light", "scene": "Box.glb", "width": 16, "height": 16, "cameras": {"orbit": {"n": 2}}, "environment": "none"}"#,
             "\n"
         ),
     )

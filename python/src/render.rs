@@ -211,6 +211,14 @@ fn light(
     if gpu.environment.as_ref() != Some(map_path) {
         let source = rqr::environment::EnvironmentSource::parse(&map_path.to_string_lossy())
             .map_err(|e| bad(e.to_string()))?;
+        if !matches!(source, rqr::environment::EnvironmentSource::File(_)) {
+            // The sky needs its sun added to the scene, which this package does not do yet:
+            // refuse rather than render a sky without its sun.
+            return Err(bad(format!(
+                "environment {map_path:?}: the built-in environments (sky, studio) are for the \
+                 CLI and rqr batch; give a .hdr or .exr path, or None"
+            )));
+        }
         let map = source
             .load()
             .map_err(|e| bad(e.to_string()))?

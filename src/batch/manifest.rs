@@ -102,11 +102,16 @@ impl Shading {
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Environment {
-    /// No environment map.
+    /// The field is absent: the built-in environment for a scene without lights
+    /// ([`crate::environment::default_environment`]), none for a scene with lights.
     #[default]
+    Default,
+    /// No environment map (`null` or `"none"`): the default light rig or the file's lights.
     None,
     /// An environment map file.
     File(PathBuf),
+    /// A built-in environment: `"studio"` or `"sky[:ELEVATION_DEG,AZIMUTH_DEG[,TURBIDITY]]"`.
+    Builtin(String),
 }
 
 impl Environment {
@@ -116,9 +121,13 @@ impl Environment {
             Value::Null => Ok(Self::None),
             Value::String(s) if s == "none" => Ok(Self::None),
             Value::String(s) if s.is_empty() => Err("empty path".into()),
-            Value::String(s) => Ok(Self::File(base.join(s))),
+            Value::String(s) => match crate::environment::EnvironmentSource::parse(s) {
+                Ok(crate::environment::EnvironmentSource::File(_)) => Ok(Self::File(base.join(s))),
+                Ok(_) => Ok(Self::Builtin(s.clone())),
+                Err(e) => Err(e.to_string()),
+            },
             other => Err(format!(
-                "environment {other} must be null, \"none\" or the path of a .hdr or .exr file"
+                "environment {other} must be null, \"none\", \"studio\", \"sky[:ELEVATION_DEG,AZIMUTH_DEG[,TURBIDITY]]\" or the path of a .hdr or .exr file"
             )),
         }
     }
@@ -553,6 +562,12 @@ mod tests {
             Environment::parse(&Value::String("maps/studio.hdr".into()), base),
             Ok(Environment::File(PathBuf::from("dir/maps/studio.hdr")))
         );
+        assert_eq!(
+            Environment::parse(&Value::String("sky:20,90,4".into()), base),
+            Ok(Environment::Builtin("sky:20,90,4".into()))
+        );
+        let bad = Environment::parse(&Value::String("sky:95,0".into()), base).unwrap_err();
+        assert!(bad.contains("outside 0..90"), "{bad}");
     }
 
     #[test]

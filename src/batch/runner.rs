@@ -490,14 +490,15 @@ fn render_job(
     times: &mut StageTimes,
     records: &mut Vec<ViewCamera>,
 ) -> crate::Result<usize> {
-    let map = match &job.environment {
-        Environment::None => None,
-        Environment::File(path) => EnvironmentSource::File(path.clone()).load()?,
+    let source = match &job.environment {
+        Environment::Default if scene.default_lights => crate::environment::default_environment(),
+        Environment::Default | Environment::None => EnvironmentSource::None,
+        Environment::File(path) => EnvironmentSource::File(path.clone()),
+        Environment::Builtin(spec) => EnvironmentSource::parse(spec)?,
     };
+    let map = source.load()?;
     let mut scene = scene;
-    if map.is_some() {
-        scene.drop_default_lights();
-    }
+    source.light_scene(&mut scene, 0.0, 1.0)?;
     let mut loaded = device.upload(scene, times.load_ms, times.texture_decode_ms)?;
     loaded.set_environment(device, map.as_ref())?;
     times.upload_ms = loaded.times.build.upload_ms;

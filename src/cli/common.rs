@@ -314,9 +314,41 @@ impl ImageArgs {
         }
     }
 
-    /// Loads `--environment`'s map before any device work (a bad file fails fast).
+    /// Loads `--environment`'s map before any device work (a bad file fails fast); `None`
+    /// also when the flag was not given ([`ImageArgs::light_scene`] then chooses).
     pub fn load_environment(&self) -> Result<Option<EnvironmentMap>> {
-        Ok(self.environment.load()?)
+        match &self.environment {
+            Some(source) => Ok(source.load()?),
+            None => Ok(None),
+        }
+    }
+
+    /// What lights `scene`: `--environment` when given, else the built-in
+    /// [`rqr::environment::default_environment`] for a scene without lights of its own, else
+    /// none (the file's lights).
+    pub fn environment_source(&self, scene: &Scene) -> EnvironmentSource {
+        match &self.environment {
+            Some(source) => source.clone(),
+            None if scene.default_lights => rqr::environment::default_environment(),
+            None => EnvironmentSource::None,
+        }
+    }
+
+    /// Lights `scene` for its environment ([`ImageArgs::environment_source`]): drops the
+    /// default rig under one, adds the sky's sun, and returns the map (`loaded`: what
+    /// [`ImageArgs::load_environment`] gave for an explicit `--environment`).
+    pub fn light_scene(
+        &self,
+        scene: &mut Scene,
+        loaded: Option<EnvironmentMap>,
+    ) -> Result<Option<EnvironmentMap>> {
+        let source = self.environment_source(scene);
+        let map = match (&self.environment, loaded) {
+            (Some(_), map) => map,
+            (None, _) => source.load()?,
+        };
+        source.light_scene(scene, self.environment_rotation, self.environment_intensity)?;
+        Ok(map)
     }
 }
 
@@ -396,9 +428,12 @@ pub struct ImageArgs {
     #[arg(long, value_parser = parse_background)]
     pub background: Option<(Vec3, bool)>,
     /// Image-based lighting: an equirectangular Radiance `.hdr` or OpenEXR file (width = 2 ×
-    /// height, row 0 at the zenith, +Z at its centre), or `none`.
-    #[arg(long, value_parser = parse_environment, default_value = "none")]
-    pub environment: EnvironmentSource,
+    /// height, row 0 at the zenith, +Z at its centre), `sky[:ELEVATION_DEG,AZIMUTH_DEG[,
+    /// TURBIDITY]]` (the Hosek-Wilkie sky and its sun; `sky` alone: 45,150,3), or `none` (the
+    /// default light rig and --ambient) [default: a built-in environment for a scene
+    /// without lights, none for a scene with lights].
+    #[arg(long, value_parser = parse_environment, value_name = "PATH|sky[:E,A[,T]]|studio|none")]
+    pub environment: Option<EnvironmentSource>,
     /// Turns the environment about +Y, degrees counter-clockwise seen from above.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub environment_rotation: f32,

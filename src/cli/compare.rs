@@ -172,9 +172,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         .with_context(|| format!("cannot create output directory '{}'", args.output.display()))?;
     let environment = args.image.load_environment()?;
     let mut scene = args.scene.load()?;
-    if environment.is_some() {
-        scene.drop_default_lights();
-    }
+    let environment = args.image.light_scene(&mut scene, environment)?;
     args.image.apply_light_sizes(&mut scene);
     let camera = args
         .camera

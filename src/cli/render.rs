@@ -244,9 +244,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     check_output_file(&args.output)?;
     let environment = args.image.load_environment()?;
     let mut scene = args.scene.load()?;
-    if environment.is_some() {
-        scene.drop_default_lights();
-    }
+    let environment = args.image.light_scene(&mut scene, environment)?;
     args.image.apply_light_sizes(&mut scene);
     let camera = args
         .camera
@@ -362,9 +360,7 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     check_output_file(&frame_path(&args.output, range.start))?;
     let environment = args.image.load_environment()?;
     let (mut rest, animations) = args.scene.load_rest()?;
-    if environment.is_some() {
-        rest.drop_default_lights();
-    }
+    let environment = args.image.light_scene(&mut rest, environment)?;
     args.image.apply_light_sizes(&mut rest);
     // A skinned or morphed scene is posed even without animation (the bind pose is not the
     // rest pose); it changes between frames only when an animation moves more than cameras.

@@ -12,6 +12,7 @@
 pub mod gpu;
 pub mod map;
 pub mod sampling;
+pub mod sky;
 
 use std::path::PathBuf;
 
@@ -19,6 +20,7 @@ use glam::Vec3;
 
 pub use gpu::GpuEnvironment;
 pub use map::EnvironmentMap;
+pub use sky::{SkyModel, SkySpec};
 
 /// An environment could not be loaded or parsed.
 #[derive(Debug, thiserror::Error)]
@@ -67,10 +69,24 @@ pub enum EnvironmentSource {
     None,
     /// An equirectangular `.hdr` or `.exr` file.
     File(PathBuf),
+    /// The Hosek–Wilkie physical sky and its sun (`sky[:ELEVATION,AZIMUTH[,TURBIDITY]]`).
+    Sky(SkySpec),
+    /// `studio`: the photo studio built into rqr (`assets/environments/studio.hdr`, CC0).
+    Studio,
+}
+
+/// The studio map built into the binary (`assets/environments/studio.hdr`, CC0; 1024×512).
+const STUDIO_HDR: &[u8] = include_bytes!("../../assets/environments/studio.hdr");
+
+/// What lights a scene that has no lights and is given no `--environment` (in the CLI, rqr
+/// batch and Python; the library's renderer itself adds none).
+pub fn default_environment() -> EnvironmentSource {
+    EnvironmentSource::Sky(SkySpec::DEFAULT)
 }
 
 impl EnvironmentSource {
-    /// Parses `none` or a path.
+    /// Parses `none`, `studio`, `sky[:ELEVATION_DEG,AZIMUTH_DEG[,TURBIDITY]]` or a path (a
+    /// file named `studio` or `sky…` is given as `./studio`, `./sky…`).
     pub fn parse(s: &str) -> Result<Self, EnvironmentError> {
         let arg = |message: &str| EnvironmentError::Argument {
             given: s.to_string(),
@@ -82,14 +98,68 @@ impl EnvironmentSource {
         if s.eq_ignore_ascii_case("none") {
             return Ok(Self::None);
         }
+        if s.eq_ignore_ascii_case("studio") {
+            return Ok(Self::Studio);
+        }
+        if let Some(rest) = s
+            .get(..3)
+            .filter(|head| head.eq_ignore_ascii_case("sky"))
+            .map(|_| &s[3..])
+        {
+            if rest.is_empty() || rest.starts_with(':') {
+                return SkySpec::parse(rest, s).map(Self::Sky);
+            }
+        }
         Ok(Self::File(PathBuf::from(s)))
     }
 
-    /// Loads the map this names (`None` for [`EnvironmentSource::None`]), logging one
-    /// warning when texels had to be clamped.
+    /// The sky's model, for [`EnvironmentSource::Sky`].
+    pub fn sky(&self) -> Result<Option<SkyModel>, EnvironmentError> {
+        match self {
+            Self::Sky(spec) => spec.model().map(Some),
+            _ => Ok(None),
+        }
+    }
+
+    /// Lights `scene` for this environment: with one, the default light rig goes (the
+    /// file's own lights stay), and the sky adds its sun as a directional light, turned by
+    /// `rotation_deg` and scaled by `intensity` as the map is.
+    pub fn light_scene(
+        &self,
+        scene: &mut crate::scene::Scene,
+        rotation_deg: f32,
+        intensity: f32,
+    ) -> Result<(), EnvironmentError> {
+        if *self == Self::None {
+            return Ok(());
+        }
+        scene.drop_default_lights();
+        if let Some(sky) = self.sky()? {
+            scene.lights.push(sky.sun_light(rotation_deg, intensity));
+        }
+        Ok(())
+    }
+
+    /// Loads the map this names (`None` for [`EnvironmentSource::None`]; the sky is baked at
+    /// [`sky::SKY_MAP_WIDTH`]), logging one warning when texels had to be clamped.
     pub fn load(&self) -> Result<Option<EnvironmentMap>, EnvironmentError> {
         match self {
             Self::None => Ok(None),
+            Self::Studio => map::decode("studio (built in)", STUDIO_HDR).map(Some),
+            Self::Sky(spec) => {
+                let started = std::time::Instant::now();
+                let map = spec.model()?.bake(sky::SKY_MAP_WIDTH);
+                log::info!(
+                    "sky (sun {}° high at azimuth {}°, turbidity {}) baked to {}x{} in {:.1} ms",
+                    spec.elevation_deg,
+                    spec.azimuth_deg,
+                    spec.turbidity,
+                    map.width,
+                    map.height,
+                    started.elapsed().as_secs_f64() * 1e3
+                );
+                Ok(Some(map))
+            }
             Self::File(path) => {
                 let (map, clamped) = map::load(path)?;
                 if clamped > 0 {
@@ -169,5 +239,45 @@ mod tests {
             EnvironmentSource::File(_)
         ));
         assert!(EnvironmentSource::parse("").is_err());
+        assert_eq!(
+            EnvironmentSource::parse("sky").unwrap(),
+            EnvironmentSource::Sky(SkySpec::DEFAULT)
+        );
+        assert_eq!(
+            EnvironmentSource::parse("sky:10,-20,2.5").unwrap(),
+            EnvironmentSource::Sky(SkySpec {
+                elevation_deg: 10.0,
+                azimuth_deg: -20.0,
+                turbidity: 2.5
+            })
+        );
+        assert_eq!(
+            EnvironmentSource::parse("sky:10,20").unwrap(),
+            EnvironmentSource::Sky(SkySpec {
+                elevation_deg: 10.0,
+                azimuth_deg: 20.0,
+                turbidity: SkySpec::DEFAULT.turbidity
+            })
+        );
+        // A file whose name starts with `sky` is still a file.
+        assert!(matches!(
+            EnvironmentSource::parse("skyline.hdr").unwrap(),
+            EnvironmentSource::File(_)
+        ));
+        for (bad, says) in [
+            ("sky:abc", "elevation \"abc\" is not a number"),
+            ("sky:30", "1 value(s)"),
+            ("sky:abc,0", "elevation \"abc\" is not a number"),
+            ("sky:95,0", "outside 0..90"),
+            ("sky:-5,0", "outside 0..90"),
+            ("sky:30,0,0.5", "turbidity 0.5 is outside 1..10"),
+            ("sky:30,0,11", "outside 1..10"),
+            ("sky:30,0,3,9", "4 value(s)"),
+            ("sky:30,nan", "azimuth \"nan\" is not a number"),
+            ("sky:", "elevation \"\" is not a number"),
+        ] {
+            let e = EnvironmentSource::parse(bad).unwrap_err().to_string();
+            assert!(e.contains(says) && e.contains(bad), "{bad}: {e}");
+        }
     }
 }

@@ -139,6 +139,29 @@ fn environment_argument_errors_are_usage_errors() {
     }
 }
 
+/// Malformed physical-sky arguments: the library names the argument and what is wrong, and
+/// the binary refuses them as usage errors (exit code 2) before any work.
+#[test]
+fn bad_sky_arguments_fail_with_what_is_wrong() {
+    for (bad, says) in [
+        ("sky:abc", "elevation \"abc\" is not a number"),
+        ("sky:95,0", "sun elevation 95° is outside 0..90"),
+        ("sky:-10,0", "outside 0..90"),
+        ("sky:30,0,0.5", "turbidity 0.5 is outside 1..10"),
+        ("sky:30,0,3,9", "4 value(s) after `sky:`"),
+        ("sky:30", "1 value(s) after `sky:`"),
+        ("sky:30,east", "azimuth \"east\" is not a number"),
+    ] {
+        let err = EnvironmentSource::parse(bad).expect_err(bad).to_string();
+        assert!(err.contains(bad) && err.contains(says), "{bad}: {err}");
+        let (out, _) = super::rqr(&["render", "--environment", bad], super::INFO_LIMIT);
+        super::no_panic_or_validation(bad, &out);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {out:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(says), "{bad}: {stderr}");
+    }
+}
+
 #[test]
 fn every_cut_and_flipped_byte_of_a_map_fails_cleanly() {
     // A poor man's fuzzer over the two formats' seeds (the fuzz target `load_environment`
