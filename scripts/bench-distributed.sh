@@ -18,7 +18,7 @@ RQR=${RQR:-target/debug/rqr}
 mkdir -p "$OUT"
 run() {
   local name=$1; shift
-  "$RQR" compare "$@" --width "$SIZE" --height "$SIZE" --max-depth 3 --repeat 1 \
+  "$RQR" compare "$@" --width "$SIZE" --height "$SIZE" --max-depth 3 --repeat 1 --timeout-ms 900000 \
     --reference-spp "$REF_SPP" -o "$OUT/$name" >/dev/null
   python3 - "$OUT/$name/quality.json" "$name" <<'PY'
 import json, sys

@@ -293,7 +293,7 @@ fn sphere_scene(material: Material) -> (Scene, Camera) {
         }],
         vec![material],
         vec![],
-        vec![camera.clone()],
+        vec![camera],
     );
     (scene, camera)
 }
@@ -439,7 +439,7 @@ fn soft_cornell(radius: f32) -> Scene {
 fn hybrid_equals_ray_traced_at_equal_samples_and_seed() {
     let ctx = common::gpu();
     let scene = soft_cornell(0.2);
-    let camera = scene.cameras[0].clone();
+    let camera = scene.cameras[0];
     let settings = RenderSettings {
         width: 64,
         height: 64,
@@ -474,7 +474,7 @@ fn hybrid_equals_ray_traced_at_equal_samples_and_seed() {
 fn a_seed_fixes_the_image_and_another_seed_changes_it() {
     let ctx = common::gpu();
     let scene = soft_cornell(0.2);
-    let camera = scene.cameras[0].clone();
+    let camera = scene.cameras[0];
     let mut settings = RenderSettings {
         width: 32,
         height: 32,
@@ -655,7 +655,7 @@ fn host_tonemapping_matches_the_gpu() {
     use rqr::render::Tonemap;
     let ctx = common::gpu();
     let scene = cornell();
-    let camera = scene.cameras[0].clone();
+    let camera = scene.cameras[0];
     for (op, exposure) in [
         (Tonemap::KhronosNeutral, 0.0),
         (Tonemap::Aces, 1.0),

@@ -348,8 +348,8 @@ fn a_white_plane_under_the_sky_is_lit_and_the_sun_casts_a_shadow() {
         let out = render(&ctx, &scene, &model, hybrid);
         let (mut lit, mut shadow) = (Vec::new(), Vec::new());
         for (i, a) in out.aov.iter().enumerate() {
-            let p = Vec3::new(a.position_inst[0], a.position_inst[1], a.position_inst[2]);
-            if a.position_inst[3] != 0.0 || p.y.abs() > 1e-3 {
+            let p = a.world_position();
+            if !a.hit() || a.instance() != 0 || p.y.abs() > 1e-3 {
                 continue; // not the floor
             }
             let g = out.color[i][1];

@@ -599,7 +599,11 @@ fn node_cases(out: &mut Vec<Case>) {
     ] {
         let mut d = quad_gltf();
         d["extensionsUsed"] = json!(["KHR_lights_punctual"]);
-        d["extensions"] = json!({"KHR_lights_punctual": {"lights": [{"type": kind, "intensity": 5.0, "extras": extras}]}});
+        let mut light = json!({"type": kind, "intensity": 5.0, "extras": extras});
+        if kind == "spot" {
+            light["spot"] = json!({"outerConeAngle": 0.5});
+        }
+        d["extensions"] = json!({"KHR_lights_punctual": {"lights": [light]}});
         d["nodes"] = json!([{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": [0.0, 2.0, 0.0]}]);
         d["scenes"] = json!([{"nodes": [0, 1]}]);
         out.push(gltf(
