@@ -13,12 +13,10 @@ use rqr::render::drivers::sequence::{
     self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
     SequenceSummary,
 };
-use rqr::render::drivers::targets::RingContents;
 use rqr::render::image::output;
 use rqr::render::passes::gbuffer;
-use rqr::render::passes::reproject::{
-    PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
-};
+use rqr::render::readback::RingContents;
+use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD};
 use rqr::render::RenderPath;
 use rqr::render::{PassScope, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;

@@ -125,6 +125,125 @@ mod tests {
         ]);
     }
 
+    /// Asserts that `ids`, sorted, are `first, first + 1, ..` (or, with `bits`, the powers of
+    /// two from `first`): a family of ids without gaps or duplicates.
+    fn assert_contiguous(what: &str, ids: &[u32], first: u32, bits: bool) {
+        let mut sorted = ids.to_vec();
+        sorted.sort_unstable();
+        let expected: Vec<u32> = (0..ids.len() as u32)
+            .map(|i| if bits { first << i } else { first + i })
+            .collect();
+        assert_eq!(sorted, expected, "{what} have a gap or a duplicate");
+    }
+
+    #[test]
+    fn temporal_ids_have_no_gaps() {
+        use reproject::*;
+        assert_contiguous(
+            "temporal bindings",
+            &[
+                BINDING_SCENE,
+                BINDING_TEXTURES,
+                BINDING_RAY_BACKEND,
+                BINDING_FRAME,
+                BINDING_RP_PARAMS,
+                BINDING_RP_KEY_WINNER,
+                BINDING_RP_COUNTERS,
+                BINDING_RP_DISPATCH_ARGS,
+            ],
+            0,
+            false,
+        );
+        let gbuffer: Vec<u32> = (0..GBUFFER_IMAGES)
+            .map(|i| BINDING_RP_GBUFFER + i)
+            .collect();
+        assert_contiguous(
+            "temporal G-buffer bindings",
+            &gbuffer,
+            BINDING_RP_DISPATCH_ARGS + 1,
+            false,
+        );
+        assert_contiguous(
+            "temporal params flags",
+            &[
+                RP_REUSE,
+                RP_GBUFFER,
+                RP_VERIFY_ALL,
+                RP_FRAMELESS,
+                RP_ADAPTIVE,
+                RP_MOVING,
+                RP_LINEAR_COLOR,
+            ],
+            1,
+            true,
+        );
+        assert_contiguous(
+            "pixel kinds",
+            &[PX_REUSE, PX_TRACE, PX_VERIFY, PX_TRACED, PX_INTERP],
+            1,
+            false,
+        );
+        assert!(PX_INTERP <= PX_KIND_MASK && PX_KIND_MASK + 1 == PX_HOLE);
+        assert_contiguous(
+            "pixel state reasons",
+            &[
+                PX_HOLE,
+                PX_REJECTED,
+                PX_VIEW_DEPENDENT,
+                PX_EXPIRED,
+                PX_FRAMELESS,
+                PX_FILLED,
+            ],
+            PX_KIND_MASK + 1,
+            true,
+        );
+        assert_contiguous(
+            "cache entry flags",
+            &[CACHE_VALID, CACHE_MISS, CACHE_VIEW_DEPENDENT, CACHE_MOVED],
+            1,
+            true,
+        );
+        assert!(CACHE_MOVED < 1 << CACHE_HOPS_SHIFT);
+        assert_contiguous(
+            "job lists",
+            &[LIST_VERIFY, LIST_TRACE, LIST_PENDING, JOB_LISTS],
+            0,
+            false,
+        );
+        // The counter slots of a stripe (and of the shared slots before the stripes): the ray
+        // kinds, then every named slot, each once.
+        assert_contiguous(
+            "temporal counter slots",
+            &[
+                RAY_PRIMARY,
+                RAY_SHADOW,
+                RAY_REFLECTION,
+                RAY_REFRACTION,
+                C_SAMPLES,
+                C_JOBS,
+                C_REUSED,
+                C_TRACED,
+                C_INTERP,
+                C_HOLES,
+                C_REJECTED,
+                C_VIEW_DEPENDENT,
+                C_EXPIRED,
+                C_FRAMELESS,
+                C_VERIFY_RAYS,
+                C_SHOWN_FILLED,
+                C_WINDOW_START,
+                C_WINDOW_BINS,
+                C_FILLED,
+                C_TILES_DONE,
+                C_TRACE_JOBS,
+                C_PENDING_JOBS,
+                C_STRIPE_DONE,
+            ],
+            0,
+            false,
+        );
+    }
+
     #[test]
     fn every_interface_file_has_a_generated_header() {
         let names: Vec<&str> = crate::shaders::INTERFACE_GLSL.iter().map(|h| h.0).collect();

@@ -79,19 +79,15 @@ impl Reprojector {
         let tiles = [s.width.div_ceil(TILE), s.height.div_ceil(TILE), 1];
         let [stages_set, primary_set, trace_set] = &self.sets;
         let device = ctx.device();
-        // One pass of reproject.comp; `gather` names the level whose pixels to trace it lists.
-        let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, gather: u32| {
+        // One pass of a stage; `gather` names the level whose pixels to trace it lists.
+        let stage = |cmd: vk::CommandBuffer, stage: Stage, level: u32, gather: u32| {
             let push = ReprojectPush { level, gather };
-            let groups = if stage == STAGE_THRESHOLD {
+            let groups = if stage == Stage::Threshold {
                 [1, 1, 1]
             } else {
                 tiles
             };
-            let index = STAGES
-                .iter()
-                .position(|&s| s == stage)
-                .expect("a stage of STAGES");
-            self.stages[index].dispatch(cmd, Some(stages_set), push_bytes(&push), groups);
+            self.stages[stage as usize].dispatch(cmd, Some(stages_set), push_bytes(&push), groups);
             memory_barrier(device, cmd);
         };
         // A tracing pass over job list `list`, sized by the list's length (written by the last
@@ -171,21 +167,21 @@ impl Reprojector {
                     memory_barrier(device, cmd);
                 }
                 None => {
-                    stage(cmd, STAGE_SCATTER, 0, GATHER_NONE);
-                    stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
+                    stage(cmd, Stage::Scatter, 0, GATHER_NONE);
+                    stage(cmd, Stage::Resolve, 0, GATHER_NONE);
                 }
             }
             scope(&mut profiler, "shown");
-            stage(cmd, STAGE_SHOWN, 0, GATHER_NONE);
+            stage(cmd, Stage::Shown, 0, GATHER_NONE);
         }
         // The stage that settles the pixels commits the reused ones, counts them, and lists
         // the pixels left for rays: for the visibility pass (rt path) and for the first trace.
         scope(&mut profiler, "classify");
         if frameless {
             // From the shown stage's histogram of the candidates' refresh order.
-            stage(cmd, STAGE_THRESHOLD, 0, GATHER_NONE);
+            stage(cmd, Stage::Threshold, 0, GATHER_NONE);
         }
-        stage(cmd, STAGE_CLASSIFY, 0, levels[0]);
+        stage(cmd, Stage::Classify, 0, levels[0]);
         if rt_verify {
             // Settles the candidates and lists the rejected ones for the first trace.
             traced(
@@ -212,13 +208,9 @@ impl Reprojector {
             );
             if let Some(&next) = levels.get(i + 1) {
                 // Over the pending pixels' list, sized by its length like the tracing passes.
-                let index = STAGES
-                    .iter()
-                    .position(|&s| s == STAGE_INTERPOLATE)
-                    .expect("a stage of STAGES");
                 traced(
                     cmd,
-                    &self.stages[index],
+                    &self.stages[Stage::Interpolate as usize],
                     stages_set,
                     "interpolate",
                     push_bytes(&ReprojectPush {

@@ -1,5 +1,5 @@
 //! Temporal reprojection, frameless rendering and adaptive sub-sampling over a sequence of
-//! camera positions (`shaders/reproject*.comp`).
+//! camera positions (`shaders/temporal/`).
 //!
 //! A [`Reprojector`] keeps a per-pixel cache of the last frame's samples: linear colour and
 //! its display value, world position of the primary hit (or the ray direction of a miss),
@@ -43,7 +43,7 @@
 //! bound only for such scenes), and the scatter first moves it to where that point is in this
 //! frame (this frame's instance transform and skinned/morphed vertices), so a sample on a moving
 //! object lands where the object went and then meets the same tests as any other
-//! (`shaders/common/reproject_anchor.glsl`).
+//! (`shaders/temporal/anchor.glsl`).
 //!
 //! Reused samples keep the world position where their colour was computed (as in the Render
 //! Cache, Walter et al. 1999), so the error of a reused pixel stays within its footprint and
@@ -68,10 +68,10 @@ use ash::vk;
 use crate::accel::Backend;
 use crate::interface::reproject::{self as io, *};
 use crate::interface::{bindings, push_bytes, BINDING_FRAME, BINDING_SCENE, BINDING_TEXTURES};
-use crate::render::drivers::targets::{FrameRing, RingContents, RingSources};
-pub use crate::render::frame::RenderPath;
-use crate::render::frame::{CameraSetup, GpuFrame, RenderSettings, SamplerKind, SettingsError};
+use crate::render::frame::{CameraSetup, GpuFrame};
 use crate::render::passes::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
+use crate::render::readback::{FrameRing, RingContents, RingSources};
+use crate::render::settings::{RenderPath, RenderSettings, SamplerKind, SettingsError};
 use crate::render::{merge_scopes, RenderOutput, Renderer};
 use crate::scene::Camera;
 use crate::vk::{
@@ -86,17 +86,51 @@ const SHOWN_BYTES: u64 = std::mem::size_of::<io::Shown>() as u64;
 const KEY_WINNER_BYTES: u64 = 8;
 const ANCHOR_BYTES: u64 = std::mem::size_of::<io::Anchor>() as u64;
 
-/// The stages of `reproject.comp`, each its own pipeline.
-const STAGES: [u32; 6] = [
-    STAGE_CLASSIFY,
-    STAGE_SCATTER,
-    STAGE_RESOLVE,
-    STAGE_THRESHOLD,
-    STAGE_INTERPOLATE,
-    STAGE_SHOWN,
-];
+/// The stages that trace no rays, each its own shader (`shaders/temporal/temporal_<stage>.comp`)
+/// and pipeline, all with one set layout; in the order a frame records them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+enum Stage {
+    /// The first of the two 32-bit scatter passes: the nearest depth key per pixel.
+    Scatter,
+    /// The second: the lowest source index among the samples at that depth.
+    Resolve,
+    /// The sample each pixel shows, fills, and the frameless candidates' histogram.
+    Shown,
+    /// The frameless refresh window.
+    Threshold,
+    /// Decide, commit, count and list every pixel.
+    Classify,
+    /// Adaptive sub-sampling's interpolation at one level.
+    Interpolate,
+}
 
-/// Side of the 8x8-pixel workgroups of `reproject.comp`.
+impl Stage {
+    /// Every stage, in the order of their discriminants (the index of a stage's pipeline).
+    const ALL: [Self; 6] = [
+        Self::Scatter,
+        Self::Resolve,
+        Self::Shown,
+        Self::Threshold,
+        Self::Classify,
+        Self::Interpolate,
+    ];
+
+    /// The stage's shader and pipeline name.
+    fn shader(self) -> (&'static [u8], &'static str) {
+        use crate::shaders as s;
+        match self {
+            Self::Scatter => (s::TEMPORAL_SCATTER_COMP, "temporal scatter"),
+            Self::Resolve => (s::TEMPORAL_RESOLVE_COMP, "temporal resolve"),
+            Self::Shown => (s::TEMPORAL_SHOWN_COMP, "temporal shown"),
+            Self::Threshold => (s::TEMPORAL_THRESHOLD_COMP, "temporal threshold"),
+            Self::Classify => (s::TEMPORAL_CLASSIFY_COMP, "temporal classify"),
+            Self::Interpolate => (s::TEMPORAL_INTERPOLATE_COMP, "temporal interpolate"),
+        }
+    }
+}
+
+/// Side of the 8x8-pixel workgroups of the stages.
 const TILE: u32 = 8;
 /// Timestamp scopes one reprojected frame records (raster, scatter, fill, classify,
 /// visibility, three trace levels, two interpolations, tonemap, and the frame itself), for
@@ -105,15 +139,15 @@ pub const SCOPES_PER_FRAME: u32 = 16;
 
 fn primary_spirv(backend: Backend) -> &'static [u8] {
     match backend {
-        Backend::Hw => crate::shaders::REPROJECT_PRIMARY_COMP_HW,
-        Backend::Bvh => crate::shaders::REPROJECT_PRIMARY_COMP_BVH,
+        Backend::Hw => crate::shaders::TEMPORAL_VISIBILITY_COMP_HW,
+        Backend::Bvh => crate::shaders::TEMPORAL_VISIBILITY_COMP_BVH,
     }
 }
 
 fn trace_spirv(backend: Backend) -> &'static [u8] {
     match backend {
-        Backend::Hw => crate::shaders::REPROJECT_TRACE_COMP_HW,
-        Backend::Bvh => crate::shaders::REPROJECT_TRACE_COMP_BVH,
+        Backend::Hw => crate::shaders::TEMPORAL_TRACE_COMP_HW,
+        Backend::Bvh => crate::shaders::TEMPORAL_TRACE_COMP_BVH,
     }
 }
 
@@ -135,9 +169,8 @@ impl Visibility {
 
 /// The reprojection passes and the sample cache of one resolution, for one [`Renderer`].
 ///
-/// Like [`crate::render::drivers::targets::FrameTargets`] it does not borrow the renderer,
-/// so a renderer whose scene is updated in place between frames
-/// ([`crate::render::drivers::animated::AnimatedFrames`]) keeps its cache: its descriptor
+/// Like a full frame's targets it does not borrow the renderer, so a renderer whose scene is
+/// updated in place between frames (an animated sequence) keeps its cache: its descriptor
 /// sets point at the renderer's buffers, so the renderer must outlive it, and after a
 /// renderer's ray backend changed, [`Self::update_scene`] rebinds it.
 pub struct Reprojector {
@@ -146,7 +179,7 @@ pub struct Reprojector {
     path: RenderPath,
     options: ReuseOptions,
     settings: RenderSettings,
-    /// reproject.comp's pipelines, one per entry of [`STAGES`] (sharing one set layout).
+    /// The stages' pipelines, indexed by [`Stage`] (sharing one set layout).
     stages: Vec<Arc<ComputePipeline>>,
     primary: Arc<ComputePipeline>,
     trace: Arc<ComputePipeline>,
@@ -291,7 +324,7 @@ impl Reprojector {
                     gbuffer::GbufferLayout::Full,
                 )?))
             }
-            // The rt path keeps its primary hits in registers (reproject_primary.comp): 1x1
+            // The rt path keeps its primary hits in registers (temporal_visibility.comp): 1x1
             // placeholders for the bindings the passes share with the hybrid path.
             RenderPath::RayTraced => Visibility::Traced(
                 GBUFFER_FORMATS
@@ -336,18 +369,16 @@ impl Reprojector {
         };
         let push_size = |bytes: usize| bytes as u32;
         let backend = pass.backend.kind();
-        // One pipeline per stage of reproject.comp (its specialization constant), so each
-        // compiles to that stage's code alone.
-        let stages = STAGES
+        let stages = Stage::ALL
             .iter()
             .map(|&stage| {
-                ComputePipeline::cached_specialized(
+                let (spirv, name) = stage.shader();
+                ComputePipeline::cached(
                     ctx,
-                    "reproject",
-                    crate::shaders::REPROJECT_COMP,
+                    name,
+                    spirv,
                     &layout(Binding::Unused),
                     push_size(std::mem::size_of::<ReprojectPush>()),
-                    &[stage],
                 )
             })
             .collect::<VkResult<Vec<_>>>()?;
@@ -370,7 +401,7 @@ impl Reprojector {
             Some(ComputePipeline::cached(
                 ctx,
                 "reproject scatter (64-bit atomics)",
-                crate::shaders::REPROJECT_SCATTER64_COMP,
+                crate::shaders::TEMPORAL_SCATTER64_COMP,
                 &layout(Binding::Unused),
                 0,
             )?)
@@ -517,8 +548,8 @@ impl Reprojector {
     /// [`Self::estimate_bytes`] plus the full render's estimate against the largest device
     /// heap (the cache and the full render live together: a sequence with `--reference` makes
     /// one per frame), the anchors included with `moving_geometry`
-    /// ([`ReuseOptions::moving_geometry`]). [`Self::new`] and
-    /// [`crate::render::drivers::sequence::Sequence::new`] run it first.
+    /// ([`ReuseOptions::moving_geometry`]). [`Self::new`] runs it first, and so does the sequence
+    /// driver before it allocates anything.
     pub fn check_device(
         settings: &RenderSettings,
         info: &crate::vk::DeviceInfo,
@@ -566,7 +597,7 @@ impl Reprojector {
     /// buffers (16 bytes per pixel, twice) and empties the cache. Each sample then remembers
     /// its instance, triangle and barycentrics, and the scatter recomputes its position and
     /// normal from the frame's transforms and vertices before projecting it
-    /// (`shaders/common/reproject_anchor.glsl`).
+    /// (`shaders/temporal/anchor.glsl`).
     pub fn track_moving_geometry(&mut self, ctx: &Context) -> crate::Result<()> {
         if self.moving {
             return Ok(());

@@ -148,7 +148,7 @@ pub struct ReuseStats {
     /// Pixels interpolated this frame.
     pub interpolated: u64,
     /// Reused pixels that no sample landed on, showing a neighbour's sample that projects
-    /// within [`FILL_RADIUS`] pixels of their centre (see `shaders/reproject.comp`'s `fill`).
+    /// within [`FILL_RADIUS`] pixels of their centre (see `shaders/temporal/temporal_shown.comp`'s `fill`).
     pub filled: u64,
     /// Pixels no sample landed on (first frame, disocclusions, screen edges).
     pub holes: u64,
