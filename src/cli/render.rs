@@ -334,8 +334,8 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     if !args.aov.is_empty() {
         bail!("--aov is for single images; sequences write colour only");
     }
-    if reuse.any() && (settings.spp != 1 || settings.sampler != rqr::render::SamplerKind::Center) {
-        bail!("--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1 --sampler center");
+    if reuse.any() {
+        rqr::render::temporal::check_sampling(&settings).map_err(anyhow::Error::msg)?;
     }
     for p in [&seq.report, &seq.plot].into_iter().flatten() {
         check_output_file(p)?;

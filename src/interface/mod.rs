@@ -93,6 +93,13 @@ const _: () = assert!(
         && reproject::KEY_NOT_COPYABLE == 1 << (2 * reproject::KEY_PLACE_BITS)
 );
 const _: () = assert!(GBUFFER_BARY + 1 == GBUFFER_IMAGES);
+// Temporal pixel states: the kinds fit their mask, and the reason bits start above it; cache
+// flags stay below the hop count.
+const _: () = assert!(
+    reproject::PX_INTERP <= reproject::PX_KIND_MASK
+        && reproject::PX_KIND_MASK + 1 == reproject::PX_HOLE
+);
+const _: () = assert!(reproject::CACHE_MOVED < 1 << reproject::CACHE_HOPS_SHIFT);
 
 #[cfg(test)]
 mod tests {
@@ -183,7 +190,6 @@ mod tests {
             1,
             false,
         );
-        assert!(PX_INTERP <= PX_KIND_MASK && PX_KIND_MASK + 1 == PX_HOLE);
         assert_contiguous(
             "pixel state reasons",
             &[
@@ -203,7 +209,6 @@ mod tests {
             1,
             true,
         );
-        assert!(CACHE_MOVED < 1 << CACHE_HOPS_SHIFT);
         assert_contiguous(
             "job lists",
             &[LIST_VERIFY, LIST_TRACE, LIST_PENDING, JOB_LISTS],

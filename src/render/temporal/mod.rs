@@ -52,83 +52,28 @@
 //! radius from where it was computed.
 
 mod options;
+mod pipelines;
 mod record;
+mod resources;
 
 use options::counts;
 pub use options::{
-    PixelSource, ReprojectedFrame, ReuseOptions, ReuseStats, RtVisibility,
+    check_sampling, PixelSource, ReprojectedFrame, ReuseOptions, ReuseStats, RtVisibility,
     DEFAULT_SUBSAMPLE_THRESHOLD, EDGE_PLANE_THRESHOLD, FILL_RADIUS, MAX_FILL_HOPS,
     NORMAL_DOT_THRESHOLD, PLANE_DISTANCE_THRESHOLD, SPECULAR_METALLIC, SPECULAR_ROUGHNESS,
 };
+use pipelines::{Pipelines, Stage};
+use resources::{Resources, Visibility};
 
-use std::sync::Arc;
-
-use ash::vk;
-
-use crate::accel::Backend;
-use crate::interface::reproject::{self as io, *};
-use crate::interface::{bindings, push_bytes, BINDING_FRAME, BINDING_SCENE, BINDING_TEXTURES};
+use crate::interface::push_bytes;
+use crate::interface::reproject::*;
 use crate::render::frame::{CameraSetup, GpuFrame};
-use crate::render::passes::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
+use crate::render::passes::gbuffer;
 use crate::render::readback::{FrameRing, RingContents, RingSources};
-use crate::render::settings::{RenderPath, RenderSettings, SamplerKind, SettingsError};
+use crate::render::settings::{RenderPath, RenderSettings};
 use crate::render::{merge_scopes, RenderOutput, Renderer};
 use crate::scene::Camera;
-use crate::vk::{
-    memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, Image,
-    MemoryLocation, VkError, VkResult,
-};
-
-/// A cache entry's and a shown sample's size (`src/interface/reproject.rs`).
-const CACHE_ENTRY_BYTES: u64 = std::mem::size_of::<io::CacheEntry>() as u64;
-const SHOWN_BYTES: u64 = std::mem::size_of::<io::Shown>() as u64;
-/// Per pixel: the index of the sample that won it and its depth key.
-const KEY_WINNER_BYTES: u64 = 8;
-const ANCHOR_BYTES: u64 = std::mem::size_of::<io::Anchor>() as u64;
-
-/// The stages that trace no rays, each its own shader (`shaders/temporal/temporal_<stage>.comp`)
-/// and pipeline, all with one set layout; in the order a frame records them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u32)]
-enum Stage {
-    /// The first of the two 32-bit scatter passes: the nearest depth key per pixel.
-    Scatter,
-    /// The second: the lowest source index among the samples at that depth.
-    Resolve,
-    /// The sample each pixel shows, fills, and the frameless candidates' histogram.
-    Shown,
-    /// The frameless refresh window.
-    Threshold,
-    /// Decide, commit, count and list every pixel.
-    Classify,
-    /// Adaptive sub-sampling's interpolation at one level.
-    Interpolate,
-}
-
-impl Stage {
-    /// Every stage, in the order of their discriminants (the index of a stage's pipeline).
-    const ALL: [Self; 6] = [
-        Self::Scatter,
-        Self::Resolve,
-        Self::Shown,
-        Self::Threshold,
-        Self::Classify,
-        Self::Interpolate,
-    ];
-
-    /// The stage's shader and pipeline name.
-    fn shader(self) -> (&'static [u8], &'static str) {
-        use crate::shaders as s;
-        match self {
-            Self::Scatter => (s::TEMPORAL_SCATTER_COMP, "temporal scatter"),
-            Self::Resolve => (s::TEMPORAL_RESOLVE_COMP, "temporal resolve"),
-            Self::Shown => (s::TEMPORAL_SHOWN_COMP, "temporal shown"),
-            Self::Threshold => (s::TEMPORAL_THRESHOLD_COMP, "temporal threshold"),
-            Self::Classify => (s::TEMPORAL_CLASSIFY_COMP, "temporal classify"),
-            Self::Interpolate => (s::TEMPORAL_INTERPOLATE_COMP, "temporal interpolate"),
-        }
-    }
-}
+use crate::vk::{memory_barrier, ComputePipeline, Context, DescriptorSet, GpuProfiler, VkError};
 
 /// Side of the 8x8-pixel workgroups of the stages.
 const TILE: u32 = 8;
@@ -136,36 +81,6 @@ const TILE: u32 = 8;
 /// visibility, three trace levels, two interpolations, tonemap, and the frame itself), for
 /// sizing a burst's profiler.
 pub const SCOPES_PER_FRAME: u32 = 16;
-
-fn primary_spirv(backend: Backend) -> &'static [u8] {
-    match backend {
-        Backend::Hw => crate::shaders::TEMPORAL_VISIBILITY_COMP_HW,
-        Backend::Bvh => crate::shaders::TEMPORAL_VISIBILITY_COMP_BVH,
-    }
-}
-
-fn trace_spirv(backend: Backend) -> &'static [u8] {
-    match backend {
-        Backend::Hw => crate::shaders::TEMPORAL_TRACE_COMP_HW,
-        Backend::Bvh => crate::shaders::TEMPORAL_TRACE_COMP_BVH,
-    }
-}
-
-/// G-buffer images: the raster pass's (hybrid) or placeholders (rt, which keeps its primary
-/// hits in registers).
-enum Visibility {
-    Raster(Box<GbufferPass>),
-    Traced(Vec<Image>),
-}
-
-impl Visibility {
-    fn images(&self) -> &[Image] {
-        match self {
-            Self::Raster(g) => &g.images,
-            Self::Traced(images) => images,
-        }
-    }
-}
 
 /// The reprojection passes and the sample cache of one resolution, for one [`Renderer`].
 ///
@@ -179,36 +94,12 @@ pub struct Reprojector {
     path: RenderPath,
     options: ReuseOptions,
     settings: RenderSettings,
-    /// The stages' pipelines, indexed by [`Stage`] (sharing one set layout).
-    stages: Vec<Arc<ComputePipeline>>,
-    primary: Arc<ComputePipeline>,
-    trace: Arc<ComputePipeline>,
-    /// Descriptor sets of `stages`, `primary`, `trace`.
-    sets: [DescriptorSet; 3],
-    frame: Buffer,
-    params: Buffer,
-    caches: [Buffer; 2],
-    /// Per cache parity: the samples' anchors (`interface::reproject::Anchor`), with
-    /// [`Self::track_moving_geometry`]; placeholders of one anchor otherwise.
-    anchors: [Buffer; 2],
+    /// The caches, per-pixel buffers and G-buffer.
+    res: Resources,
+    /// The passes' pipelines and descriptor sets.
+    pipes: Pipelines,
     /// Whether samples move with their objects ([`Self::track_moving_geometry`]).
     moving: bool,
-    /// Per pixel: the winning sample's index and its depth key (interleaved u32 pairs).
-    key_winner: Buffer,
-    /// The one-pass scatter and its descriptor set, where the device has 64-bit buffer
-    /// atomics.
-    scatter64: Option<(Arc<ComputePipeline>, DescriptorSet)>,
-    state: Buffer,
-    color: Buffer,
-    jobs: Buffer,
-    shown: Buffer,
-    counters: Buffer,
-    /// Indirect dispatch of the tracing passes, sized by their job lists.
-    args: Buffer,
-    visibility: Visibility,
-    /// The frame's display pixels (RGBA8), written with the colour (tonemapping fused into
-    /// the passes that write colour).
-    display: Buffer,
     /// One slot: what [`Self::render`] reads back (taken while recording into it).
     readback: Option<FrameRing>,
     /// Timestamps of [`Self::render`]'s single frames.
@@ -223,9 +114,10 @@ pub struct Reprojector {
 }
 
 impl Reprojector {
-    /// Creates the passes and an empty cache for images of `settings` on `path`.
-    /// Reprojection caches one sample per pixel at its centre: `settings` must use one
-    /// sample per pixel with the `center` sampler.
+    /// Creates the passes and an empty cache for images of `settings` on `path`: validates
+    /// every input first ([`Self::check_device`] among them; reprojection caches one sample
+    /// per pixel at its centre, so `settings` must use one sample per pixel with the `center`
+    /// sampler: [`check_sampling`]), then allocates the resources, then builds the pipelines.
     pub fn new(
         ctx: &Context,
         renderer: &Renderer,
@@ -233,219 +125,15 @@ impl Reprojector {
         settings: &RenderSettings,
         options: ReuseOptions,
     ) -> crate::Result<Self> {
-        Self::check_device(
-            settings,
-            ctx.info(),
-            path,
-            options.moving_geometry,
-            ctx.allocated_bytes(),
-        )
-        .map_err(|e| VkError::Limit(e.to_string()))?;
-        options.validate().map_err(VkError::Limit)?;
-        if settings.spp != 1 || settings.sampler != SamplerKind::Center {
-            return Err(VkError::Limit(
-                "reprojection, frameless rendering and adaptive sub-sampling cache one sample per pixel: use --spp 1 --sampler center".into(),
-            )
-            .into());
-        }
-        let subgroup = ctx.info().subgroup_size;
-        if options.frameless_percent.is_some() && subgroup % REFRESH_SEGMENT != 0 {
-            return Err(VkError::Limit(format!(
-                "--frameless counts candidates per {REFRESH_SEGMENT}-pixel row segment with one cluster of subgroup invocations, but '{}' has subgroups of {subgroup}",
-                ctx.info().name
-            ))
-            .into());
-        }
+        Self::validate(ctx, renderer, path, settings, &options)?;
         let pass = renderer.pass_context();
-        let materials = pass.scene.materials.size()
-            / std::mem::size_of::<crate::scene::layout::GpuMaterial>() as u64;
-        if options.reuses() && materials > u64::from(MAX_CACHE_MATERIALS) {
-            return Err(VkError::Limit(format!(
-                "reprojection caches a 16-bit material index per sample: the scene has {materials} materials (at most {MAX_CACHE_MATERIALS})"
-            ))
-            .into());
-        }
-        let extent = vk::Extent2D {
-            width: settings.width,
-            height: settings.height,
-        };
-        let pixels = u64::from(settings.width) * u64::from(settings.height);
-        let none = vk::BufferUsageFlags::empty();
-        // Written by the frame's own commands (vkCmdUpdateBuffer), so frames can be recorded
-        // back to back.
-        let uniform = |name: &str, size: usize| {
-            Buffer::new(
-                ctx,
-                name,
-                size as u64,
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
-                MemoryLocation::GpuOnly,
-            )
-        };
-        let storage =
-            |name: &str, size: u64| Buffer::new(ctx, name, size, none, MemoryLocation::GpuOnly);
-        let frame = uniform("reproject frame", std::mem::size_of::<GpuFrame>())?;
-        let params = uniform("reproject params", std::mem::size_of::<GpuParams>())?;
-        let caches = [
-            storage("reproject cache 0", pixels * CACHE_ENTRY_BYTES)?,
-            storage("reproject cache 1", pixels * CACHE_ENTRY_BYTES)?,
-        ];
-        // Placeholders until track_moving_geometry(): static scenes never read them.
-        let anchors = [
-            storage("reproject anchors 0", ANCHOR_BYTES)?,
-            storage("reproject anchors 1", ANCHOR_BYTES)?,
-        ];
-        let key_winner = storage(
-            "reproject winners and depth keys",
-            pixels * KEY_WINNER_BYTES,
-        )?;
-        let state = storage("reproject states", pixels * 4)?;
-        let color = storage("reproject colour", pixels * 16)?;
-        let display = storage("reproject display pixels", pixels * 4)?;
-        let shown = storage("reproject shown samples", pixels * SHOWN_BYTES)?;
-        let jobs = storage("reproject job lists", u64::from(JOB_LISTS) * pixels * 4)?;
-        let counters = storage("reproject counters", u64::from(RP_COUNTER_SLOTS) * 4)?;
-        let args = Buffer::new(
-            ctx,
-            "reproject dispatch",
-            u64::from(JOB_LISTS) * 16,
-            vk::BufferUsageFlags::INDIRECT_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?;
-        let visibility = match path {
-            RenderPath::Hybrid => {
-                // The cache stores positions and motion, so reprojection rasterizes the full
-                // G-buffer.
-                Visibility::Raster(Box::new(GbufferPass::new(
-                    ctx,
-                    &pass,
-                    &frame,
-                    extent,
-                    gbuffer::GbufferLayout::Full,
-                )?))
-            }
-            // The rt path keeps its primary hits in registers (temporal_visibility.comp): 1x1
-            // placeholders for the bindings the passes share with the hybrid path.
-            RenderPath::RayTraced => Visibility::Traced(
-                GBUFFER_FORMATS
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &f)| {
-                        Image::new(
-                            ctx,
-                            &format!("reproject G-buffer placeholder {i}"),
-                            vk::Extent2D {
-                                width: 1,
-                                height: 1,
-                            },
-                            f,
-                            vk::ImageUsageFlags::STORAGE,
-                            1,
-                        )
-                    })
-                    .collect::<VkResult<Vec<_>>>()?,
-            ),
-        };
-        let layout = |ray_binding: Binding| {
-            let storage = Binding::StorageBuffer;
-            let mut b = vec![
-                (BINDING_SCENE, Binding::UniformBuffer),
-                (
-                    BINDING_TEXTURES,
-                    Binding::SampledImages(pass.texture_capacity()),
-                ),
-                (crate::interface::BINDING_RAY_BACKEND, ray_binding),
-                (BINDING_FRAME, Binding::UniformBuffer),
-                (BINDING_RP_PARAMS, Binding::UniformBuffer),
-                (BINDING_RP_KEY_WINNER, storage),
-                (BINDING_RP_COUNTERS, storage),
-                (BINDING_RP_DISPATCH_ARGS, storage),
-            ];
-            b.extend(
-                (0..GBUFFER_FORMATS.len() as u32)
-                    .map(|i| (BINDING_RP_GBUFFER + i, Binding::StorageImage)),
-            );
-            bindings(&b)
-        };
-        let push_size = |bytes: usize| bytes as u32;
-        let backend = pass.backend.kind();
-        let stages = Stage::ALL
-            .iter()
-            .map(|&stage| {
-                let (spirv, name) = stage.shader();
-                ComputePipeline::cached(
-                    ctx,
-                    name,
-                    spirv,
-                    &layout(Binding::Unused),
-                    push_size(std::mem::size_of::<ReprojectPush>()),
-                )
-            })
-            .collect::<VkResult<Vec<_>>>()?;
-        let primary = ComputePipeline::cached(
-            ctx,
-            "reproject visibility",
-            primary_spirv(backend),
-            &layout(pass.backend.binding()),
-            push_size(std::mem::size_of::<VisibilityPush>()),
-        )?;
-        let trace = ComputePipeline::cached(
-            ctx,
-            "reproject trace",
-            trace_spirv(backend),
-            &layout(pass.backend.binding()),
-            push_size(std::mem::size_of::<TracePush>()),
-        )?;
-        // One pass instead of two for the scatter where the device has 64-bit atomics.
-        let scatter64 = if ctx.features().buffer_int64_atomics {
-            Some(ComputePipeline::cached(
-                ctx,
-                "reproject scatter (64-bit atomics)",
-                crate::shaders::TEMPORAL_SCATTER64_COMP,
-                &layout(Binding::Unused),
-                0,
-            )?)
-        } else {
-            None
-        };
-        // One set per pipeline: the buffers that alternate between frames (the caches and
-        // anchors) are reached through the addresses in the params, written every frame.
-        let make = |pipeline: &ComputePipeline, rays: bool| -> VkResult<DescriptorSet> {
-            let set = pipeline.allocate_set()?;
-            if rays {
-                pass.bind_scene(&set);
-            } else {
-                pass.scene.bind(&set);
-                set.sampled_images(BINDING_TEXTURES, pass.textures);
-            }
-            let storage = Binding::StorageBuffer;
-            set.buffer(BINDING_FRAME, &frame, Binding::UniformBuffer)
-                .buffer(BINDING_RP_PARAMS, &params, Binding::UniformBuffer)
-                .buffer(BINDING_RP_KEY_WINNER, &key_winner, storage)
-                .buffer(BINDING_RP_COUNTERS, &counters, storage)
-                .buffer(BINDING_RP_DISPATCH_ARGS, &args, storage);
-            for (i, image) in visibility.images().iter().enumerate() {
-                set.storage_image(BINDING_RP_GBUFFER + i as u32, image.view());
-            }
-            Ok(set)
-        };
-        let sets = [
-            make(&stages[0], false)?,
-            make(&primary, true)?,
-            make(&trace, true)?,
-        ];
-        let scatter64 = match scatter64 {
-            Some(p) => {
-                let set = make(&p, false)?;
-                Some((p, set))
-            }
-            None => None,
-        };
+        let res = Resources::allocate(ctx, &pass, path, settings)?;
+        let pipes = Pipelines::build(ctx, &pass, &res)?;
         let readback = FrameRing::new(
             ctx,
             "reproject readback",
             1,
-            pixels,
+            settings.pixels(),
             RingContents {
                 rgba8: true,
                 color: options.linear_color,
@@ -453,34 +141,16 @@ impl Reprojector {
                 states: true,
             },
         )?;
-        let readback = Some(readback);
-        let profiler = GpuProfiler::new(ctx, SCOPES_PER_FRAME).ok();
         let mut reprojector = Self {
             scene_scale: renderer.scene_scale(),
             path,
             options,
             settings: settings.clone(),
-            stages,
-            primary,
-            trace,
-            sets,
-            frame,
-            params,
-            caches,
-            anchors,
+            res,
+            pipes,
             moving: false,
-            key_winner,
-            scatter64,
-            state,
-            color,
-            jobs,
-            shown,
-            counters,
-            args,
-            visibility,
-            display,
-            readback,
-            profiler,
+            readback: Some(readback),
+            profiler: GpuProfiler::new(ctx, SCOPES_PER_FRAME).ok(),
             parity: 0,
             has_history: false,
             visibility_in_general: false,
@@ -490,139 +160,6 @@ impl Reprojector {
             reprojector.track_moving_geometry(ctx)?;
         }
         Ok(reprojector)
-    }
-
-    /// Device memory of the reprojection buffers and images for `settings` (two caches,
-    /// per-pixel keys, winners, states, colour, jobs, tonemapped output, and G-buffer images:
-    /// the hybrid path's raster pass needs them; for the rt path, whose are 1x1, the estimate
-    /// stays an upper bound).
-    ///
-    /// With `moving_geometry` the samples' anchors come on top ([`Self::anchor_bytes`]).
-    pub fn estimate_bytes(settings: &RenderSettings, moving_geometry: bool) -> u64 {
-        let pixels = u64::from(settings.width) * u64::from(settings.height);
-        let gbuffer: u64 = GBUFFER_FORMATS
-            .iter()
-            .map(|&f| match f {
-                vk::Format::R16G16B16A16_SFLOAT => 8,
-                _ => 16,
-            })
-            .sum();
-        // Per pixel: two caches, the shown records, winner + depth key, state, colour, display
-        // pixel, one word per job list, the G-buffer images.
-        let per_pixel = 2 * CACHE_ENTRY_BYTES
-            + SHOWN_BYTES
-            + KEY_WINNER_BYTES
-            + 4
-            + 16
-            + 4
-            + 4 * u64::from(JOB_LISTS)
-            + gbuffer;
-        let anchors = if moving_geometry {
-            Self::anchor_bytes(settings)
-        } else {
-            0
-        };
-        pixels.saturating_mul(per_pixel).saturating_add(anchors)
-    }
-
-    /// Device memory of the samples' anchors on a scene whose geometry moves: two buffers
-    /// (one per cache parity) of one [`io::Anchor`] (16 bytes) per pixel.
-    pub fn anchor_bytes(settings: &RenderSettings) -> u64 {
-        settings.pixels().saturating_mul(2 * ANCHOR_BYTES)
-    }
-
-    /// The largest buffer the reprojection reaches through a buffer reference (either sample
-    /// cache: `size_of::<CacheEntry>()`, 36 bytes per pixel), to compare with
-    /// `maxMemoryAllocationSize`. (The caches, states, shown records, job lists and colours are
-    /// not bound as descriptors, so `maxStorageBufferRange` does not limit them.)
-    pub fn largest_buffer_bytes(settings: &RenderSettings) -> u64 {
-        settings.pixels().saturating_mul(CACHE_ENTRY_BYTES)
-    }
-
-    /// Checks, before anything is allocated, that a reprojector for `settings` on `path` fits
-    /// the device `info` with `in_use` bytes already allocated: the checks of a full render
-    /// of the same path ([`RenderSettings::check_device`], without AOVs; it also covers the one
-    /// per-pixel buffer the reprojection binds as a descriptor, the depth keys and winners at
-    /// 8 bytes per pixel, smaller than the full render's bound 16-byte pixels), the buffers
-    /// reached through buffer references against `maxMemoryAllocationSize`, and
-    /// [`Self::estimate_bytes`] plus the full render's estimate against the largest device
-    /// heap (the cache and the full render live together: a sequence with `--reference` makes
-    /// one per frame), the anchors included with `moving_geometry`
-    /// ([`ReuseOptions::moving_geometry`]). [`Self::new`] runs it first, and so does the sequence
-    /// driver before it allocates anything.
-    pub fn check_device(
-        settings: &RenderSettings,
-        info: &crate::vk::DeviceInfo,
-        path: RenderPath,
-        moving_geometry: bool,
-        in_use: u64,
-    ) -> Result<(), SettingsError> {
-        settings.check_device(info, path, false, in_use)?;
-        let mib = |b: u64| b.div_ceil(1 << 20);
-        let (w, h) = (settings.width, settings.height);
-        let fix = "lower the resolution or render without --reproject, --frameless and --adaptive-subsample";
-        let largest = Self::largest_buffer_bytes(settings);
-        let allocation = info.max_memory_allocation_size;
-        if largest > allocation {
-            return Err(SettingsError(format!(
-                "resolution {w}x{h} with reuse between frames needs a {} MiB sample cache ({CACHE_ENTRY_BYTES} bytes per pixel), but '{}' allocates at most {} MiB at once (maxMemoryAllocationSize); {fix}",
-                mib(largest),
-                info.name,
-                mib(allocation)
-            )));
-        }
-        let cache = Self::estimate_bytes(settings, moving_geometry);
-        let full = settings.estimate_bytes(path, false);
-        let heap = info.largest_device_heap();
-        if cache.saturating_add(full).saturating_add(in_use) > heap {
-            return Err(SettingsError(format!(
-                "{w}x{h} with reuse between frames needs about {} MiB of device memory for the sample cache and its per-pixel buffers{} plus {} MiB for a full render, on top of {} MiB in use, more than the {} MiB device heap of '{}'; {fix}",
-                mib(cache),
-                if moving_geometry {
-                    " (with the anchors that move samples with their objects)"
-                } else {
-                    ""
-                },
-                mib(full),
-                mib(in_use),
-                mib(heap),
-                info.name
-            )));
-        }
-        Ok(())
-    }
-
-    /// Makes cached samples move with their objects, for a scene whose geometry moves between
-    /// frames (animated transforms, skins, morph targets): allocates the anchor
-    /// buffers (16 bytes per pixel, twice) and empties the cache. Each sample then remembers
-    /// its instance, triangle and barycentrics, and the scatter recomputes its position and
-    /// normal from the frame's transforms and vertices before projecting it
-    /// (`shaders/temporal/anchor.glsl`).
-    pub fn track_moving_geometry(&mut self, ctx: &Context) -> crate::Result<()> {
-        if self.moving {
-            return Ok(());
-        }
-        let bytes = self.settings.pixels().saturating_mul(ANCHOR_BYTES);
-        ctx.check_memory(
-            "the reprojection's sample anchors",
-            Self::anchor_bytes(&self.settings),
-        )?;
-        let storage = |name: &str| {
-            Buffer::new(
-                ctx,
-                name,
-                bytes,
-                vk::BufferUsageFlags::empty(),
-                MemoryLocation::GpuOnly,
-            )
-        };
-        self.anchors = [
-            storage("reproject anchors 0")?,
-            storage("reproject anchors 1")?,
-        ];
-        self.moving = true;
-        self.reset();
-        Ok(())
     }
 
     /// Whether cached samples move with their objects ([`Self::track_moving_geometry`]).
@@ -635,9 +172,7 @@ impl Reprojector {
     /// kept.
     pub fn update_scene(&mut self, renderer: &Renderer) {
         self.scene_scale = renderer.scene_scale();
-        let [_, primary, trace] = &self.sets;
-        renderer.pass_context().bind_scene(primary);
-        renderer.pass_context().bind_scene(trace);
+        self.pipes.rebind_scene(&renderer.pass_context());
     }
 
     /// Empties the cache: the next frame traces every pixel (the start of a frame range).
@@ -654,7 +189,7 @@ impl Reprojector {
     /// Scatters with two 32-bit atomic passes even where the device has 64-bit atomics (the
     /// path of devices without them; both give the same images, which the tests check).
     pub fn use_two_pass_scatter(&mut self) {
-        self.scatter64 = None;
+        self.pipes.scatter64 = None;
     }
 
     /// Whether the next frame reuses cached samples (false at the start of a range).
