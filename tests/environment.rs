@@ -571,7 +571,8 @@ fn hybrid_and_ray_traced_paths_agree_under_an_environment() {
 #[test]
 fn reprojected_misses_show_the_environment_under_camera_motion() {
     use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
-    use rqr::render::passes::reproject::{PixelSource, RenderPath, ReuseOptions};
+    use rqr::render::temporal::{PixelSource, ReuseOptions};
+    use rqr::render::RenderPath;
     let ctx = common::gpu();
     let scene = spheres_on_a_floor();
     // Stripes around the vertical: 4° of orbit changes what a miss sees by up to 0.25.

@@ -11,10 +11,10 @@ use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
-use rqr::render::drivers::targets::readback_bytes;
 use rqr::render::passes::gbuffer;
 use rqr::render::passes::gbuffer::GbufferLayout;
-use rqr::render::passes::reproject::{Reprojector, ReuseOptions};
+use rqr::render::readback::readback_bytes;
+use rqr::render::temporal::{Reprojector, ReuseOptions};
 use rqr::render::RenderPath;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::gpu::GpuScene;
@@ -63,7 +63,7 @@ fn render_estimates_grow_with_what_they_allocate() {
     assert!(rt >= 640 * 480 * (16 + AOV + 4 + 16 + 20 + AOV), "{rt}");
     assert!(rt <= 640 * 480 * 300, "{rt}");
     // The readback slot is what the frame allocates (counters, 20 B per pixel, AOVs).
-    let counters = 4 * rqr::render::drivers::targets::RING_COUNTERS as u64;
+    let counters = 4 * rqr::render::readback::RING_COUNTERS as u64;
     for aov in [false, true] {
         assert_eq!(
             readback_bytes(&s, aov),

@@ -10,8 +10,8 @@ use rqr::accel::{Backend, BackendChoice};
 use rqr::render::drivers::sequence::{
     CameraAnimation, CameraPath, CameraPathSpec, Sequence, SequenceFrame, SequenceOptions,
 };
-use rqr::render::passes::reproject::{PixelSource, RenderPath, ReuseOptions, RtVisibility};
-use rqr::render::{CameraSetup, RenderOutput, RenderSettings, Renderer};
+use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility};
+use rqr::render::{CameraSetup, RenderOutput, RenderPath, RenderSettings, Renderer};
 use rqr::scene::procedural::{assemble, cornell, cube, look_at, quad};
 use rqr::scene::{Camera, Instance, Material, Scene};
 use rqr::vk::Context;

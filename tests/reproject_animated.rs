@@ -9,8 +9,8 @@ use rqr::accel::bvh::BvhBuild;
 use rqr::accel::BackendChoice;
 use rqr::render::drivers::animated::AnimatedFrames;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
-use rqr::render::passes::reproject::{RenderPath, ReuseOptions, RtVisibility};
-use rqr::render::RenderSettings;
+use rqr::render::temporal::{ReuseOptions, RtVisibility};
+use rqr::render::{RenderPath, RenderSettings};
 use rqr::vk::Context;
 
 use common::animated::{camera, load};

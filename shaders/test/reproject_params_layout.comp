@@ -1,11 +1,11 @@
 #version 460
-// Layout check of reprojection's Params uniform as reproject.comp and its siblings see it
-// (shaders/common/reproject.glsl): writes every field, in declaration order, as 32-bit words.
+// Layout check of temporal reuse's Params uniform as its passes see it
+// (shaders/temporal/buffers.glsl): writes every field, in declaration order, as 32-bit words.
 // tests/layout.rs compares with the bytes of src/interface/reproject.rs's GpuParams.
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "frame.glsl"
-#include "reproject.glsl"
+#include "temporal/temporal.glsl"
 
 layout(local_size_x = 1) in;
 layout(set = 0, binding = 31, std430) writeonly buffer Out { uint words[]; };

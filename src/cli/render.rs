@@ -13,12 +13,10 @@ use rqr::render::drivers::sequence::{
     self, CameraAnimation, CameraPath, CameraPathSpec, FrameSummary, Sequence, SequenceOptions,
     SequenceSummary,
 };
-use rqr::render::drivers::targets::RingContents;
 use rqr::render::image::output;
 use rqr::render::passes::gbuffer;
-use rqr::render::passes::reproject::{
-    PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD,
-};
+use rqr::render::readback::RingContents;
+use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD};
 use rqr::render::RenderPath;
 use rqr::render::{PassScope, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
@@ -345,8 +343,8 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     if reuse.any() && settings.shading != rqr::render::Shading::Whitted {
         bail!("--reproject, --frameless and --adaptive-subsample shade in the Whitted model: drop --shading distributed, or render the sequence without reuse");
     }
-    if reuse.any() && (settings.spp != 1 || settings.sampler != rqr::render::SamplerKind::Center) {
-        bail!("--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1 --sampler center");
+    if reuse.any() {
+        rqr::render::temporal::check_sampling(&settings).map_err(anyhow::Error::msg)?;
     }
     for p in [&seq.report, &seq.plot].into_iter().flatten() {
         check_output_file(p)?;

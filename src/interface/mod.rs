@@ -96,6 +96,13 @@ const _: () = assert!(
         && reproject::KEY_NOT_COPYABLE == 1 << (2 * reproject::KEY_PLACE_BITS)
 );
 const _: () = assert!(GBUFFER_BARY + 1 == GBUFFER_IMAGES);
+// Temporal pixel states: the kinds fit their mask, and the reason bits start above it; cache
+// flags stay below the hop count.
+const _: () = assert!(
+    reproject::PX_INTERP <= reproject::PX_KIND_MASK
+        && reproject::PX_KIND_MASK + 1 == reproject::PX_HOLE
+);
+const _: () = assert!(reproject::CACHE_MOVED < 1 << reproject::CACHE_HOPS_SHIFT);
 
 #[cfg(test)]
 mod tests {
@@ -126,6 +133,123 @@ mod tests {
             (BINDING_HYBRID_AOV, Binding::StorageBuffer),
             (BINDING_RT_AOV, Binding::StorageBuffer),
         ]);
+    }
+
+    /// Asserts that `ids`, sorted, are `first, first + 1, ..` (or, with `bits`, the powers of
+    /// two from `first`): a family of ids without gaps or duplicates.
+    fn assert_contiguous(what: &str, ids: &[u32], first: u32, bits: bool) {
+        let mut sorted = ids.to_vec();
+        sorted.sort_unstable();
+        let expected: Vec<u32> = (0..ids.len() as u32)
+            .map(|i| if bits { first << i } else { first + i })
+            .collect();
+        assert_eq!(sorted, expected, "{what} have a gap or a duplicate");
+    }
+
+    #[test]
+    fn temporal_ids_have_no_gaps() {
+        use reproject::*;
+        assert_contiguous(
+            "temporal bindings",
+            &[
+                BINDING_SCENE,
+                BINDING_TEXTURES,
+                BINDING_RAY_BACKEND,
+                BINDING_FRAME,
+                BINDING_RP_PARAMS,
+                BINDING_RP_KEY_WINNER,
+                BINDING_RP_COUNTERS,
+                BINDING_RP_DISPATCH_ARGS,
+            ],
+            0,
+            false,
+        );
+        let gbuffer: Vec<u32> = (0..GBUFFER_IMAGES)
+            .map(|i| BINDING_RP_GBUFFER + i)
+            .collect();
+        assert_contiguous(
+            "temporal G-buffer bindings",
+            &gbuffer,
+            BINDING_RP_DISPATCH_ARGS + 1,
+            false,
+        );
+        assert_contiguous(
+            "temporal params flags",
+            &[
+                RP_REUSE,
+                RP_GBUFFER,
+                RP_VERIFY_ALL,
+                RP_FRAMELESS,
+                RP_ADAPTIVE,
+                RP_MOVING,
+                RP_LINEAR_COLOR,
+            ],
+            1,
+            true,
+        );
+        assert_contiguous(
+            "pixel kinds",
+            &[PX_REUSE, PX_TRACE, PX_VERIFY, PX_TRACED, PX_INTERP],
+            1,
+            false,
+        );
+        assert_contiguous(
+            "pixel state reasons",
+            &[
+                PX_HOLE,
+                PX_REJECTED,
+                PX_VIEW_DEPENDENT,
+                PX_EXPIRED,
+                PX_FRAMELESS,
+                PX_FILLED,
+            ],
+            PX_KIND_MASK + 1,
+            true,
+        );
+        assert_contiguous(
+            "cache entry flags",
+            &[CACHE_VALID, CACHE_MISS, CACHE_VIEW_DEPENDENT, CACHE_MOVED],
+            1,
+            true,
+        );
+        assert_contiguous(
+            "job lists",
+            &[LIST_VERIFY, LIST_TRACE, LIST_PENDING, JOB_LISTS],
+            0,
+            false,
+        );
+        // The counter slots of a stripe (and of the shared slots before the stripes): the ray
+        // kinds, then every named slot, each once.
+        assert_contiguous(
+            "temporal counter slots",
+            &[
+                RAY_PRIMARY,
+                RAY_SHADOW,
+                RAY_REFLECTION,
+                RAY_REFRACTION,
+                C_SAMPLES,
+                C_JOBS,
+                C_REUSED,
+                C_TRACED,
+                C_INTERP,
+                C_HOLES,
+                C_REJECTED,
+                C_VIEW_DEPENDENT,
+                C_EXPIRED,
+                C_FRAMELESS,
+                C_VERIFY_RAYS,
+                C_SHOWN_FILLED,
+                C_WINDOW_START,
+                C_WINDOW_BINS,
+                C_FILLED,
+                C_TILES_DONE,
+                C_TRACE_JOBS,
+                C_PENDING_JOBS,
+                C_STRIPE_DONE,
+            ],
+            0,
+            false,
+        );
     }
 
     #[test]

@@ -1,6 +1,8 @@
-//! Temporal reprojection (`render/passes/reproject/`, `reproject*.comp`, `common/reproject.glsl`):
+//! Temporal reprojection (`render/temporal/`, `shaders/temporal/`):
 //! bindings, params flags, stages, job lists, pixel states, cache flags and counter slots
-//! (`interface_reproject.glsl`). Bindings 0-3 are the shared ones of `shared.rs`.
+//! (`interface_reproject.glsl`). Bindings 0-3 are the shared ones of `shared.rs`; every family of
+//! ids here (bindings, flags, pixel kinds and reasons, cache flags, job lists, counter slots) is
+//! contiguous, which `interface::tests` checks.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -9,13 +11,13 @@ use bytemuck::{Pod, Zeroable};
 /// them through buffer references).
 pub const BINDING_RP_PARAMS: u32 = 4;
 /// Scatter winners and depth keys, interleaved per pixel.
-pub const BINDING_RP_KEY_WINNER: u32 = 7;
+pub const BINDING_RP_KEY_WINNER: u32 = 5;
 /// Counters (`C_*` slots).
-pub const BINDING_RP_COUNTERS: u32 = 12;
-/// First G-buffer image; the others follow in `GBUFFER_*` order.
-pub const BINDING_RP_GBUFFER: u32 = 13;
+pub const BINDING_RP_COUNTERS: u32 = 6;
 /// Per job list: the indirect dispatch of the pass working through it and its job count.
-pub const BINDING_RP_DISPATCH_ARGS: u32 = 20;
+pub const BINDING_RP_DISPATCH_ARGS: u32 = 7;
+/// First G-buffer image; the others follow in `GBUFFER_*` order (the last bindings).
+pub const BINDING_RP_GBUFFER: u32 = 8;
 
 /// Params flag: reproject the previous frame's cache.
 pub const RP_REUSE: u32 = 1;
@@ -27,28 +29,14 @@ pub const RP_VERIFY_ALL: u32 = 4;
 pub const RP_FRAMELESS: u32 = 8;
 /// Params flag: adaptive sub-sampling of the pixels that need new colour.
 pub const RP_ADAPTIVE: u32 = 16;
-/// Params flag: the passes write each pixel's linear colour, not only its display value.
-pub const RP_LINEAR_COLOR: u32 = 64;
 /// Params flag: the scene has moving geometry (animated transforms, skins, morph targets):
 /// every cache entry has an [`Anchor`], and the scatter moves cached samples with their
 /// objects.
 pub const RP_MOVING: u32 = 32;
+/// Params flag: the passes write each pixel's linear colour, not only its display value.
+pub const RP_LINEAR_COLOR: u32 = 64;
 /// [`Anchor::instance`] of an entry without an anchor (a miss).
 pub const NO_ANCHOR: u32 = 0xFFFF_FFFF;
-
-/// reproject.comp stage (its specialization constant 0): scatter the previous cache.
-pub const STAGE_SCATTER: u32 = 0;
-/// reproject.comp stage: resolve the scatter's winners.
-pub const STAGE_RESOLVE: u32 = 1;
-/// reproject.comp stage: classify pixels (and, without frameless, settle and list them).
-pub const STAGE_CLASSIFY: u32 = 2;
-/// reproject.comp stage: frameless threshold (after the shown stage's histogram, before
-/// classify, which selects the pixels to refresh).
-pub const STAGE_THRESHOLD: u32 = 3;
-/// reproject.comp stage: adaptive interpolation.
-pub const STAGE_INTERPOLATE: u32 = 7;
-/// reproject.comp stage: record the sample each pixel shows, in pixel order (`Shown`).
-pub const STAGE_SHOWN: u32 = 9;
 
 /// [`ReprojectPush::gather`] of a stage that lists no pixels to trace.
 pub const GATHER_NONE: u32 = u32::MAX;
@@ -86,7 +74,7 @@ pub const PX_EXPIRED: u32 = 1 << 7;
 /// Pixel reason: picked by the frameless refresh.
 pub const PX_FRAMELESS: u32 = 1 << 8;
 /// Pixel reason: the sample is a neighbour's, filling an empty pixel.
-pub const PX_FILLED: u32 = 1 << 10;
+pub const PX_FILLED: u32 = 1 << 9;
 
 /// Cache entry flag: valid.
 pub const CACHE_VALID: u32 = 1;
@@ -148,21 +136,21 @@ pub const C_VERIFY_RAYS: u32 = 14;
 /// Counter slot (per stripe): pixels the shown stage filled, for the frameless budget.
 pub const C_SHOWN_FILLED: u32 = 15;
 /// Counter slot: the first refresh bin of this frame's frameless window.
-pub const C_WINDOW_START: u32 = 17;
+pub const C_WINDOW_START: u32 = 16;
 /// Counter slot: how many refresh bins this frame's frameless window spans (from
 /// `C_WINDOW_START`, wrapping around at `REFRESH_BINS`).
-pub const C_WINDOW_BINS: u32 = 18;
+pub const C_WINDOW_BINS: u32 = 17;
 /// Counter slot: filled pixels.
-pub const C_FILLED: u32 = 19;
+pub const C_FILLED: u32 = 18;
 /// Counter slot: subgroups that finished appending to the current job lists.
-pub const C_TILES_DONE: u32 = 20;
+pub const C_TILES_DONE: u32 = 19;
 /// Counter slot: length of job list 1 (two passes append to it).
-pub const C_TRACE_JOBS: u32 = 21;
+pub const C_TRACE_JOBS: u32 = 20;
 /// Counter slot: length of job list 2 (two passes append to it).
-pub const C_PENDING_JOBS: u32 = 22;
+pub const C_PENDING_JOBS: u32 = 21;
 /// Counter slot: subgroups of one stripe that finished appending to the current job lists
-/// (per stripe, like the statistics; `lists_done` of reproject.glsl).
-pub const C_STRIPE_DONE: u32 = 23;
+/// (per stripe, like the statistics; `lists_done` of `temporal/job_lists.glsl`).
+pub const C_STRIPE_DONE: u32 = 22;
 /// The statistics counters (ray kinds, `C_SAMPLES`, `C_REUSED` .. `C_FILLED` but the frameless
 /// and job-list slots) come in this many stripes: a workgroup counts into the stripe of its
 /// share of the dispatch (consecutive workgroups share one). A CPU device (lavapipe) hands each
@@ -214,7 +202,7 @@ pub struct CacheEntry {
     pub display: u32,
     /// World position of the primary hit (a miss: unit direction).
     pub position: [f32; 3],
-    /// Geometric normal of the glTF front face, octahedral (`pack_normal` of reproject.glsl:
+    /// Geometric normal of the glTF front face, octahedral (`pack_normal` of `temporal/cache_entry.glsl`:
     /// two 14-bit coordinates in bits 4-31).
     pub normal: u32,
     /// Bits 0-3: `CACHE_*` flags; bits 4-5: fills away from where the colour was computed
@@ -253,7 +241,8 @@ pub struct Shown {
     pub normal: u32,
 }
 
-/// reproject.comp's push constant (the stage is the pipeline's specialization constant).
+/// The push constant of the stages that trace no rays (`temporal_classify.comp` and
+/// `temporal_interpolate.comp` read it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct ReprojectPush {
@@ -263,7 +252,7 @@ pub struct ReprojectPush {
     pub gather: u32,
 }
 
-/// reproject_primary.comp's (visibility pass) push constant.
+/// `temporal_visibility.comp`'s push constant.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct VisibilityPush {
@@ -271,7 +260,7 @@ pub struct VisibilityPush {
     pub level: u32,
 }
 
-/// reproject_trace.comp's push constant.
+/// `temporal_trace.comp`'s push constant.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct TracePush {

@@ -5,9 +5,9 @@ use glam::{Mat4, Vec4};
 
 use crate::scene::{Camera, Projection};
 
-// Settings as `reproject.rs` and `targets.rs` import them from here (until they move).
+// Settings as `targets.rs` imports them from here (until it moves).
 pub use super::settings::RenderPath;
-pub(crate) use super::settings::{FilterKind, RenderSettings, SamplerKind, SettingsError};
+pub(crate) use super::settings::{FilterKind, RenderSettings};
 
 pub use crate::interface::{
     GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_ENV_BACKGROUND, FLAG_NO_SPECULAR, FLAG_SKY,

@@ -27,13 +27,13 @@ impl RenderSettings {
     /// colour, adaptive corners and tonemap output (ray-traced), or accumulation, tonemap
     /// output and one G-buffer with depth per sample (hybrid), plus the per-pixel AOVs when
     /// `aov` (without, the passes bind a one-element placeholder), and the frame's readback
-    /// slot ([`crate::render::drivers::targets::readback_bytes`]: tonemapped and linear
+    /// slot ([`crate::render::readback::readback_bytes`]: tonemapped and linear
     /// colour, 20 bytes per pixel, the AOVs again when `aov`). The readback slot is
     /// host-visible: on a device with one memory heap (CPU devices, integrated GPUs) it takes
     /// the same memory; on a discrete GPU, counting it against the device heap errs on the
     /// safe side. The scene and the ray backend come on top (see [`crate::accel`]).
     pub fn estimate_bytes(&self, path: RenderPath, aov: bool) -> u64 {
-        let readback = crate::render::drivers::targets::readback_bytes(self, aov);
+        let readback = crate::render::readback::readback_bytes(self, aov);
         self.device_bytes(path, aov).saturating_add(readback)
     }
 

@@ -5,7 +5,10 @@
 //!   uniform and camera matrices) and [`sampling`] (the host mirror of the sample sequences);
 //! - the frame drivers in [`drivers`]: [`drivers::targets`] (one frame's resources),
 //!   [`drivers::burst`] (timed frames), [`drivers::sequence`] and [`drivers::animated`]
-//!   (camera sequences and animation), with temporal reuse in [`passes::reproject`];
+//!   (camera sequences and animation), and [`readback`] (the host-visible ring frames copy
+//!   their outputs into);
+//! - [`temporal`]: temporal reuse (reprojection, frameless rendering, adaptive sub-sampling),
+//!   a multi-frame technique with its own caches and passes, which the sequence driver runs;
 //! - [`image`]: host image utilities (PNG/EXR output, labels and charts, FLIP/PSNR);
 //! - [`reference`](mod@reference): CPU references of shader code, used only by tests.
 
@@ -14,9 +17,11 @@ pub mod frame;
 pub mod image;
 pub mod memory;
 pub mod passes;
+pub mod readback;
 pub mod reference;
 pub mod sampling;
 pub mod settings;
+pub mod temporal;
 
 use ash::vk;
 

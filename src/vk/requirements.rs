@@ -73,7 +73,7 @@ impl DeviceSupport {
         let on = |b: vk::Bool32| b == vk::TRUE;
         // Ray and sample counters are summed per subgroup before one atomic per subgroup
         // (shaders/common/counters.glsl); reprojection's job lists are compacted per subgroup
-        // (shaders/reproject.comp: prefix sums and a broadcast), and frameless rendering counts
+        // (shaders/temporal/job_lists.glsl: prefix sums and a broadcast), and frameless rendering counts
         // its candidates per row segment (clustered sums).
         let subgroup_ops = vk::SubgroupFeatureFlags::BASIC
             | vk::SubgroupFeatureFlags::ARITHMETIC

@@ -1,6 +1,6 @@
 //! Camera sequences: camera paths (orbit, dolly, glTF camera animation) and the
 //! driver that renders frame after frame, with or without reuse between frames
-//! ([`crate::render::passes::reproject`]), and optionally compares each frame with a full render.
+//! ([`crate::render::temporal`]), and optionally compares each frame with a full render.
 //!
 //! Frame numbers are global: frame `k` of a path is the same camera whichever range is
 //! rendered, so a scheduler can spread a sequence over machines. The sample cache starts
@@ -20,10 +20,11 @@ pub use summary::{
 
 use serde::Serialize;
 
-use crate::render::drivers::targets::{FrameRing, FrameTargets, RingContents};
+use crate::render::drivers::targets::FrameTargets;
 use crate::render::image::compare;
 use crate::render::passes::gbuffer::{self, Draw};
-use crate::render::passes::reproject::{PixelSource, ReprojectedFrame, Reprojector, ReuseStats};
+use crate::render::readback::{FrameRing, RingContents};
+use crate::render::temporal::{PixelSource, ReprojectedFrame, Reprojector, ReuseStats};
 use crate::render::{merge_scopes, RenderOutput, RenderSettings, Renderer};
 use crate::scene::{Camera, Scene};
 use crate::vk::{Context, FrameTiming, GpuProfiler, VkError};
@@ -88,7 +89,7 @@ impl BurstResources {
             })
             .transpose()?;
         // Each frame (and its reference) is one profiler frame plus its scopes.
-        let scopes = (crate::render::passes::reproject::SCOPES_PER_FRAME + 8) * frames * 2;
+        let scopes = (crate::render::temporal::SCOPES_PER_FRAME + 8) * frames * 2;
         Ok(Self {
             frames: ring,
             references,

@@ -4,7 +4,8 @@
 use serde::Serialize;
 
 use crate::render::image::compare::ImageDiff;
-use crate::render::passes::reproject::{PixelSource, RenderPath, ReuseOptions, ReuseStats};
+use crate::render::settings::RenderPath;
+use crate::render::temporal::{PixelSource, ReuseOptions, ReuseStats};
 use crate::render::{RayCounts, RenderOutput};
 use crate::scene::Camera;
 

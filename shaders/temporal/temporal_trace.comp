@@ -1,6 +1,6 @@
 // variants: hw bvh
 #version 460
-// Temporal reprojection: traces the pixels on the job list (every pixel that needs new colour,
+// Temporal reuse, trace: traces the pixels on the job list (every pixel that needs new colour,
 // or one level of adaptive sub-sampling's samples) with the shared Whitted loop, writes their
 // colour and caches the new sample for the next frame. The primary hit comes from the
 // G-buffer on the hybrid path; on the rt path whitted() traces the primary ray.
@@ -15,7 +15,7 @@
 #include "shade.glsl"
 #include "gbuffer_decode.glsl"
 #include "counters.glsl"
-#include "reproject.glsl"
+#include "temporal.glsl"
 
 layout(local_size_x = 64) in;
 // TracePush: the job list this pass works through (LIST_TRACE first, then LIST_VERIFY for the

@@ -65,33 +65,34 @@ impl Reprojector {
             max_hops: MAX_FILL_HOPS,
             tonemap_scale: s.exposure.exp2(),
             pad0: 0,
-            cache_prev: self.caches[self.parity].address(),
-            cache_next: self.caches[1 - self.parity].address(),
-            key_winner: self.key_winner.address(),
-            states: self.state.address(),
-            colors: self.color.address(),
-            display: self.display.address(),
-            shown: self.shown.address(),
-            jobs: self.jobs.address(),
-            anchors_prev: self.anchors[self.parity].address(),
-            anchors_next: self.anchors[1 - self.parity].address(),
+            cache_prev: self.res.caches[self.parity].address(),
+            cache_next: self.res.caches[1 - self.parity].address(),
+            key_winner: self.res.key_winner.address(),
+            states: self.res.state.address(),
+            colors: self.res.color.address(),
+            display: self.res.display.address(),
+            shown: self.res.shown.address(),
+            jobs: self.res.jobs.address(),
+            anchors_prev: self.res.anchors[self.parity].address(),
+            anchors_next: self.res.anchors[1 - self.parity].address(),
         };
         let tiles = [s.width.div_ceil(TILE), s.height.div_ceil(TILE), 1];
-        let [stages_set, primary_set, trace_set] = &self.sets;
+        let pipes = &self.pipes;
         let device = ctx.device();
-        // One pass of reproject.comp; `gather` names the level whose pixels to trace it lists.
-        let stage = |cmd: vk::CommandBuffer, stage: u32, level: u32, gather: u32| {
+        // One pass of a stage; `gather` names the level whose pixels to trace it lists.
+        let stage = |cmd: vk::CommandBuffer, stage: Stage, level: u32, gather: u32| {
             let push = ReprojectPush { level, gather };
-            let groups = if stage == STAGE_THRESHOLD {
+            let groups = if stage == Stage::Threshold {
                 [1, 1, 1]
             } else {
                 tiles
             };
-            let index = STAGES
-                .iter()
-                .position(|&s| s == stage)
-                .expect("a stage of STAGES");
-            self.stages[index].dispatch(cmd, Some(stages_set), push_bytes(&push), groups);
+            pipes.stages[stage as usize].dispatch(
+                cmd,
+                Some(&pipes.stages_set),
+                push_bytes(&push),
+                groups,
+            );
             memory_barrier(device, cmd);
         };
         // A tracing pass over job list `list`, sized by the list's length (written by the last
@@ -107,7 +108,13 @@ impl Reprojector {
             if let Some(p) = profiler.as_deref_mut() {
                 p.begin(cmd, name);
             }
-            pipeline.dispatch_indirect_at(cmd, Some(set), push, &self.args, 16 * u64::from(list));
+            pipeline.dispatch_indirect_at(
+                cmd,
+                Some(set),
+                push,
+                &self.res.args,
+                16 * u64::from(list),
+            );
             memory_barrier(device, cmd);
             if let Some(p) = profiler {
                 p.end(cmd);
@@ -123,13 +130,15 @@ impl Reprojector {
 
         // Write-after-read against the previous frame in the same command buffer.
         memory_barrier(device, cmd);
-        self.frame
+        self.res
+            .frame
             .record_update(device, cmd, bytemuck::bytes_of(&frame));
-        self.params
+        self.res
+            .params
             .record_update(device, cmd, bytemuck::bytes_of(&params));
         // SAFETY: recording command buffer; the buffers are ours.
         unsafe {
-            device.cmd_fill_buffer(cmd, self.key_winner.raw(), 0, vk::WHOLE_SIZE, !0);
+            device.cmd_fill_buffer(cmd, self.res.key_winner.raw(), 0, vk::WHOLE_SIZE, !0);
             // The frameless sweep's position (C_SWEEP, the last slot) carries over from the
             // previous frame of the sequence.
             let cleared = if self.has_history {
@@ -137,13 +146,13 @@ impl Reprojector {
             } else {
                 vk::WHOLE_SIZE
             };
-            device.cmd_fill_buffer(cmd, self.counters.raw(), 0, cleared, 0);
+            device.cmd_fill_buffer(cmd, self.res.counters.raw(), 0, cleared, 0);
             // Most pixels reuse their sample; the passes write the state of the others only
             // (a CPU device stores words lane by lane, and fills buffers with memset).
-            device.cmd_fill_buffer(cmd, self.state.raw(), 0, vk::WHOLE_SIZE, PX_REUSE);
+            device.cmd_fill_buffer(cmd, self.res.state.raw(), 0, vk::WHOLE_SIZE, PX_REUSE);
         }
         memory_barrier(device, cmd);
-        match &self.visibility {
+        match &self.res.visibility {
             Visibility::Raster(g) => {
                 g.record(ctx, cmd, draws, camera.position(), profiler.as_deref_mut())
             }
@@ -165,33 +174,33 @@ impl Reprojector {
         };
         if reuse {
             scope(&mut profiler, "scatter");
-            match &self.scatter64 {
+            match &pipes.scatter64 {
                 Some((pipeline, set)) => {
                     pipeline.dispatch(cmd, Some(set), &[], tiles);
                     memory_barrier(device, cmd);
                 }
                 None => {
-                    stage(cmd, STAGE_SCATTER, 0, GATHER_NONE);
-                    stage(cmd, STAGE_RESOLVE, 0, GATHER_NONE);
+                    stage(cmd, Stage::Scatter, 0, GATHER_NONE);
+                    stage(cmd, Stage::Resolve, 0, GATHER_NONE);
                 }
             }
             scope(&mut profiler, "shown");
-            stage(cmd, STAGE_SHOWN, 0, GATHER_NONE);
+            stage(cmd, Stage::Shown, 0, GATHER_NONE);
         }
         // The stage that settles the pixels commits the reused ones, counts them, and lists
         // the pixels left for rays: for the visibility pass (rt path) and for the first trace.
         scope(&mut profiler, "classify");
         if frameless {
             // From the shown stage's histogram of the candidates' refresh order.
-            stage(cmd, STAGE_THRESHOLD, 0, GATHER_NONE);
+            stage(cmd, Stage::Threshold, 0, GATHER_NONE);
         }
-        stage(cmd, STAGE_CLASSIFY, 0, levels[0]);
+        stage(cmd, Stage::Classify, 0, levels[0]);
         if rt_verify {
             // Settles the candidates and lists the rejected ones for the first trace.
             traced(
                 cmd,
-                &self.primary,
-                primary_set,
+                &pipes.visibility.0,
+                &pipes.visibility.1,
                 "visibility",
                 push_bytes(&VisibilityPush { level: levels[0] }),
                 LIST_VERIFY,
@@ -203,8 +212,8 @@ impl Reprojector {
             let list = if i == 0 { LIST_TRACE } else { LIST_VERIFY };
             traced(
                 cmd,
-                &self.trace,
-                trace_set,
+                &pipes.trace.0,
+                &pipes.trace.1,
                 "trace",
                 push_bytes(&TracePush { list }),
                 list,
@@ -212,14 +221,10 @@ impl Reprojector {
             );
             if let Some(&next) = levels.get(i + 1) {
                 // Over the pending pixels' list, sized by its length like the tracing passes.
-                let index = STAGES
-                    .iter()
-                    .position(|&s| s == STAGE_INTERPOLATE)
-                    .expect("a stage of STAGES");
                 traced(
                     cmd,
-                    &self.stages[index],
-                    stages_set,
+                    &pipes.stages[Stage::Interpolate as usize],
+                    &pipes.stages_set,
                     "interpolate",
                     push_bytes(&ReprojectPush {
                         level,
@@ -240,11 +245,11 @@ impl Reprojector {
                 cmd,
                 slot,
                 &RingSources {
-                    counters: &self.counters,
-                    rgba8: &self.display,
-                    color: &self.color,
+                    counters: &self.res.counters,
+                    rgba8: &self.res.display,
+                    color: &self.res.color,
                     aov: None,
-                    states: Some(&self.state),
+                    states: Some(&self.res.state),
                 },
             );
         }

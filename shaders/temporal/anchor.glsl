@@ -6,9 +6,9 @@
 // lands where the object went; the usual rejection tests (plane, normal, material) still run.
 // Static scenes bind placeholders and never touch the anchors (RP_MOVING is off).
 //
-// Included by reproject.glsl after its bindings; every function is a no-op without RP_MOVING.
-#ifndef RQR_REPROJECT_ANCHOR_GLSL
-#define RQR_REPROJECT_ANCHOR_GLSL
+// Included by temporal.glsl after the bindings; every function is a no-op without RP_MOVING.
+#ifndef RQR_TEMPORAL_ANCHOR_GLSL
+#define RQR_TEMPORAL_ANCHOR_GLSL
 
 // The anchors this frame reads and writes (buffer references, like the cache's).
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Anchors { Anchor v[]; };

@@ -1,7 +1,7 @@
 #version 460
-// Temporal reprojection's scatter in one pass, for devices with 64-bit buffer atomics
-// (src/render/passes/reproject/ picks it; reproject.comp's SCATTER + RESOLVE do the same in two
-// 32-bit passes elsewhere): every cached sample is projected into this camera and takes its
+// Temporal reuse's scatter in one pass, for devices with 64-bit buffer atomics
+// (src/render/temporal/ picks it; temporal_scatter.comp + temporal_resolve.comp do the same in
+// two 32-bit passes elsewhere): every cached sample is projected into this camera and takes its
 // pixel with an atomicMin of depth key << 32 | source index, so the nearest sample wins and
 // equal depths go to the lowest index, exactly as the two-pass version decides.
 #extension GL_GOOGLE_include_directive : require
@@ -10,7 +10,7 @@
 #define RQR_KEY_WINNER_64
 #include "scene.glsl"
 #include "frame.glsl"
-#include "reproject.glsl"
+#include "temporal.glsl"
 
 layout(set = 0, binding = BINDING_RP_KEY_WINNER, std430) buffer KeyWinner64 { uint64_t key_winner64[]; };
 
@@ -22,7 +22,7 @@ void main() {
         return;
     }
     uint q = pix.y * frame.width + pix.x;
-    // Samples on moving geometry move with their objects first (reproject_anchor.glsl).
+    // Samples on moving geometry move with their objects first (anchor.glsl).
     CacheEntry e = moved_entry(q);
     uint target, key;
     if ((e.meta & CACHE_VALID) != 0u && project_sample(e, target, key)) {

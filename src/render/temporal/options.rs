@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use crate::interface::reproject::*;
 use crate::render::passes::raytraced::{ray_counts, striped_sum};
+use crate::render::settings::{RenderSettings, SamplerKind};
 use crate::render::{RayCounts, RenderOutput};
 
 /// Rejection: |dot(cached − new position, new normal)| / view depth above this (ReBLUR, Bevy
@@ -31,6 +32,16 @@ pub const FILL_RADIUS: f32 = 1.0;
 pub const MAX_FILL_HOPS: u32 = 1;
 /// Default `--subsample-threshold`.
 pub const DEFAULT_SUBSAMPLE_THRESHOLD: f32 = 0.05;
+
+/// Checks that `settings` sample the way reuse between frames caches samples: one sample per
+/// pixel, at its centre. The one statement of the rule: [`super::Reprojector::new`] and the
+/// command line both check it.
+pub fn check_sampling(settings: &RenderSettings) -> Result<(), String> {
+    if settings.spp != 1 || settings.sampler != SamplerKind::Center {
+        return Err("--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1 --sampler center".into());
+    }
+    Ok(())
+}
 
 /// Which primary rays the pure ray-traced path spends on checking reprojected samples (the
 /// hybrid path always checks every pixel against its raster G-buffer, which costs no rays).
@@ -148,7 +159,7 @@ pub struct ReuseStats {
     /// Pixels interpolated this frame.
     pub interpolated: u64,
     /// Reused pixels that no sample landed on, showing a neighbour's sample that projects
-    /// within [`FILL_RADIUS`] pixels of their centre (see `shaders/reproject.comp`'s `fill`).
+    /// within [`FILL_RADIUS`] pixels of their centre (see `shaders/temporal/temporal_shown.comp`'s `fill`).
     pub filled: u64,
     /// Pixels no sample landed on (first frame, disocclusions, screen edges).
     pub holes: u64,
