@@ -337,15 +337,14 @@ class Renderer:
         """Renders every camera of ``cameras`` (one batch, the GIL released throughout).
 
         ``mode``: "rt" (ray-traced) or "hybrid" (raster primary visibility); ``shading``:
-        "whitted"; ``environment``: None or an equirectangular .hdr/.exr lighting the scene;
+        "whitted" (pixel centres) or "distributed" (soft shadows, glossy reflection; ``spp``
+        Owen-scrambled Sobol samples per pixel, a function of ``seed``); ``environment``: None or an equirectangular .hdr/.exr lighting the scene;
         ``tonemap``: None (linear float32 rgb) or "srgb8" (clamped sRGB uint8; also
         "khronos_neutral", "aces")."""
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be an rqr.Scene from Renderer.load, not {type(scene).__name__}")
         if not isinstance(cameras, Cameras):
             raise ValueError(f"cameras must be rqr.Cameras, not {type(cameras).__name__}")
-        if shading != "whitted":
-            raise ValueError(f'shading={shading!r}: only "whitted" is implemented')
         for name, v in (("width", width), ("height", height), ("spp", spp), ("max_depth", max_depth)):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ValueError(f"{name}={v!r} must be a positive integer")
@@ -369,7 +368,7 @@ class Renderer:
             scene._native,
             np.ascontiguousarray(c2w_gl, dtype=np.float32),
             np.ascontiguousarray(fov, dtype=np.float32),
-            int(width), int(height), mode, int(spp), int(max_depth), int(seed),
+            int(width), int(height), mode, shading, int(spp), int(max_depth), int(seed),
             environment, list(aovs), tonemap,
         )
         stats = raw.pop("stats")

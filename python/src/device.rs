@@ -297,7 +297,7 @@ impl Renderer {
 
     /// Renders `c2w` (float32 [N,4,4], OpenGL convention) with vertical fields of view
     /// `fov_y` (float32 [N], radians); see `rqr.Renderer.render`.
-    #[pyo3(signature = (scene, c2w, fov_y, width, height, mode, spp, max_depth, seed, environment, aovs, tonemap))]
+    #[pyo3(signature = (scene, c2w, fov_y, width, height, mode, shading, spp, max_depth, seed, environment, aovs, tonemap))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
@@ -308,6 +308,7 @@ impl Renderer {
         width: u32,
         height: u32,
         mode: &str,
+        shading: &str,
         spp: u32,
         max_depth: u32,
         seed: u32,
@@ -322,6 +323,7 @@ impl Renderer {
             width,
             height,
             mode,
+            shading,
             spp,
             max_depth,
             seed,

@@ -12,7 +12,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rqr::render::drivers::targets::FrameTargets;
-use rqr::render::{RenderPath, RenderSettings, Tonemap};
+use rqr::render::{RenderPath, RenderSettings, SamplerKind, Shading, Tonemap};
 use rqr::scene::{Camera, Projection};
 
 use crate::device::SharedDevice;
@@ -69,6 +69,7 @@ impl Request {
         width: u32,
         height: u32,
         mode: &str,
+        shading: &str,
         spp: u32,
         max_depth: u32,
         seed: u32,
@@ -98,6 +99,15 @@ impl Request {
             other => {
                 return Err(bad(format!(
                     "mode={other:?}: expected \"rt\" or \"hybrid\""
+                )))
+            }
+        };
+        let shading = match shading {
+            "whitted" => Shading::Whitted,
+            "distributed" => Shading::Distributed,
+            other => {
+                return Err(bad(format!(
+                    "shading={other:?}: expected \"whitted\" or \"distributed\""
                 )))
             }
         };
@@ -156,6 +166,13 @@ impl Request {
             max_depth,
             seed,
             tonemap,
+            shading,
+            // Distributed samples spread over the pixel (Owen-scrambled Sobol); Whitted keeps
+            // the pixel centres.
+            sampler: match shading {
+                Shading::Whitted => SamplerKind::Center,
+                Shading::Distributed => SamplerKind::Sobol,
+            },
             ..Default::default()
         };
         settings

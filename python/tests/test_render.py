@@ -41,6 +41,18 @@ def test_builtin_rgb_equals_cli_exr(renderer, builtin, tmp_path):
     assert got.max() > 0.05, "the image is black"
 
 
+def test_distributed_shading_equals_the_cli(renderer, builtin, tmp_path):
+    exr = tmp_path / "cli.exr"
+    run_cli("render", "--width", str(W), "--height", str(H), "-o", str(exr), "--backend", renderer.device["backend"],
+            "--shading", "distributed", "--spp", "4", "--sampler", "sobol", "--seed", "5")
+    want = rqr.read_exr(exr)[..., :3]
+    cams = builtin.default_camera(W, H)
+    out = renderer.render(builtin, cams, W, H, aovs=("rgb",), shading="distributed", spp=4, seed=5)
+    assert np.abs(out.rgb[0] - want).max() <= 1e-6, np.abs(out.rgb[0] - want).max()
+    whitted = renderer.render(builtin, cams, W, H, aovs=("rgb",), spp=4, seed=5)
+    assert np.abs(out.rgb[0] - whitted.rgb[0]).max() > 1e-3, "distributed shading rendered the Whitted image"
+
+
 def test_albedo_normal_ids_equal_cli_pfm_and_exr(renderer, builtin, tmp_path):
     # The same frame through the CLI (PFM colour, PFM and EXR AOVs) and through the package.
     pfm = tmp_path / "cli.pfm"

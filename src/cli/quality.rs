@@ -84,8 +84,8 @@ fn render_reference(
         s.validate(u32::MAX)?;
         let out = renderer.render_rt(ctx, &s, camera, false)?;
         for (acc, c) in sum.iter_mut().zip(&out.color) {
-            for k in 0..3 {
-                acc[k] += f64::from(c[k]) * f64::from(n);
+            for (a, &v) in acc.iter_mut().zip(c) {
+                *a += f64::from(v) * f64::from(n);
             }
         }
         done += n;
