@@ -191,7 +191,7 @@ impl SkyModel {
     }
 
     /// Sky radiance (scaled by [`SKY_RADIANCE_SCALE`]) towards map-space direction `d` (unit),
-    /// for `d.y >= 0`; below the horizon see [`SkyModel::ground_radiance`].
+    /// for `d.y >= 0`; below the horizon it is one ground colour (`SkyModel::ground_radiance`).
     pub fn sky_radiance(&self, d: Vec3) -> [f32; 3] {
         let theta = d.y.clamp(0.0, 1.0).acos();
         let gamma = d.dot(self.sun).clamp(-1.0, 1.0).acos();
