@@ -680,3 +680,77 @@ fn host_tonemapping_matches_the_gpu() {
         }
     }
 }
+
+#[test]
+fn reprojected_sequences_keep_each_reused_sample_as_it_was() {
+    use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
+    use rqr::render::temporal::{PixelSource, ReuseOptions};
+    use rqr::render::RenderPath;
+    let ctx = common::gpu();
+    let scene = soft_cornell(0.2);
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let settings = RenderSettings {
+        width: 48,
+        height: 48,
+        shading: Shading::Distributed,
+        ..Default::default()
+    };
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        let mut seq = Sequence::new(
+            &ctx,
+            &renderer,
+            &scene,
+            &settings,
+            scene.cameras[0],
+            CameraPath::Static,
+            SequenceOptions {
+                path,
+                reuse: ReuseOptions {
+                    reproject: true,
+                    ..Default::default()
+                },
+                reference: true,
+            },
+        )
+        .unwrap();
+        let first = seq.render_frame(&ctx, 0).unwrap();
+        let second = seq.render_frame(&ctx, 1).unwrap();
+        let pixel = |f: &rqr::render::drivers::sequence::SequenceFrame, i: usize| {
+            f.output.rgba8[4 * i..4 * i + 4].to_vec()
+        };
+        let (mut reused, mut traced, mut retraced_changed) = (0, 0, 0);
+        for (i, source) in second.sources.iter().enumerate() {
+            match source {
+                PixelSource::Reused => {
+                    reused += 1;
+                    assert_eq!(
+                        pixel(&second, i),
+                        pixel(&first, i),
+                        "{path:?}: reused pixel {i} changed"
+                    );
+                }
+                PixelSource::Traced => {
+                    traced += 1;
+                    retraced_changed += usize::from(pixel(&second, i) != pixel(&first, i));
+                }
+                PixelSource::Interpolated => {}
+            }
+        }
+        assert!(
+            reused > 48 * 48 / 2,
+            "{path:?}: {reused} reused, {traced} traced"
+        );
+        // Traced pixels draw the next frame's random numbers: the noisy ones change.
+        assert!(
+            retraced_changed > 0,
+            "{path:?}: none of {traced} traced pixels changed"
+        );
+        // The full render of frame 1 draws new numbers too.
+        assert_ne!(
+            second.reference_output.as_ref().unwrap().rgba8,
+            first.reference_output.as_ref().unwrap().rgba8,
+            "{path:?}: frame 1's full render repeats frame 0's noise"
+        );
+    }
+    common::assert_validation_clean(&ctx);
+}

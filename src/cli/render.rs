@@ -340,9 +340,6 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     if !args.aov.is_empty() {
         bail!("--aov is for single images; sequences write colour only");
     }
-    if reuse.any() && settings.shading != rqr::render::Shading::Whitted {
-        bail!("--reproject, --frameless and --adaptive-subsample shade in the Whitted model: drop --shading distributed, or render the sequence without reuse");
-    }
     if reuse.any() {
         rqr::render::temporal::check_sampling(&settings).map_err(anyhow::Error::msg)?;
     }

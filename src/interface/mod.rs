@@ -84,6 +84,9 @@ const _: () = assert!(
         && COUNTER_SLOTS == RAY_DIFFUSE + 1
 );
 const _: () = assert!(reproject::C_STRIPE_DONE < reproject::COUNTER_STRIPE_WORDS);
+// The temporal statistics' stripes count diffuse rays where the full frame does: at the index
+// of the (shared, never striped) job-list length.
+const _: () = assert!(RAY_DIFFUSE == reproject::C_JOBS && reproject::C_SAMPLES == COUNTER_SAMPLES);
 const _: () = assert!(
     reproject::C_HISTOGRAM == (reproject::COUNTER_STRIPES + 1) * reproject::COUNTER_STRIPE_WORDS
 );

@@ -113,7 +113,8 @@ pub const FILLED_KEY: u32 = 0x8000_0000;
 
 /// Counter slot: samples (after the four ray kinds, as `COUNTER_SAMPLES`).
 pub const C_SAMPLES: u32 = 4;
-/// Counter slot: length of job list 0 while a stage appends to it.
+/// Counter slot: length of job list 0 while a stage appends to it (a shared slot; in the
+/// statistics' stripes this index counts diffuse rays, `RAY_DIFFUSE`, as the full frame's).
 pub const C_JOBS: u32 = 5;
 /// Counter slot: pixels that reused a sample.
 pub const C_REUSED: u32 = 6;

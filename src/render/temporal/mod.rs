@@ -111,6 +111,9 @@ pub struct Reprojector {
     /// is written earlier in the same frame).
     visibility_in_general: bool,
     prev_view_proj: Option<[f32; 16]>,
+    /// Frames recorded: the camera sample number of the next (distributed shading draws new
+    /// random numbers every frame).
+    frames_recorded: u32,
 }
 
 impl Reprojector {
@@ -128,7 +131,7 @@ impl Reprojector {
         Self::validate(ctx, renderer, path, settings, &options)?;
         let pass = renderer.pass_context();
         let res = Resources::allocate(ctx, &pass, path, settings)?;
-        let pipes = Pipelines::build(ctx, &pass, &res)?;
+        let pipes = Pipelines::build(ctx, &pass, &res, settings.shading)?;
         let readback = FrameRing::new(
             ctx,
             "reproject readback",
@@ -155,6 +158,7 @@ impl Reprojector {
             has_history: false,
             visibility_in_general: false,
             prev_view_proj: None,
+            frames_recorded: 0,
         };
         if options.moving_geometry {
             reprojector.track_moving_geometry(ctx)?;

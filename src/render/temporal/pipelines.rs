@@ -13,7 +13,7 @@ use crate::interface::reproject::{
 use crate::interface::{
     bindings, BINDING_FRAME, BINDING_RAY_BACKEND, BINDING_SCENE, BINDING_TEXTURES, GBUFFER_IMAGES,
 };
-use crate::render::PassContext;
+use crate::render::{PassContext, Shading};
 use crate::vk::{Binding, ComputePipeline, Context, DescriptorSet, VkResult};
 
 use super::resources::Resources;
@@ -69,10 +69,13 @@ fn visibility_spirv(backend: Backend) -> &'static [u8] {
     }
 }
 
-fn trace_spirv(backend: Backend) -> &'static [u8] {
-    match backend {
-        Backend::Hw => crate::shaders::TEMPORAL_TRACE_COMP_HW,
-        Backend::Bvh => crate::shaders::TEMPORAL_TRACE_COMP_BVH,
+fn trace_spirv(backend: Backend, shading: Shading) -> &'static [u8] {
+    use crate::shaders as s;
+    match (shading, backend) {
+        (Shading::Whitted, Backend::Hw) => s::TEMPORAL_TRACE_COMP_HW,
+        (Shading::Whitted, Backend::Bvh) => s::TEMPORAL_TRACE_COMP_BVH,
+        (Shading::Distributed, Backend::Hw) => s::TEMPORAL_TRACE_DISTRIBUTED_COMP_HW,
+        (Shading::Distributed, Backend::Bvh) => s::TEMPORAL_TRACE_DISTRIBUTED_COMP_BVH,
     }
 }
 
@@ -198,7 +201,12 @@ pub(super) struct Pipelines {
 
 impl Pipelines {
     /// Builds every pipeline and writes its set.
-    pub(super) fn build(ctx: &Context, pass: &PassContext<'_>, res: &Resources) -> VkResult<Self> {
+    pub(super) fn build(
+        ctx: &Context,
+        pass: &PassContext<'_>,
+        res: &Resources,
+        shading: Shading,
+    ) -> VkResult<Self> {
         let capacity = pass.texture_capacity();
         let no_rays = layout(capacity, Binding::Unused);
         let rays = layout(capacity, pass.backend.binding());
@@ -227,7 +235,7 @@ impl Pipelines {
         let trace = ComputePipeline::cached(
             ctx,
             "reproject trace",
-            trace_spirv(backend),
+            trace_spirv(backend, shading),
             &rays,
             push_size(std::mem::size_of::<TracePush>()),
         )?;
