@@ -98,10 +98,6 @@ struct BsdfFrame {
     float etap;          // index beyond the surface over the index on v's side
     float n_dot_v;
     vec4 lobe_p;         // selection probabilities: diffuse (+ sheen), specular, transmission, coat
-    // Whether a drawn diffuse direction is traced. When not (distributed.glsl: its diffuse
-    // bounces spent in a scene that emits nothing), drawing the diffuse lobe ends the path, and
-    // densities count only the traced lobes, so that light sampling carries the diffuse light.
-    bool diffuse_traced;
 };
 
 BsdfFrame bsdf_frame(Surface s, vec3 v) {
@@ -114,7 +110,6 @@ BsdfFrame bsdf_frame(Surface s, vec3 v) {
     b.c_alpha = max(s.clearcoat_roughness * s.clearcoat_roughness, 1e-3);
     b.etap = b.transmission > 0.0 ? (s.front_face ? s.ior : 1.0 / s.ior) : 1.0;
     b.n_dot_v = max(dot(s.n, v), 1e-4);
-    b.diffuse_traced = true;
     vec3 f = surface_fresnel(s, b.f0, fresnel_cosine(b.n_dot_v, b.etap));
     if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
         f = vec3(0.0);
@@ -150,7 +145,7 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
             base += s.sheen_color * d_charlie(s.sheen_roughness, n_dot_h) * v_sheen(n_dot_l, b.n_dot_v, s.sheen_roughness);
         }
         vec3 result = base * n_dot_l;
-        pdf = (b.diffuse_traced ? b.lobe_p.x * n_dot_l / PI : 0.0) + b.lobe_p.y * ggx_reflection_pdf(b.n_dot_v, n_dot_h, b.alpha);
+        pdf = b.lobe_p.x * n_dot_l / PI + b.lobe_p.y * ggx_reflection_pdf(b.n_dot_v, n_dot_h, b.alpha);
         if (b.coat > 0.0) {
             float c_dot_l = dot(s.clearcoat_n, l);
             float c_dot_v = max(dot(s.clearcoat_n, v), 1e-4);
@@ -202,9 +197,6 @@ bool bsdf_sample(Surface s, BsdfFrame b, vec3 v, float u_lobe, vec2 u, out vec3 
     }
     if (u_lobe < p.x) {
         lobe = LOBE_DIFFUSE;
-        if (!b.diffuse_traced) {
-            return false;
-        }
         l = to_world(sample_cosine(u), s.n);
     } else if (u_lobe < p.x + p.y || u_lobe < p.x + p.y + p.z) {
         lobe = u_lobe < p.x + p.y ? LOBE_SPECULAR : LOBE_TRANSMISSION;

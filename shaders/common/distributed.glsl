@@ -301,9 +301,6 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
             }
         }
         BsdfFrame b = bsdf_frame(s, v);
-        // A diffuse ray whose bounces are spent can only collect light; where nothing emits,
-        // the lights and the environment it could find are light-sampled instead.
-        b.diffuse_traced = diffuse_used < frame.diffuse_bounces || (frame.flags & FLAG_NO_EMISSION) == 0u;
         radiance += throughput * s.emissive * (1.0 - b.coat);
         if (collect_only) {
             break;

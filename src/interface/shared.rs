@@ -23,10 +23,6 @@ pub const FLAG_ADAPTIVE_CORNERS: u32 = 8;
 /// Frame flag: camera rays that miss show the environment (cleared by `--background`, which
 /// then shows that colour while the environment still lights the scene).
 pub const FLAG_ENV_BACKGROUND: u32 = 16;
-/// `GpuFrame::flags`: no material of the scene emits. The distributed model then traces no
-/// diffuse ray that could only collect light (its diffuse bounces spent): light sampling
-/// carries the diffuse lobe's light, weighted against the lobes that are traced.
-pub const FLAG_NO_EMISSION: u32 = 32;
 
 /// `GpuFrame::sampler_kind`: pixel centres.
 pub const SAMPLER_CENTER: u32 = 0;

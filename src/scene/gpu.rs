@@ -33,9 +33,6 @@ pub struct GpuScene {
     pub refs_data: GpuSceneRefs,
     /// Bytes uploaded.
     pub bytes: u64,
-    /// Whether any material emits (a non-zero emissive factor: glTF's emission is factor ×
-    /// texture × strength).
-    pub emissive: bool,
     /// The previous frame's positions and instances of an animation (motion vectors), once
     /// [`Self::keep_previous_frame`] made them.
     previous: Option<PreviousFrame>,
@@ -313,10 +310,6 @@ impl GpuScene {
             previous: None,
             refs_data,
             bytes,
-            emissive: scene
-                .materials
-                .iter()
-                .any(|m| m.emissive != glam::Vec3::ZERO),
         })
     }
 

@@ -53,8 +53,6 @@ pub struct FrameTargets {
     path: RenderPath,
     settings: RenderSettings,
     scene_scale: f32,
-    /// Whether a material of the scene emits (else frames carry `FLAG_NO_EMISSION`).
-    scene_emits: bool,
     passes: PathPasses,
     tonemap: TonemapPass,
     /// One slot: what [`Self::render`] reads back.
@@ -208,7 +206,6 @@ impl FrameTargets {
             path,
             settings: settings.clone(),
             scene_scale: scale,
-            scene_emits: renderer.gpu.emissive,
             passes,
             tonemap,
             readback,
@@ -251,11 +248,7 @@ impl FrameTargets {
     pub fn gpu_frame(&self, camera: &Camera) -> GpuFrame {
         let s = &self.settings;
         let setup = CameraSetup::new(camera, s.width, s.height, self.scene_scale);
-        let mut frame = GpuFrame::new(s, &setup, self.scene_scale);
-        if !self.scene_emits {
-            frame.flags |= crate::interface::FLAG_NO_EMISSION;
-        }
-        frame
+        GpuFrame::new(s, &setup, self.scene_scale)
     }
 
     /// The frame uniform for frame `number` of a sequence through `camera`: its camera

@@ -114,8 +114,6 @@ pub struct Reprojector {
     /// Frames recorded: the camera sample number of the next (distributed shading draws new
     /// random numbers every frame).
     frames_recorded: u32,
-    /// Whether a material of the scene emits (else frames carry `FLAG_NO_EMISSION`).
-    scene_emits: bool,
 }
 
 impl Reprojector {
@@ -161,7 +159,6 @@ impl Reprojector {
             visibility_in_general: false,
             prev_view_proj: None,
             frames_recorded: 0,
-            scene_emits: renderer.gpu.emissive,
         };
         if options.moving_geometry {
             reprojector.track_moving_geometry(ctx)?;

@@ -25,9 +25,6 @@ impl Reprojector {
         let setup = CameraSetup::new(camera, s.width, s.height, scale);
         let mut frame = GpuFrame::new(s, &setup, scale);
         frame.sample_base = self.frames_recorded;
-        if !self.scene_emits {
-            frame.flags |= crate::interface::FLAG_NO_EMISSION;
-        }
         self.frames_recorded = self.frames_recorded.wrapping_add(1);
         if let Some(prev) = self.prev_view_proj {
             frame.prev_view_proj = prev;
