@@ -342,36 +342,6 @@ fn furnace_lambert_sphere_shows_its_albedo() {
     common::assert_validation_clean(&ctx);
 }
 
-/// Directional albedo of single-scattering GGX with F = 1 (height-correlated Smith), by
-/// quadrature: what a rough metal with base colour 1 reflects of a constant environment.
-fn ggx_albedo(n_dot_v: f64, roughness: f64) -> f64 {
-    let alpha = (roughness * roughness).max(1e-3);
-    let a2 = alpha * alpha;
-    let v = [(1.0 - n_dot_v * n_dot_v).sqrt(), 0.0, n_dot_v];
-    let (nt, np) = (200, 400);
-    let mut sum = 0.0;
-    for i in 0..nt {
-        let theta = (i as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
-        let (st, ct) = theta.sin_cos();
-        for j in 0..np {
-            let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-            let l = [st * phi.cos(), st * phi.sin(), ct];
-            let h = [v[0] + l[0], v[1] + l[1], v[2] + l[2]];
-            let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
-            let n_dot_h = h[2] / len;
-            let d = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
-            let dist = a2 / (std::f64::consts::PI * d * d);
-            let gv = ct * (n_dot_v * n_dot_v * (1.0 - a2) + a2).sqrt();
-            let gl = n_dot_v * (ct * ct * (1.0 - a2) + a2).sqrt();
-            let d_omega = st
-                * (std::f64::consts::FRAC_PI_2 / nt as f64)
-                * (std::f64::consts::TAU / np as f64);
-            sum += dist * 0.5 / (gv + gl) * ct * d_omega;
-        }
-    }
-    sum
-}
-
 #[test]
 fn furnace_rough_metal_reflects_its_single_scattering_albedo() {
     let ctx = common::gpu();
@@ -385,7 +355,7 @@ fn furnace_rough_metal_reflects_its_single_scattering_albedo() {
     let map = EnvironmentMap::constant(64, [1.0; 3]);
     // E(μ) on a table of μ, interpolated per pixel.
     let table: Vec<f64> = (0..=32)
-        .map(|k| ggx_albedo((f64::from(k) / 32.0).max(0.02), f64::from(roughness)))
+        .map(|k| common::optics::ggx_albedo((f64::from(k) / 32.0).max(0.02), f64::from(roughness)))
         .collect();
     let albedo_at = |mu: f64| {
         let x = mu.clamp(0.0, 1.0) * 32.0;

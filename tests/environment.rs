@@ -169,20 +169,6 @@ fn lookup(map: &EnvironmentMap, d: Vec3, rotation: f32) -> [f32; 3] {
     map.bilinear(u, v)
 }
 
-/// The camera ray through the centre of pixel (x, y), as `frame.glsl`'s `camera_ray`.
-fn camera_dir(scene: &Scene, x: u32, y: u32) -> Vec3 {
-    let cam = scene.cameras[0];
-    let rqr::scene::Projection::Perspective { yfov, .. } = cam.projection else {
-        unreachable!()
-    };
-    let t = (yfov * 0.5).tan();
-    let ndc_x = (x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0;
-    let ndc_y = 1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0;
-    cam.camera_to_world
-        .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0))
-        .normalize()
-}
-
 #[test]
 fn missed_camera_rays_show_the_map_under_the_convention_and_rotation() {
     let ctx = common::gpu();
@@ -204,7 +190,11 @@ fn missed_camera_rays_show_the_map_under_the_convention_and_rotation() {
                         continue;
                     }
                     misses += 1;
-                    let e = lookup(&map, camera_dir(&scene, x, y), rotation);
+                    let e = lookup(
+                        &map,
+                        common::optics::camera_dir(&scene, x, y, SIZE),
+                        rotation,
+                    );
                     for (c, &e) in e.iter().enumerate() {
                         assert!(
                             (out.color[i][c] - e).abs() <= 0.01 * e,
@@ -275,37 +265,6 @@ fn mirror_sphere_reflects_the_map() {
     common::assert_validation_clean(&ctx);
 }
 
-/// Directional albedo of GGX (height-correlated Smith, F = 1) by midpoint quadrature over
-/// the hemisphere: the host reference of the split-sum table's A + B.
-fn ggx_albedo(n_dot_v: f64, roughness: f64) -> f64 {
-    let alpha = (roughness * roughness).max(1e-3);
-    let a2 = alpha * alpha;
-    let v = [(1.0 - n_dot_v * n_dot_v).sqrt(), 0.0, n_dot_v];
-    let (nt, np) = (400, 800);
-    let mut sum = 0.0;
-    for i in 0..nt {
-        let theta = (i as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
-        let (st, ct) = theta.sin_cos();
-        for j in 0..np {
-            let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-            let l = [st * phi.cos(), st * phi.sin(), ct];
-            let h = [v[0] + l[0], v[1] + l[1], v[2] + l[2]];
-            let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
-            let n_dot_h = h[2] / len;
-            let d = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
-            let dist = a2 / (std::f64::consts::PI * d * d);
-            let gv = ct * (n_dot_v * n_dot_v * (1.0 - a2) + a2).sqrt();
-            let gl = n_dot_v * (ct * ct * (1.0 - a2) + a2).sqrt();
-            let vis = 0.5 / (gv + gl);
-            let d_omega = st
-                * (std::f64::consts::FRAC_PI_2 / nt as f64)
-                * (std::f64::consts::TAU / np as f64);
-            sum += dist * vis * ct * d_omega;
-        }
-    }
-    sum
-}
-
 #[test]
 fn split_sum_table_matches_the_directional_albedo() {
     let ctx = common::gpu();
@@ -316,7 +275,7 @@ fn split_sum_table_matches_the_directional_albedo() {
         let roughness = (y as f64 + 0.5) / h as f64;
         let t = table[(y * w + x) as usize];
         let gpu = (t[0] + t[1]) as f64;
-        let host = ggx_albedo(n_dot_v, roughness);
+        let host = common::optics::ggx_albedo(n_dot_v, roughness);
         assert!(
             (gpu - host).abs() <= 0.03 * host,
             "E({n_dot_v:.3}, {roughness:.3}): table {gpu:.4}, quadrature {host:.4}"

@@ -387,20 +387,6 @@ fn a_white_plane_under_the_sky_is_lit_and_the_sun_casts_a_shadow() {
     common::assert_validation_clean(&ctx);
 }
 
-/// The camera ray through the centre of pixel (x, y) of a `size`² image.
-fn camera_dir(scene: &Scene, x: u32, y: u32, size: u32) -> Vec3 {
-    let cam = scene.cameras[0];
-    let rqr::scene::Projection::Perspective { yfov, .. } = cam.projection else {
-        unreachable!()
-    };
-    let t = (yfov * 0.5).tan();
-    let ndc_x = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
-    let ndc_y = 1.0 - (y as f32 + 0.5) / size as f32 * 2.0;
-    cam.camera_to_world
-        .transform_vector3(Vec3::new(ndc_x * t, ndc_y * t, -1.0))
-        .normalize()
-}
-
 #[test]
 fn missed_camera_rays_show_the_model_sky_through_the_gpu_lookup() {
     let ctx = common::gpu();
@@ -422,7 +408,7 @@ fn missed_camera_rays_show_the_model_sky_through_the_gpu_lookup() {
     let mut checked = 0;
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let d = camera_dir(&scene, x, y, SIZE);
+            let d = common::optics::camera_dir(&scene, x, y, SIZE);
             if d.y < 5f32.to_radians().sin() || d.dot(sun) > 5f32.to_radians().cos() {
                 continue;
             }

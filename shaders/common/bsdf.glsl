@@ -19,24 +19,16 @@
 
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
-// An orthonormal basis around unit n (Duff et al. 2017).
-void basis(vec3 n, out vec3 t, out vec3 b) {
-    float sgn = n.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (sgn + n.z);
-    float c = n.x * n.y * a;
-    t = vec3(1.0 + sgn * n.x * n.x * a, sgn * c, -sgn * n.x);
-    b = vec3(c, sgn + n.y * n.y * a, -n.y);
-}
-
+// Directions in the orthonormal basis around unit n of env_mapping.glsl (Duff et al. 2017).
 vec3 to_world(vec3 local, vec3 n) {
     vec3 t, b;
-    basis(n, t, b);
+    env_basis(n, t, b);
     return local.x * t + local.y * b + local.z * n;
 }
 
 vec3 to_local(vec3 w, vec3 n) {
     vec3 t, b;
-    basis(n, t, b);
+    env_basis(n, t, b);
     return vec3(dot(w, t), dot(w, b), dot(w, n));
 }
 

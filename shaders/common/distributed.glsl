@@ -260,19 +260,12 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
             found = hit_found(h);
             t = found ? h.t : BIG_FLOAT;
             if (first) {
-                info.hit = found;
-                info.t = found ? h.t : 0.0;
-                info.instance = h.instance;
-                info.primitive = h.primitive;
-                info.bary = h.barycentrics;
+                record_primary_hit(info, h);
             }
             if (found) {
                 s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, dir, cone_width + frame.pixel_spread * h.t);
                 if (first) {
-                    info.normal = s.ng_front;
-                    info.position = s.position;
-                    info.shading_normal = s.n;
-                    info.albedo = vec4(s.base_color, s.alpha);
+                    record_primary_surface(info, s);
                 }
             }
         }

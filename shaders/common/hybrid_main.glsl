@@ -94,10 +94,7 @@ void main() {
         info.instance = int(ids.x);
         info.primitive = int(ids.y);
         info.bary = b.xy;
-        info.normal = s.ng_front;
-        info.position = s.position;
-        info.shading_normal = s.n;
-        info.albedo = vec4(s.base_color, s.alpha);
+        record_primary_surface(info, s);
     } else {
         c = miss_radiance(camera.dir, true);
 #ifdef SHADING_DISTRIBUTED

@@ -135,6 +135,23 @@ struct PrimaryInfo {
     vec4 albedo;          // Surface::base_color, alpha
 };
 
+// The primary ray's hit `h` (found or not) into `info`, for the AOVs.
+void record_primary_hit(inout PrimaryInfo info, Hit h) {
+    info.hit = hit_found(h);
+    info.t = info.hit ? h.t : 0.0;
+    info.instance = h.instance;
+    info.primitive = h.primitive;
+    info.bary = h.barycentrics;
+}
+
+// The surface the primary ray hit into `info`, for the AOVs.
+void record_primary_surface(inout PrimaryInfo info, Surface s) {
+    info.normal = s.ng_front;
+    info.position = s.position;
+    info.shading_normal = s.n;
+    info.albedo = vec4(s.base_color, s.alpha);
+}
+
 // What a pixel whose primary ray found nothing reports.
 PrimaryInfo primary_miss() {
     return PrimaryInfo(false, 0.0, -1, -1, vec2(0.0), vec3(0.0), vec3(0.0), vec3(0.0), vec4(0.0));
@@ -298,11 +315,7 @@ vec3 whitted(Ray camera, uint primary, Surface primary_surface, Hit primary_hit,
                 h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
             }
             if (first) {
-                info.hit = hit_found(h);
-                info.t = info.hit ? h.t : 0.0;
-                info.instance = h.instance;
-                info.primitive = h.primitive;
-                info.bary = h.barycentrics;
+                record_primary_hit(info, h);
             }
             if (!hit_found(h)) {
                 color += r.weight * miss_radiance(r.dir, r.kind == RAY_PRIMARY);
@@ -313,10 +326,7 @@ vec3 whitted(Ray camera, uint primary, Surface primary_surface, Hit primary_hit,
             s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, cone);
             t = h.t;
             if (first) {
-                info.normal = s.ng_front;
-                info.position = s.position;
-                info.shading_normal = s.n;
-                info.albedo = vec4(s.base_color, s.alpha);
+                record_primary_surface(info, s);
                 first = false;
             }
         }

@@ -4,6 +4,7 @@
 use rqr::vk::{Context, ContextOptions, VkError};
 
 pub mod animated;
+pub mod optics;
 pub mod render_alike;
 pub mod trace;
 
