@@ -118,10 +118,15 @@ BsdfFrame bsdf_frame(Surface s, vec3 v) {
     return b;
 }
 
+// The diffuse lobe's share of the last bsdf_eval (its Lambert term x |n.l|, under the coat):
+// the denoiser filters diffuse and specular light apart (denoise_split.glsl).
+vec3 bsdf_diffuse_part = vec3(0.0);
+
 // BSDF x |n.l| of surface `s` from v (towards the viewer) to l (towards the light), and the
 // density `pdf` bsdf_sample draws l with (solid angle).
 vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
     pdf = 0.0;
+    bsdf_diffuse_part = vec3(0.0);
     float n_dot_l = dot(s.n, l);
     float g_dot_l = dot(s.ng, l);
     bool no_specular = (frame.flags & FLAG_NO_SPECULAR) != 0u;
@@ -130,8 +135,9 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
         float n_dot_h = max(dot(s.n, h), 0.0);
         float v_dot_h = max(dot(v, h), 0.0);
         vec3 f = no_specular ? vec3(0.0) : surface_fresnel(s, b.f0, fresnel_cosine(v_dot_h, b.etap));
-        vec3 base = (vec3(1.0) - f) * b.diffuse_color / PI
-            + f * d_ggx(n_dot_h, b.alpha) * v_smith_ggx(n_dot_l, b.n_dot_v, b.alpha);
+        vec3 lambert = (vec3(1.0) - f) * b.diffuse_color / PI;
+        bsdf_diffuse_part = lambert * n_dot_l * (1.0 - b.coat);
+        vec3 base = lambert + f * d_ggx(n_dot_h, b.alpha) * v_smith_ggx(n_dot_l, b.n_dot_v, b.alpha);
         float sheen_pdf = 0.0;
         if (s.layered && max3(s.sheen_color) > 0.0) {
             base += s.sheen_color * d_charlie(s.sheen_roughness, n_dot_h) * v_sheen(n_dot_l, b.n_dot_v, s.sheen_roughness);

@@ -176,8 +176,10 @@ vec3 lights_met(vec3 o, vec3 d, float t_max, float bsdf_pdf) {
 // Direct light at surface s from every light (one sample each) and the environment (one
 // sample), each through one shadow ray, weighted against BSDF sampling; at the `last` vertex
 // of a path, whose BSDF ray is not traced, light sampling alone carries the light (weight 1).
-vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng rng) {
+// `diffuse_part`: the share of the sum that came through the diffuse lobe (the denoiser's split).
+vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng rng, out vec3 diffuse_part) {
     vec3 sum = vec3(0.0);
+    diffuse_part = vec3(0.0);
     vec3 origin = s.position + s.ng * eps_offset();
     for (uint i = 0u; i < scene.light_count; ++i) {
         GpuLight l = scene_light(i);
@@ -200,6 +202,7 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng r
         }
         float w = pdf > 0.0 && !last ? power_heuristic(pdf, bsdf_pdf) : 1.0;
         sum += f * li * w;
+        diffuse_part += bsdf_diffuse_part * li * w;
     }
     if (env_enabled()) {
         vec2 u = rng_next(rng);
@@ -211,7 +214,9 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng r
             if (max3(f) > 0.0) {
                 rays_by_kind[RAY_SHADOW] += 1u;
                 if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
-                    sum += f * env_radiance_texel(dir) / pdf * (last ? 1.0 : power_heuristic(pdf, bsdf_pdf));
+                    vec3 li = env_radiance_texel(dir) / pdf * (last ? 1.0 : power_heuristic(pdf, bsdf_pdf));
+                    sum += f * li;
+                    diffuse_part += bsdf_diffuse_part * li;
                 }
             }
         }
@@ -222,10 +227,36 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng r
 // Alpha-blended surfaces a path may pass straight through before it stops.
 #define MAX_PASS_THROUGH 16u
 
+// The split of the last distributed() sample's radiance for the denoiser (DenoiseGuide): the
+// part the first shaded vertex's diffuse lobe carried, the part it must not blur (what the
+// camera ray met before that vertex, and its emission; the rest is specular), and that
+// vertex's diffuse and specular albedos, which the denoiser divides the light by.
+vec3 split_diffuse;
+vec3 split_unfiltered;
+vec3 split_diffuse_albedo;
+vec3 split_specular_albedo;
+float split_roughness;
+
+// Directional albedo of the GGX lobe with Fresnel at normal incidence f0, roughness r
+// (Karis 2014's fit of the split-sum table): a smooth stand-in the denoiser divides by.
+vec3 specular_albedo_fit(vec3 f0, float roughness, float n_dot_v) {
+    vec4 r = roughness * vec4(-1.0, -0.0275, -0.572, 0.022) + vec4(1.0, 0.0425, 1.04, -0.04);
+    float a004 = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
+    vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
+    return f0 * ab.x + ab.y;
+}
+
 // Radiance along a camera ray in the distributed model, for camera sample `sample_index` of
 // `pixel`. `primary` as whitted(): the hybrid path hands in what its raster pass saw.
 vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_hit, inout PrimaryInfo info, uvec2 pixel, uint sample_index) {
     Rng rng = rng_new(pixel, sample_index);
+    split_diffuse = vec3(0.0);
+    split_diffuse_albedo = vec3(0.0);
+    split_specular_albedo = vec3(0.0);
+    split_roughness = 0.0;
+    bool split_vertex = true;      // the next shaded vertex is the first
+    bool split_done = false;       // the first shaded vertex was reached
+    vec3 diffuse_branch = vec3(-1.0);  // radiance when the first vertex chose its diffuse lobe
     vec3 radiance = vec3(0.0);
     vec3 throughput = vec3(1.0);
     vec3 origin = camera.origin;
@@ -295,16 +326,34 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         }
         BsdfFrame b = bsdf_frame(s, v);
         radiance += throughput * s.emissive * (1.0 - b.coat);
+        bool splitting = split_vertex && !collect_only;
+        if (splitting) {
+            split_vertex = false;
+            split_done = true;
+            split_unfiltered = radiance;
+            split_diffuse_albedo = b.diffuse_color;
+            split_roughness = s.roughness;
+            split_specular_albedo = min(specular_albedo_fit(b.f0, s.roughness, b.n_dot_v) * (1.0 - b.coat)
+                + b.transmission * s.base_color * (1.0 - b.coat) + vec3(b.coat), vec3(1.0));
+        }
         if (collect_only) {
             break;
         }
         if (!env_enabled() && frame.diffuse_bounces == 0u) {
             // The Whitted model's ambient term stands in for the untraced diffuse
             // inter-reflection (a path tracer, with diffuse bounces, traces it instead).
-            radiance += throughput * frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
+            vec3 ambient = throughput * frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
+            radiance += ambient;
+            if (splitting) {
+                split_diffuse += ambient;
+            }
         }
         bool last = depth >= frame.max_depth;
-        radiance += throughput * direct_light_sampled(s, b, v, last, rng);
+        vec3 direct_diffuse;
+        radiance += throughput * direct_light_sampled(s, b, v, last, rng, direct_diffuse);
+        if (splitting) {
+            split_diffuse += throughput * direct_diffuse;
+        }
         if (last) {
             break;
         }
@@ -316,6 +365,9 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
             break;
         }
         throughput *= weight;
+        if (splitting && lobe == LOBE_DIFFUSE) {
+            diffuse_branch = radiance;
+        }
         if (lobe == LOBE_DIFFUSE) {
             kind = RAY_DIFFUSE;
             if (diffuse_used >= frame.diffuse_bounces) {
@@ -335,6 +387,11 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         origin = s.position + (dot(l, s.ng) > 0.0 ? s.ng : -s.ng) * eps_offset();
         dir = l;
         depth += 1u;
+    }
+    if (!split_done) {
+        split_unfiltered = radiance;
+    } else if (diffuse_branch.x >= 0.0) {
+        split_diffuse += radiance - diffuse_branch;
     }
     return radiance;
 }

@@ -18,6 +18,8 @@
 #ifdef SHADING_DISTRIBUTED
 #include "distributed.glsl"
 #define SHADE_CAMERA_RAY(camera, primary, surface, hit, info) distributed(camera, primary, surface, hit, info, pix, frame.sample_base)
+#include "interface_denoise.glsl"
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer GuideAccum { DenoiseGuide v[]; };
 #else
 #define SHADE_CAMERA_RAY(camera, primary, surface, hit, info) whitted(camera, primary, surface, hit, info)
 #endif
@@ -99,6 +101,11 @@ void main() {
         c = miss_radiance(camera.dir, true);
 #ifdef SHADING_DISTRIBUTED
         c += lights_met(camera.origin, camera.dir, BIG_FLOAT, 0.0);
+        split_diffuse = vec3(0.0);
+        split_unfiltered = c;
+        split_diffuse_albedo = vec3(0.0);
+        split_specular_albedo = vec3(0.0);
+        split_roughness = 0.0;
 #endif
         info = primary_miss();
     }
@@ -108,6 +115,24 @@ void main() {
     if ((pc.flags & HYBRID_WRITE_AOV) != 0u) {
         aov_out[index] = primary_aov(info, 1u);
     }
+#ifdef SHADING_DISTRIBUTED
+    if (pc.guide != 0ul) {
+        GuideAccum g = GuideAccum(pc.guide);
+        vec4 d = vec4(split_diffuse * pc.weight, pc.weight);
+        vec4 u = vec4(split_unfiltered * pc.weight, pc.weight);
+        if ((pc.flags & HYBRID_FIRST_SAMPLE) != 0u) {
+            DenoiseGuide first;
+            first.diffuse = d;
+            first.unfiltered = u;
+            first.diffuse_albedo = vec4(split_diffuse_albedo, 0.0);
+            first.specular_albedo = vec4(split_specular_albedo, split_roughness);
+            g.v[index] = first;
+        } else {
+            g.v[index].diffuse += d;
+            g.v[index].unfiltered += u;
+        }
+    }
+#endif
     for (uint k = 0u; k < 4u; ++k) {
         COUNTER_ADD(counters[ray_counter_slot(k)], rays_by_kind[k]);
     }

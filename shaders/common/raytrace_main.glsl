@@ -14,6 +14,8 @@
 #include "aov.glsl"
 #ifdef SHADING_DISTRIBUTED
 #include "distributed.glsl"
+#include "interface_denoise.glsl"
+layout(buffer_reference, scalar, buffer_reference_align = 4) writeonly buffer GuideOut { DenoiseGuide v[]; };
 #endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -76,6 +78,11 @@ void main() {
 
     PrimaryInfo info = primary_miss();
     vec3 sum = vec3(0.0);
+#ifdef SHADING_DISTRIBUTED
+    DenoiseGuide guide;
+    guide.diffuse = vec4(0.0);
+    guide.unfiltered = vec4(0.0);
+#endif
     float weight_sum = 0.0;
     uint samples = 0u;
 
@@ -138,6 +145,14 @@ void main() {
         vec3 c = radiance_at(film, sample_info);
         samples += 1u;
         if (job == 0u) info = sample_info;
+#ifdef SHADING_DISTRIBUTED
+        guide.diffuse += vec4(w * split_diffuse, w);
+        guide.unfiltered += vec4(w * split_unfiltered, w);
+        if (job == 0u) {
+            guide.diffuse_albedo = vec4(split_diffuse_albedo, 0.0);
+            guide.specular_albedo = vec4(split_specular_albedo, split_roughness);
+        }
+#endif
 
         if (corner_pass) {
             corners[pix.y * stride + pix.x] = vec4(c, 1.0);
@@ -173,6 +188,14 @@ void main() {
         if ((pc.flags & FLAG_WRITE_AOV) != 0u) {
             aov_out[index] = primary_aov(info, samples);
         }
+#ifdef SHADING_DISTRIBUTED
+        if (pc.guide != 0ul) {
+            float ws = guide.diffuse.w > 0.0 ? guide.diffuse.w : 1.0;
+            guide.diffuse = vec4(guide.diffuse.rgb / ws, 1.0);
+            guide.unfiltered = vec4(guide.unfiltered.rgb / ws, 1.0);
+            GuideOut(pc.guide).v[index] = guide;
+        }
+#endif
     }
     flush_counters(samples);
 }

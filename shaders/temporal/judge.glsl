@@ -1,6 +1,7 @@
 // Temporal reuse: view dependence and the disocclusion tests of a cached sample against this
 // frame's primary hit.
 // Included by temporal.glsl (in its order: each part uses the ones before it).
+#include "disocclusion.glsl"
 // Whether a surface looks different from another viewpoint: transmissive, metal, see-through
 // blending, or glossy enough for the Whitted mirror term ((1 - roughness)^2 of the reflection).
 bool surface_view_dependent(float metallic, float roughness, float transmission, uint alpha_mode, float alpha) {
@@ -22,8 +23,8 @@ bool sample_matches(CacheEntry e, vec3 p, vec3 ng, uint material) {
         return false;
     }
     float z = max(view_depth(p), 1e-6);
-    float plane = abs(dot(e.position - p, ng)) / z;
-    return plane <= params.plane_threshold && dot(unpack_normal(e.normal), ng) >= params.normal_threshold && cache_material(e) == material;
+    return surfaces_match(e.position, unpack_normal(e.normal), p, ng, z, params.plane_threshold, params.normal_threshold)
+        && cache_material(e) == material;
 }
 
 // Decides a pixel with candidate sample `e` from this frame's primary hit there.

@@ -10,6 +10,7 @@ use glam::Vec3;
 use rqr::accel::bvh::{BvhBuild, BvhBuildChoice};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::environment::{EnvironmentMap, EnvironmentSource, GpuEnvironment};
+use rqr::render::denoise::DenoiseMode;
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::passes::raster_compute::{RasterChoice, RasterMode};
 use rqr::render::{FilterKind, RenderSettings, SamplerKind, Shading, Tonemap};
@@ -464,6 +465,14 @@ pub struct ImageArgs {
     /// surfaces, Cook's model; N: a path tracer with Russian roulette).
     #[arg(long, default_value_t = 0)]
     pub diffuse_bounces: u32,
+    /// Distributed shading: denoise each frame before tonemapping: `temporal` (accumulate the
+    /// demodulated light on the reprojected history) or `svgf` (that, then an edge-aware
+    /// à-trous filter; a single frame gets the filter alone).
+    #[arg(long, value_enum, default_value_t = DenoiseMode::None)]
+    pub denoise: DenoiseMode,
+    /// Denoising: frames of history a pixel keeps at most.
+    #[arg(long, default_value_t = rqr::render::denoise::DEFAULT_HISTORY_CAP, value_name = "N")]
+    pub history_cap: u32,
     /// Distributed shading: radius of every point and spot light's sphere, in scene units
     /// (overrides the lights' glTF `extras.radius`; 0 = punctual).
     #[arg(long, value_name = "R", value_parser = parse_non_negative)]
@@ -521,6 +530,8 @@ impl ImageArgs {
             raster: Default::default(),
             shading: self.shading,
             diffuse_bounces: self.diffuse_bounces,
+            denoise: self.denoise,
+            history_cap: self.history_cap,
         };
         s.validate(MAX_SIDE)?;
         Ok(s)

@@ -12,6 +12,7 @@
 //! | `bvh.rs` | `interface_bvh.glsl` | the compute BVH's uniform, the GPU build and refit passes' records, push constants and state words |
 //! | `reproject.rs` | `interface_reproject.glsl` | temporal reprojection |
 //! | `environment.rs` | `interface_environment.glsl` | image-based lighting: the environment's textures and preparation passes |
+//! | `denoise.rs` | `interface_denoise.glsl` | the denoiser: the shading passes' colour split, its uniform, records and push constant |
 //!
 //! **Adding a binding** (or a flag, a counter): add a `pub const` to the right file, use the
 //! name in the shader (`layout(set = 0, binding = BINDING_X)`) and in the pass
@@ -22,6 +23,7 @@
 //! rejects anything else with the file and line.
 
 pub mod bvh;
+pub mod denoise;
 pub mod environment;
 pub mod passes;
 pub mod reproject;

@@ -52,6 +52,9 @@ pub struct RaytracePush {
     /// CPU device (lavapipe) stores through one with a vector scatter, where it stores into a
     /// descriptor-bound buffer lane by lane).
     pub color: u64,
+    /// Device address of the denoiser's [`crate::interface::denoise::DenoiseGuide`] per pixel
+    /// out (distributed shading only), 0 for none.
+    pub guide: u64,
 }
 
 /// Hybrid shading: accumulation (rgb sum, weight sum) per pixel.
@@ -94,6 +97,9 @@ pub struct HybridPush {
     pub flags: u32,
     /// Filter weight of this sample.
     pub weight: f32,
+    /// Device address of the denoiser's [`crate::interface::denoise::DenoiseGuide`] per pixel
+    /// (accumulated like the colour; distributed shading only), 0 for none.
+    pub guide: u64,
 }
 
 /// The raster G-buffer and visibility pipelines' push constant (one draw).

@@ -41,8 +41,18 @@ impl RenderSettings {
     /// use.
     fn device_bytes(&self, path: RenderPath, aov: bool) -> u64 {
         let pixels = self.pixels();
-        let aov = if aov { AOV_BYTES } else { 0 };
-        let tonemapped = 4;
+        // A denoiser reads the AOVs whether or not the caller does, and adds its own buffers.
+        let denoise = if self.denoise.enabled() {
+            super::denoise::bytes_per_pixel()
+        } else {
+            0
+        };
+        let aov = if aov || self.denoise.enabled() {
+            AOV_BYTES
+        } else {
+            0
+        };
+        let tonemapped = 4 + denoise;
         match path {
             RenderPath::RayTraced => {
                 let corners = (u64::from(self.width) + 1) * (u64::from(self.height) + 1);

@@ -7,11 +7,14 @@
 //!   [`drivers::burst`] (timed frames), [`drivers::sequence`] and [`drivers::animated`]
 //!   (camera sequences and animation), and [`readback`] (the host-visible ring frames copy
 //!   their outputs into);
+//! - [`denoise`]: the SVGF denoiser of distributed frames (`--denoise`), recorded by the frame
+//!   targets between shading and tonemapping;
 //! - [`temporal`]: temporal reuse (reprojection, frameless rendering, adaptive sub-sampling),
 //!   a multi-frame technique with its own caches and passes, which the sequence driver runs;
 //! - [`image`]: host image utilities (PNG/EXR output, labels and charts, FLIP/PSNR);
 //! - [`reference`](mod@reference): CPU references of shader code, used only by tests.
 
+pub mod denoise;
 pub mod drivers;
 pub mod frame;
 pub mod image;

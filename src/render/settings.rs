@@ -154,6 +154,11 @@ pub struct RenderSettings {
     /// Distributed model: diffuse bounces a path may take (0: direct light only on diffuse
     /// surfaces, as in Cook's model; more: a path tracer with Russian roulette).
     pub diffuse_bounces: u32,
+    /// Denoiser run on each distributed frame before tonemapping.
+    pub denoise: super::denoise::DenoiseMode,
+    /// Frames of history a denoised pixel keeps at most (its blend weight's floor is the
+    /// inverse).
+    pub history_cap: u32,
 }
 
 impl Default for RenderSettings {
@@ -183,6 +188,8 @@ impl Default for RenderSettings {
             raster: Default::default(),
             shading: Shading::Whitted,
             diffuse_bounces: 0,
+            denoise: super::denoise::DenoiseMode::None,
+            history_cap: super::denoise::DEFAULT_HISTORY_CAP,
         }
     }
 }
@@ -286,6 +293,19 @@ impl RenderSettings {
                 "--diffuse-bounces needs --shading distributed (the Whitted model traces no diffuse rays)"
                     .into(),
             );
+        }
+        if self.denoise.enabled() && self.shading != Shading::Distributed {
+            return bad(format!(
+                "--denoise {} needs --shading distributed (the Whitted model has no noise to filter)",
+                self.denoise.as_str()
+            ));
+        }
+        if self.history_cap == 0 || self.history_cap > super::denoise::MAX_HISTORY_CAP {
+            return bad(format!(
+                "--history-cap {} must be in 1..={}",
+                self.history_cap,
+                super::denoise::MAX_HISTORY_CAP
+            ));
         }
         if let Some(e) = self.epsilon {
             if !(e.is_finite() && e >= 0.0) {

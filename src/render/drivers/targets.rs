@@ -11,6 +11,7 @@
 
 use ash::vk;
 
+use crate::render::denoise::{self, Denoiser};
 use crate::render::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
 use crate::render::passes::gbuffer::{Draw, GbufferPass};
 use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
@@ -57,7 +58,10 @@ pub struct FrameTargets {
     tonemap: TonemapPass,
     /// One slot: what [`Self::render`] reads back.
     readback: FrameRing,
+    /// Whether frames copy their AOVs out (the passes also write them for a denoiser).
     write_aov: bool,
+    /// The denoiser of distributed frames (`--denoise`), recorded before tonemapping.
+    denoiser: Option<Denoiser>,
     /// Timestamps of single frames ([`Self::render`]); bursts bring their own.
     profiler: Option<GpuProfiler>,
     /// Host milliseconds [`Self::render`] last spent reading its image back.
@@ -77,10 +81,60 @@ impl FrameTargets {
         draws: &[Draw],
         write_aov: bool,
     ) -> crate::Result<Self> {
+        Self::with_denoiser(ctx, renderer, path, settings, draws, write_aov, None)
+    }
+
+    /// Allocates targets for a changed scene (`renderer` as updated in place, its raster
+    /// `draws`) at the same path and settings, keeping the denoiser and its history.
+    pub fn rebuild(
+        &mut self,
+        ctx: &Context,
+        renderer: &Renderer,
+        draws: &[Draw],
+    ) -> crate::Result<()> {
+        let denoiser = self.denoiser.take();
+        if let Some(d) = &denoiser {
+            d.bind_scene(&renderer.pass_context());
+        }
+        let settings = self.settings.clone();
+        *self = Self::with_denoiser(
+            ctx,
+            renderer,
+            self.path,
+            &settings,
+            draws,
+            self.write_aov,
+            denoiser,
+        )?;
+        Ok(())
+    }
+
+    fn with_denoiser(
+        ctx: &Context,
+        renderer: &Renderer,
+        path: RenderPath,
+        settings: &RenderSettings,
+        draws: &[Draw],
+        write_aov: bool,
+        denoiser: Option<Denoiser>,
+    ) -> crate::Result<Self> {
         settings
             .check_device(ctx.info(), path, write_aov, ctx.allocated_bytes())
             .map_err(|e| VkError::Limit(e.to_string()))?;
         let pass = renderer.pass_context();
+        let denoiser = match denoiser {
+            Some(d) => Some(d),
+            None if settings.denoise.enabled() => Some(Denoiser::new(
+                ctx,
+                &pass,
+                settings,
+                path == RenderPath::Hybrid,
+                renderer.scene_scale(),
+            )?),
+            None => None,
+        };
+        // The denoiser reads the AOVs even when the caller does not.
+        let shader_aov = write_aov || denoiser.is_some();
         let pixels = settings.pixels();
         let none = vk::BufferUsageFlags::empty();
         let frame_uniform = |name: &str| {
@@ -94,13 +148,19 @@ impl FrameTargets {
         };
         let scale = renderer.scene_scale();
         let passes = match path {
-            RenderPath::RayTraced => PathPasses::RayTraced(Box::new(RaytracedPass::new(
-                ctx,
-                &pass,
-                settings,
-                frame_uniform("rt frame")?,
-                write_aov,
-            )?)),
+            RenderPath::RayTraced => {
+                let mut rt = RaytracedPass::new(
+                    ctx,
+                    &pass,
+                    settings,
+                    frame_uniform("rt frame")?,
+                    shader_aov,
+                )?;
+                if let Some(d) = &denoiser {
+                    rt.write_guide(&d.guide);
+                }
+                PathPasses::RayTraced(Box::new(rt))
+            }
             RenderPath::Hybrid => {
                 let positions = hybrid_sample_positions(settings)?;
                 let accum = Buffer::new(
@@ -114,12 +174,12 @@ impl FrameTargets {
                 // AOVs only under HYBRID_WRITE_AOV).
                 let aov = Buffer::new(
                     ctx,
-                    if write_aov {
+                    if shader_aov {
                         "hybrid aov"
                     } else {
                         "hybrid aov placeholder"
                     },
-                    if write_aov { pixels } else { 1 } * AOV_BYTES,
+                    if shader_aov { pixels } else { 1 } * AOV_BYTES,
                     none,
                     MemoryLocation::GpuOnly,
                 )?;
@@ -180,9 +240,10 @@ impl FrameTargets {
                 }
             }
         };
-        let color = match &passes {
-            PathPasses::RayTraced(rt) => &rt.color,
-            PathPasses::Hybrid { accum, .. } => accum,
+        let color = match (&denoiser, &passes) {
+            (Some(d), _) => &d.output,
+            (None, PathPasses::RayTraced(rt)) => &rt.color,
+            (None, PathPasses::Hybrid { accum, .. }) => accum,
         };
         let tonemap = TonemapPass::new(ctx, color, pixels as u32)?;
         let readback = FrameRing::new(
@@ -201,7 +262,13 @@ impl FrameTargets {
             PathPasses::RayTraced(_) => 1,
             PathPasses::Hybrid { samples, .. } => samples.len() as u32,
         };
-        let profiler = GpuProfiler::new(ctx, Self::scopes_per_frame_for(samples)).ok();
+        let denoise_scopes = if denoiser.is_some() {
+            denoise::SCOPES
+        } else {
+            0
+        };
+        let profiler =
+            GpuProfiler::new(ctx, Self::scopes_per_frame_for(samples) + denoise_scopes).ok();
         Ok(Self {
             path,
             settings: settings.clone(),
@@ -210,6 +277,7 @@ impl FrameTargets {
             tonemap,
             readback,
             write_aov,
+            denoiser,
             profiler,
             last_readback_ms: 0.0,
         })
@@ -231,7 +299,23 @@ impl FrameTargets {
         Self::scopes_per_frame_for(match &self.passes {
             PathPasses::RayTraced(_) => 1,
             PathPasses::Hybrid { samples, .. } => samples.len() as u32,
-        })
+        }) + if self.denoiser.is_some() {
+            denoise::SCOPES
+        } else {
+            0
+        }
+    }
+
+    /// The denoiser, when the settings ask for one.
+    pub fn denoiser(&self) -> Option<&Denoiser> {
+        self.denoiser.as_ref()
+    }
+
+    /// Forgets the denoiser's history (nothing without one): the next frame is filtered alone.
+    pub fn reset_history(&self) {
+        if let Some(d) = &self.denoiser {
+            d.reset();
+        }
     }
 
     /// The path these targets render.
@@ -309,21 +393,34 @@ impl FrameTargets {
                     let mut flags = 0;
                     if i == 0 {
                         flags |= HYBRID_FIRST_SAMPLE;
-                        if self.write_aov {
+                        if self.write_aov || self.denoiser.is_some() {
                             flags |= HYBRID_WRITE_AOV;
                         }
                     }
+                    let guide = self.denoiser.as_ref().map_or(0, |d| d.guide.address());
                     s.shading
-                        .record(cmd, extent, flags, s.weight, profiler.as_deref_mut());
+                        .record(cmd, extent, flags, s.weight, guide, profiler.as_deref_mut());
                     memory_barrier(device, cmd);
                 }
             }
+        }
+        if let Some(d) = &self.denoiser {
+            let (color, aov) = self.shaded_color_and_aov();
+            d.record(ctx, cmd, frame, color, aov, profiler.as_deref_mut());
         }
         let s = &self.settings;
         self.tonemap.record(cmd, profiler, s.tonemap, s.exposure);
         if let Some((ring, slot)) = out {
             memory_barrier(device, cmd);
             self.record_copy(device, cmd, ring, slot);
+        }
+    }
+
+    /// The shading passes' colour (the hybrid path's weighted accumulation) and AOV buffers.
+    fn shaded_color_and_aov(&self) -> (&Buffer, &Buffer) {
+        match &self.passes {
+            PathPasses::RayTraced(rt) => (&rt.color, &rt.aov),
+            PathPasses::Hybrid { accum, aov, .. } => (accum, aov),
         }
     }
 
@@ -344,6 +441,7 @@ impl FrameTargets {
                 ..
             } => (accum, counters, aov),
         };
+        let color = self.denoiser.as_ref().map_or(color, |d| &d.output);
         ring.record_copy(
             device,
             cmd,

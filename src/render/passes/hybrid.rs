@@ -86,16 +86,22 @@ impl HybridPass {
         Ok(Self { pipeline, set })
     }
 
-    /// Records the shading of one sample with filter weight `weight`.
+    /// Records the shading of one sample with filter weight `weight`; with a `guide` address
+    /// (not 0) it also accumulates the denoiser's colour split there (distributed shading).
     pub fn record(
         &self,
         cmd: vk::CommandBuffer,
         extent: vk::Extent2D,
         flags: u32,
         weight: f32,
+        guide: vk::DeviceAddress,
         profiler: Option<&mut GpuProfiler>,
     ) {
-        let push = HybridPush { flags, weight };
+        let push = HybridPush {
+            flags,
+            weight,
+            guide,
+        };
         let mut profiler = profiler;
         if let Some(p) = profiler.as_deref_mut() {
             p.begin(cmd, crate::render::PassScope::HybridShading.name());

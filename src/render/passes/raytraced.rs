@@ -59,6 +59,8 @@ pub struct RaytracedPass {
     _corners: Buffer,
     frame: Buffer,
     write_aov: bool,
+    /// Device address of the denoiser's guide out (0: none).
+    guide: vk::DeviceAddress,
 }
 
 fn spirv(backend: Backend, shading: Shading) -> &'static [u8] {
@@ -145,7 +147,14 @@ impl RaytracedPass {
             _corners: corners,
             frame: frame_buf,
             write_aov,
+            guide: 0,
         })
+    }
+
+    /// Makes the pass write the denoiser's colour split to `guide` (a
+    /// [`crate::interface::denoise::DenoiseGuide`] per pixel; distributed shading).
+    pub fn write_guide(&mut self, guide: &Buffer) {
+        self.guide = guide.address();
     }
 
     /// Whether [`Self::record`] writes the AOVs (the pass was created with `write_aov`).
@@ -180,6 +189,7 @@ impl RaytracedPass {
                 flags: FLAG_ADAPTIVE_CORNERS,
                 pad0: 0,
                 color: self.color.address(),
+                guide: 0,
             };
             let groups = [(f.width + 1).div_ceil(8), (f.height + 1).div_ceil(8), 1];
             self.pipeline
@@ -190,6 +200,7 @@ impl RaytracedPass {
             flags: if self.write_aov { FLAG_WRITE_AOV } else { 0 },
             pad0: 0,
             color: self.color.address(),
+            guide: self.guide,
         };
         self.pipeline.dispatch(
             cmd,

@@ -89,7 +89,10 @@ impl BurstResources {
             })
             .transpose()?;
         // Each frame (and its reference) is one profiler frame plus its scopes.
-        let scopes = (crate::render::temporal::SCOPES_PER_FRAME + 8) * frames * 2;
+        let scopes =
+            (crate::render::temporal::SCOPES_PER_FRAME + 8 + crate::render::denoise::SCOPES)
+                * frames
+                * 2;
         Ok(Self {
             frames: ring,
             references,
@@ -126,6 +129,13 @@ impl Sequence {
         path: CameraPath,
         options: SequenceOptions,
     ) -> crate::Result<Self> {
+        if options.reuse.any() && settings.denoise.enabled() {
+            return Err(VkError::Limit(format!(
+                "--denoise {} filters full renders; it cannot be combined with temporal reuse (--reproject, --frameless, --subsample)",
+                settings.denoise.as_str()
+            ))
+            .into());
+        }
         // Before anything is allocated: the frame's buffers, and with reuse the sample cache
         // and its per-pixel buffers on top, against the device's limits and heap.
         let in_use = ctx.allocated_bytes();
@@ -253,14 +263,8 @@ impl Sequence {
         base: Camera,
     ) -> crate::Result<()> {
         self.draws = gbuffer::draws(scene);
-        self.full = FrameTargets::new(
-            ctx,
-            renderer,
-            self.options.path,
-            &self.settings,
-            &self.draws,
-            false,
-        )?;
+        // The denoiser's history carries over, as the sample cache does.
+        self.full.rebuild(ctx, renderer, &self.draws)?;
         if let Some(r) = self.reprojector.as_mut() {
             r.update_scene(renderer);
         }
@@ -278,12 +282,19 @@ impl Sequence {
         self.path.camera(&self.base, index)
     }
 
-    /// Empties the sample cache: the next frame is a full render.
+    /// Empties the sample cache and the denoiser's history: the next frame is a full render,
+    /// filtered on its own.
     pub fn reset(&mut self) {
         if let Some(r) = self.reprojector.as_mut() {
             r.reset();
         }
+        self.full.reset_history();
         self.next = None;
+    }
+
+    /// The full render's targets (their denoiser, for diagnostics).
+    pub fn full_targets(&self) -> &FrameTargets {
+        &self.full
     }
 
     /// Renders frame `index` in its own submission. Frames rendered in order (`index` =

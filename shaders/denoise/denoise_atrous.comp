@@ -1,0 +1,83 @@
+#version 460
+// Denoising, one à-trous iteration (Dammertz et al. 2010, as SVGF): a 5x5 B3-spline kernel
+// whose taps lie `step` pixels apart, each weighted by the edge-stopping geometry weights and
+// by luminance (the difference over phi_color x the pixel's standard deviation, from a 3x3
+// Gaussian of the variance); diffuse and specular apart. The variance is filtered with the
+// squared weights. With `feedback` the output also becomes the history the next frame blends
+// with (SVGF feeds back the first iteration). The specular light's kernel also narrows with
+// the surface's roughness (a Gaussian of SPECULAR_RADIUS x roughness pixels): the reflection
+// in a mirror or a clear glass is as sharp as what it shows, and only accumulated over time.
+// One thread per pixel.
+#extension GL_GOOGLE_include_directive : require
+#include "denoise.glsl"
+#include "denoise_edges.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(push_constant) uniform Push { DenoiseAtrousPush pc; };
+
+const float KERNEL[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
+const float SPECULAR_RADIUS = 48.0;
+
+// 3x3 Gaussian of the variance around p (alpha of the pair's `which` vec4).
+float blurred_variance(ivec2 p, uint which) {
+    const float g[2] = float[2](1.0 / 4.0, 1.0 / 8.0);
+    float sum = 0.0, sum_w = 0.0;
+    for (int y = -1; y <= 1; ++y) {
+        for (int x = -1; x <= 1; ++x) {
+            ivec2 q = p + ivec2(x, y);
+            if (!inside(q)) continue;
+            float w = g[abs(x)] * g[abs(y)];
+            sum += w * pair_load(pc.source, pixel_index(q), which).a;
+            sum_w += w;
+        }
+    }
+    return sum / sum_w;
+}
+
+void main() {
+    ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(pix)) return;
+    uint i = pixel_index(pix);
+    vec4 d = pair_load(pc.source, i, 0u);
+    vec4 s = pair_load(pc.source, i, 1u);
+    EdgeCentre c = edge_centre(i);
+    if (c.hit) {
+        float sigma_d = params.phi_color * sqrt(max(blurred_variance(pix, 0u), 0.0)) + 1e-10;
+        float sigma_s = params.phi_color * sqrt(max(blurred_variance(pix, 1u), 0.0)) + 1e-10;
+        float ld = luma(d.rgb), ls = luma(s.rgb);
+        float radius = SPECULAR_RADIUS * Guides(params.guide).v[i].specular_albedo.a;
+        float inv_two_r2 = radius > 0.0 ? 0.5 / (radius * radius) : -1.0;
+        vec4 sum_d = d * vec4(vec3(KERNEL[0] * KERNEL[0]), KERNEL[0] * KERNEL[0] * KERNEL[0] * KERNEL[0]);
+        vec4 sum_s = s * vec4(vec3(KERNEL[0] * KERNEL[0]), KERNEL[0] * KERNEL[0] * KERNEL[0] * KERNEL[0]);
+        float wd_sum = KERNEL[0] * KERNEL[0], ws_sum = wd_sum;
+        for (int y = -2; y <= 2; ++y) {
+            for (int x = -2; x <= 2; ++x) {
+                if (x == 0 && y == 0) continue;
+                ivec2 q = pix + ivec2(x, y) * int(pc.step);
+                if (!inside(q)) continue;
+                uint j = pixel_index(q);
+                float wg = geometry_weight(c, j);
+                if (wg <= 0.0) continue;
+                float k = KERNEL[abs(x)] * KERNEL[abs(y)];
+                vec4 qd = pair_load(pc.source, j, 0u);
+                vec4 qs = pair_load(pc.source, j, 1u);
+                float wd = k * wg * exp(-abs(ld - luma(qd.rgb)) / sigma_d);
+                float ws = 0.0;
+                if (inv_two_r2 > 0.0) {
+                    float r2 = float(x * x + y * y) * float(pc.step * pc.step);
+                    ws = k * wg * exp(-abs(ls - luma(qs.rgb)) / sigma_s - r2 * inv_two_r2);
+                }
+                sum_d += vec4(wd * qd.rgb, wd * wd * qd.a);
+                sum_s += vec4(ws * qs.rgb, ws * ws * qs.a);
+                wd_sum += wd;
+                ws_sum += ws;
+            }
+        }
+        d = vec4(sum_d.rgb / wd_sum, sum_d.a / (wd_sum * wd_sum));
+        s = vec4(sum_s.rgb / ws_sum, sum_s.a / (ws_sum * ws_sum));
+    }
+    pair_store(pc.target, i, d, s);
+    if (pc.feedback != 0u) {
+        pair_store(params.history, i, d, s);
+    }
+}

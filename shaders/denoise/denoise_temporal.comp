@@ -1,0 +1,102 @@
+#version 460
+// Denoising, temporal accumulation: this frame's demodulated illumination is blended with the
+// previous frame's fed-back illumination, reprojected through the previous camera and (for
+// moving objects) the previous pose, read bilinearly from the taps whose surface matches the
+// pixel's (disocclusion.glsl, as temporal reuse tests its samples). The blend weight is
+// 1 / history length, never below 1 / history_cap; a pixel with no matching tap starts again.
+// Also keeps the luminance moments (variance) and this frame's surface. One thread per pixel.
+#extension GL_GOOGLE_include_directive : require
+#include "scene.glsl"
+#include "disocclusion.glsl"
+#include "denoise.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+// Where the pixel's surface point was in the previous frame, in pixels (x + 0.5 = centre).
+vec2 previous_pixel(Aov a) {
+    vec3 world = a.position.xyz;
+    if (scene.prev_positions != scene.positions || scene.prev_instances != scene.instances) {
+        GpuInstance inst = scene_prev_instance(a.instance);
+        uvec3 tri = scene_triangle(scene_geometry(inst.geometry), a.primitive);
+        vec3 w = vec3(1.0 - a.bary.x - a.bary.y, a.bary.x, a.bary.y);
+        vec3 p = w.x * scene_prev_position(tri.x) + w.y * scene_prev_position(tri.y) + w.z * scene_prev_position(tri.z);
+        world = (inst.object_to_world * vec4(p, 1.0)).xyz;
+    }
+    vec4 clip = params.prev_view_proj * vec4(world, 1.0);
+    if (!(clip.w > 0.0)) {
+        return vec2(-1e9);
+    }
+    return (clip.xy / clip.w * 0.5 + 0.5) * vec2(params.width, params.height);
+}
+
+void main() {
+    ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(pix)) return;
+    uint i = pixel_index(pix);
+    Aov a = Aovs(params.aov).v[i];
+    bool hit = a.instance != AOV_NO_ID;
+    DenoiseSurface here;
+    here.position = a.position.xyz;
+    here.instance = a.instance;
+    here.normal = a.geometric_samples.xyz;
+    here.depth = a.normal_depth.w;
+    Surfaces(params.surface).v[i] = here;
+
+    vec3 d, s;
+    demodulated(i, d, s);
+    vec4 m = vec4(luma(d), luma(d) * luma(d), luma(s), luma(s) * luma(s));
+
+    vec3 hd = vec3(0.0), hs = vec3(0.0);
+    vec4 hm = vec4(0.0);
+    float hl = 0.0;
+    float taps = 0.0;
+    if (hit && (params.flags & DN_HISTORY) != 0u) {
+        vec2 p = previous_pixel(a) - 0.5;
+        ivec2 base = ivec2(floor(p));
+        vec2 f = p - vec2(base);
+        for (int k = 0; k < 4; ++k) {
+            ivec2 q = base + ivec2(k & 1, k >> 1);
+            if (!inside(q)) continue;
+            uint j = pixel_index(q);
+            DenoiseSurface was = Surfaces(params.prev_surface).v[j];
+            if (was.instance != a.instance
+                || !surfaces_match(was.position, was.normal, here.position, here.normal, max(here.depth, 1e-6),
+                                   params.plane_threshold, params.normal_threshold)) {
+                continue;
+            }
+            float w = ((k & 1) != 0 ? f.x : 1.0 - f.x) * ((k >> 1) != 0 ? f.y : 1.0 - f.y);
+            hd += w * pair_load(params.prev_history, j, 0u).rgb;
+            hs += w * pair_load(params.prev_history, j, 1u).rgb;
+            DenoiseMoments pm = Moments(params.prev_moments).v[j];
+            hm += w * pm.moments;
+            hl += w * pm.frames;
+            taps += w;
+        }
+    }
+    DenoiseMoments out_m;
+    out_m.pad = vec3(0.0);
+    if (taps > 0.01) {
+        hd /= taps;
+        hs /= taps;
+        hm /= taps;
+        float frames = min(floor(hl / taps + 0.5) + 1.0, float(params.history_cap));
+        float alpha = 1.0 / frames;
+        float alpha_m = max(alpha, params.moments_alpha);
+        d = mix(hd, d, alpha);
+        s = mix(hs, s, alpha);
+        m = mix(hm, m, alpha_m);
+        out_m.frames = frames;
+    } else {
+        out_m.frames = hit ? 1.0 : 0.0;
+    }
+    out_m.moments = m;
+    Moments(params.moments).v[i] = out_m;
+    // Variance from the moments; the variance pass replaces it for young pixels.
+    float var_d = max(m.y - m.x * m.x, 0.0);
+    float var_s = max(m.w - m.z * m.z, 0.0);
+    pair_store(params.accumulated, i, vec4(d, var_d), vec4(s, var_s));
+    if ((params.flags & DN_SPATIAL) == 0u) {
+        // Without the spatial filter the accumulation itself is what the next frame blends with.
+        pair_store(params.history, i, vec4(d, 0.0), vec4(s, 0.0));
+    }
+}
