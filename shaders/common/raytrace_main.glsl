@@ -128,7 +128,8 @@ void main() {
             }
         } else {
             if (job >= frame.spp) break;
-            vec2 u = sample_2d(frame.sampler_kind, pix, job, frame.spp, frame.seed);
+            uint index = (frame.flags & FLAG_SEQUENCE_JITTER) != 0u ? frame.sample_base + job : job;
+            vec2 u = sample_2d(frame.sampler_kind, pix, index, frame.spp, frame.seed);
             if (frame.filter_kind == FILTER_TENT) {
                 // Tent of radius one pixel around the centre: positions span [-1, 1), weighted.
                 vec2 o = u * 2.0 - 1.0;

@@ -3,8 +3,7 @@
 // whose taps lie `step` pixels apart, each weighted by the edge-stopping geometry weights and
 // by luminance (the difference over phi_color x the pixel's standard deviation, from a 3x3
 // Gaussian of the variance); diffuse and specular apart. The variance is filtered with the
-// squared weights. With `feedback` the output also becomes the history the next frame blends
-// with (SVGF feeds back the first iteration). The specular light's kernel also narrows with
+// squared weights. The specular light's kernel also narrows with
 // the surface's roughness (a Gaussian of SPECULAR_RADIUS x roughness pixels): the reflection
 // in a mirror or a clear glass is as sharp as what it shows, and only accumulated over time.
 // One thread per pixel.
@@ -77,7 +76,4 @@ void main() {
         s = vec4(sum_s.rgb / ws_sum, sum_s.a / (ws_sum * ws_sum));
     }
     pair_store(pc.target, i, d, s);
-    if (pc.feedback != 0u) {
-        pair_store(params.history, i, d, s);
-    }
 }

@@ -12,21 +12,32 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// Where the pixel's surface point was in the previous frame, in pixels (x + 0.5 = centre).
-vec2 previous_pixel(Aov a) {
+// Pixel coordinates (x + 0.5 = centre) of world point p through view_proj, or far outside the
+// image behind the camera.
+vec2 to_pixels(mat4 view_proj, vec3 p) {
+    vec4 clip = view_proj * vec4(p, 1.0);
+    if (!(clip.w > 0.0)) {
+        return vec2(-1e9);
+    }
+    return (clip.xy / clip.w * 0.5 + 0.5) * vec2(params.width, params.height);
+}
+
+// Where the pixel's centre was in the previous frame: the centre plus the motion of its
+// surface point (through the previous camera and, for moving objects, the previous pose).
+// Motion rather than the point's own projection, so that a sample placed off the centre
+// (a jittered sampler) does not shift the history by its offset every frame.
+vec2 previous_pixel(ivec2 pix, Aov a) {
     vec3 world = a.position.xyz;
+    vec3 prev_world = world;
     if (scene.prev_positions != scene.positions || scene.prev_instances != scene.instances) {
         GpuInstance inst = scene_prev_instance(a.instance);
         uvec3 tri = scene_triangle(scene_geometry(inst.geometry), a.primitive);
         vec3 w = vec3(1.0 - a.bary.x - a.bary.y, a.bary.x, a.bary.y);
         vec3 p = w.x * scene_prev_position(tri.x) + w.y * scene_prev_position(tri.y) + w.z * scene_prev_position(tri.z);
-        world = (inst.object_to_world * vec4(p, 1.0)).xyz;
+        prev_world = (inst.object_to_world * vec4(p, 1.0)).xyz;
     }
-    vec4 clip = params.prev_view_proj * vec4(world, 1.0);
-    if (!(clip.w > 0.0)) {
-        return vec2(-1e9);
-    }
-    return (clip.xy / clip.w * 0.5 + 0.5) * vec2(params.width, params.height);
+    vec2 motion = to_pixels(params.prev_view_proj, prev_world) - to_pixels(params.view_proj, world);
+    return vec2(pix) + 0.5 + motion;
 }
 
 void main() {
@@ -51,7 +62,7 @@ void main() {
     float hl = 0.0;
     float taps = 0.0;
     if (hit && (params.flags & DN_HISTORY) != 0u) {
-        vec2 p = previous_pixel(a) - 0.5;
+        vec2 p = previous_pixel(pix, a) - 0.5;
         ivec2 base = ivec2(floor(p));
         vec2 f = p - vec2(base);
         for (int k = 0; k < 4; ++k) {
@@ -91,12 +102,16 @@ void main() {
     }
     out_m.moments = m;
     Moments(params.moments).v[i] = out_m;
-    // Variance from the moments; the variance pass replaces it for young pixels.
-    float var_d = max(m.y - m.x * m.x, 0.0);
-    float var_s = max(m.w - m.z * m.z, 0.0);
+    // The variance of the accumulated estimate: the samples' (from the moments) over the
+    // frames behind it, so that the filter's luminance edges tighten as a pixel converges
+    // and a static view sharpens towards the accumulated image instead of staying blurred.
+    // The variance pass replaces it for young pixels.
+    float frames_behind = max(out_m.frames, 1.0);
+    float var_d = max(m.y - m.x * m.x, 0.0) / frames_behind;
+    float var_s = max(m.w - m.z * m.z, 0.0) / frames_behind;
     pair_store(params.accumulated, i, vec4(d, var_d), vec4(s, var_s));
-    if ((params.flags & DN_SPATIAL) == 0u) {
-        // Without the spatial filter the accumulation itself is what the next frame blends with.
-        pair_store(params.history, i, vec4(d, 0.0), vec4(s, 0.0));
-    }
+    // The accumulation itself, not its filtered image, is what the next frame blends with
+    // (SVGF feeds the first à-trous iteration back; that blurs a static view a little more
+    // every frame, where the accumulation converges to the unbiased mean).
+    pair_store(params.history, i, vec4(d, 0.0), vec4(s, 0.0));
 }

@@ -405,9 +405,10 @@ pub struct ImageArgs {
     /// Samples per pixel (grid and jitter need a square number).
     #[arg(long, default_value_t = 1)]
     pub spp: u32,
-    /// Sub-pixel sample placement.
-    #[arg(long, value_enum, default_value_t = SamplerKind::Center)]
-    pub sampler: SamplerKind,
+    /// Sub-pixel sample placement [default: center; sobol with --denoise, so that every frame
+    /// jitters anew and accumulated frames anti-alias].
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerKind>,
     /// Reconstruction filter.
     #[arg(long, value_enum, default_value_t = FilterKind::Box)]
     pub filter: FilterKind,
@@ -508,7 +509,11 @@ impl ImageArgs {
             width: self.width,
             height: self.height,
             spp: self.spp,
-            sampler: self.sampler,
+            sampler: self.sampler.unwrap_or(if self.denoise.enabled() {
+                SamplerKind::Sobol
+            } else {
+                SamplerKind::Center
+            }),
             filter: self.filter,
             max_depth: self.max_depth,
             min_weight: self.min_weight,

@@ -111,10 +111,10 @@ pub struct DenoiseParams {
     pub moments: u64,
     /// The previous frame's [`DenoiseMoments`].
     pub prev_moments: u64,
-    /// Filtered illumination fed back to the next frame: 2 `vec4` per pixel (diffuse,
+    /// Accumulated illumination the next frame blends with: 2 `vec4` per pixel (diffuse,
     /// specular; rgb), this frame's.
     pub history: u64,
-    /// The previous frame's fed-back illumination.
+    /// The previous frame's accumulated illumination.
     pub prev_history: u64,
     /// This frame's accumulated illumination, 2 `vec4` per pixel (rgb, variance).
     pub accumulated: u64,
@@ -134,8 +134,8 @@ pub struct DenoiseAtrousPush {
     pub target: u64,
     /// Tap spacing in pixels (1, 2, 4, …).
     pub step: u32,
-    /// 1: also write the output into the history fed back to the next frame.
-    pub feedback: u32,
+    /// Padding.
+    pub pad0: u32,
 }
 
 /// Binding of the denoiser's uniform ([`DenoiseParams`]), after the scene's set-0 bindings

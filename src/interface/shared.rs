@@ -23,6 +23,11 @@ pub const FLAG_ADAPTIVE_CORNERS: u32 = 8;
 /// Frame flag: camera rays that miss show the environment (cleared by `--background`, which
 /// then shows that colour while the environment still lights the scene).
 pub const FLAG_ENV_BACKGROUND: u32 = 16;
+/// Frame flag: camera samples are numbered through the sequence (`sample_base` + k) for their
+/// position in the pixel too, not only for their random numbers: each frame of a denoised
+/// sequence jitters anew, so that accumulated frames anti-alias (sequence-indexed samplers
+/// only: Halton, Sobol, blue noise).
+pub const FLAG_SEQUENCE_JITTER: u32 = 32;
 
 /// `GpuFrame::sampler_kind`: pixel centres.
 pub const SAMPLER_CENTER: u32 = 0;

@@ -96,6 +96,9 @@ impl GpuFrame {
         if settings.environment_background {
             flags |= FLAG_ENV_BACKGROUND;
         }
+        if settings.denoise.enabled() && settings.sampler.sequence_indexed() {
+            flags |= crate::interface::FLAG_SEQUENCE_JITTER;
+        }
         let rotation = settings.environment_rotation.to_radians();
         Self {
             camera_to_world: camera.camera_to_world.to_cols_array(),

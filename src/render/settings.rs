@@ -25,6 +25,13 @@ pub enum SamplerKind {
 }
 
 impl SamplerKind {
+    /// Whether sample k's position depends on k alone, so that numbering samples through a
+    /// sequence (k = frame × spp + j) keeps them well spread (not grid and jitter, whose
+    /// strata are sized by spp, nor the adaptive sampler).
+    pub fn sequence_indexed(self) -> bool {
+        matches!(self, Self::Halton | Self::Sobol | Self::Bluenoise)
+    }
+
     /// The shaders' `SAMPLER_*` code.
     pub fn code(self) -> u32 {
         use crate::interface as i;

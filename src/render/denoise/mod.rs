@@ -14,8 +14,10 @@
 //! 3. **Variance** (`denoise_variance.comp`): from the accumulated luminance moments, or a 7×7
 //!    spatial estimate for pixels with under 4 frames of history.
 //! 4. **À-trous** (`denoise_atrous.comp`): [`ATROUS_ITERATIONS`] iterations, taps 1, 2, 4, 8
-//!    and 16 pixels apart, stopping at normal, depth-plane and luminance edges; the first
-//!    iteration's output is fed back as the next frame's history.
+//!    and 16 pixels apart, stopping at normal, depth-plane and luminance edges (the luminance
+//!    edges tighten as a pixel's history grows: its variance is the estimate's). The next
+//!    frame blends with the accumulation, not with the filtered image, so a static view
+//!    converges to the unbiased mean.
 //! 5. **Remodulate** (`denoise_remodulate.comp`) into the colour tonemapping reads.
 //!
 //! `temporal` runs 1, 2 and 5; `svgf` all five. A single frame (no history) gets the spatial
@@ -356,7 +358,7 @@ impl Denoiser {
                     source: input.address(),
                     target: output.address(),
                     step: 1 << k,
-                    feedback: u32::from(k == 0),
+                    pad0: 0,
                 };
                 run(&self.atrous, &self.sets[2], SCOPE_ATROUS, push);
                 std::mem::swap(&mut input, &mut output);
@@ -395,7 +397,7 @@ mod tests {
 
     #[test]
     fn a_small_orbit_step_is_not_a_cut_and_a_jump_is() {
-        let at = |eye: Vec3| Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y).inverse();
+        let at = |eye: Vec3| crate::scene::procedural::camera_to_world(eye, Vec3::ZERO, Vec3::Y);
         let a = at(Vec3::new(0.0, 1.0, 5.0));
         let turn = Mat4::from_rotation_y(0.5f32.to_radians());
         let b = turn * a;

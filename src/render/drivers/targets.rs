@@ -196,13 +196,7 @@ impl FrameTargets {
                 };
                 let mut samples = Vec::with_capacity(positions.len());
                 for u in positions {
-                    let (jitter, weight) = match settings.filter {
-                        FilterKind::Box => ([u[0] - 0.5, u[1] - 0.5], 1.0),
-                        FilterKind::Tent => {
-                            let o = [u[0] * 2.0 - 1.0, u[1] * 2.0 - 1.0];
-                            (o, sampling::tent_weight(o[0], o[1]))
-                        }
-                    };
+                    let (jitter, weight) = sample_jitter(settings.filter, u);
                     let frame = frame_uniform("hybrid frame")?;
                     let gbuffer = GbufferPass::with_raster(
                         ctx,
@@ -369,10 +363,26 @@ impl FrameTargets {
             PathPasses::Hybrid {
                 samples, counters, ..
             } => {
+                let sequence_jitter = frame.flags & crate::interface::FLAG_SEQUENCE_JITTER != 0;
+                let mut weights = Vec::with_capacity(samples.len());
                 for (i, s) in (0u32..).zip(samples) {
                     let mut f = *frame;
                     f.jitter = s.jitter;
                     f.sample_base = frame.sample_base + i;
+                    let mut weight = s.weight;
+                    if sequence_jitter {
+                        // As the ray-traced pass places sample sample_base + i (same sampler).
+                        let st = &self.settings;
+                        if let Some(u) = sampling::pixel_independent_sample(
+                            st.sampler,
+                            f.sample_base,
+                            st.spp,
+                            st.seed,
+                        ) {
+                            (f.jitter, weight) = sample_jitter(st.filter, u);
+                        }
+                    }
+                    weights.push(weight);
                     s.frame.record_update(device, cmd, bytemuck::bytes_of(&f));
                 }
                 // SAFETY: recording command buffer; the counters buffer is ours.
@@ -398,8 +408,14 @@ impl FrameTargets {
                         }
                     }
                     let guide = self.denoiser.as_ref().map_or(0, |d| d.guide.address());
-                    s.shading
-                        .record(cmd, extent, flags, s.weight, guide, profiler.as_deref_mut());
+                    s.shading.record(
+                        cmd,
+                        extent,
+                        flags,
+                        weights[i],
+                        guide,
+                        profiler.as_deref_mut(),
+                    );
                     memory_barrier(device, cmd);
                 }
             }
@@ -547,6 +563,18 @@ impl FrameTargets {
             out.gpu_ms = merge_scopes(p.results()?);
         }
         Ok(out)
+    }
+}
+
+/// The raster jitter (sample position − pixel centre) and filter weight of a sample at `u` in
+/// the pixel: the tent filter's samples spread over [-1, 1) around the centre.
+fn sample_jitter(filter: FilterKind, u: [f32; 2]) -> ([f32; 2], f32) {
+    match filter {
+        FilterKind::Box => ([u[0] - 0.5, u[1] - 0.5], 1.0),
+        FilterKind::Tent => {
+            let o = [u[0] * 2.0 - 1.0, u[1] * 2.0 - 1.0];
+            (o, sampling::tent_weight(o[0], o[1]))
+        }
     }
 }
 

@@ -1,0 +1,670 @@
+//! The denoiser (`--denoise`) against converged references and against itself: without
+//! history it changes nothing it should not (demodulation multiplies back exactly), the
+//! spatial filter lowers the error and keeps a depth edge, 30 accumulated frames beat 16 samples
+//! per pixel, the hybrid path and both backends agree, runs repeat bit for bit (in bursts or
+//! frame by frame), a camera cut drops the history and a disoccluded pixel starts again within
+//! one frame.
+
+mod common;
+
+use glam::{Mat4, Vec3, Vec4};
+use rqr::accel::Backend;
+use rqr::render::denoise::DenoiseMode;
+use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
+use rqr::render::image::compare;
+use rqr::render::passes::gbuffer;
+use rqr::render::readback::RingContents;
+use rqr::render::{
+    CameraSetup, FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind,
+    Shading,
+};
+use rqr::scene::procedural::{assemble, cornell, look_at, quad};
+use rqr::scene::{Camera, Instance, Light, LightKind, Material, MaterialLayers, Scene};
+use rqr::vk::Context;
+
+const SIDE: u32 = 64;
+
+/// What burst frames read back: the image and its linear colour.
+const FRAMES: RingContents = RingContents {
+    rgba8: true,
+    color: true,
+    aov: false,
+    states: false,
+};
+
+fn backends(ctx: &Context) -> Vec<Backend> {
+    let mut b = vec![Backend::Bvh];
+    if ctx.features().ray_query {
+        b.push(Backend::Hw);
+    }
+    b
+}
+
+/// The test room with sphere lights.
+fn soft_cornell() -> Scene {
+    let mut scene = cornell();
+    for l in &mut scene.lights {
+        l.size = 0.2;
+    }
+    scene
+}
+
+fn settings(denoise: DenoiseMode, spp: u32) -> RenderSettings {
+    sized(denoise, spp, SIDE)
+}
+
+fn sized(denoise: DenoiseMode, spp: u32, side: u32) -> RenderSettings {
+    RenderSettings {
+        width: side,
+        height: side,
+        spp,
+        sampler: SamplerKind::Sobol,
+        shading: Shading::Distributed,
+        denoise,
+        ..Default::default()
+    }
+}
+
+fn targets(
+    ctx: &Context,
+    renderer: &Renderer,
+    scene: &Scene,
+    path: RenderPath,
+    s: &RenderSettings,
+) -> FrameTargets {
+    FrameTargets::new(ctx, renderer, path, s, &gbuffer::draws(scene), true).unwrap()
+}
+
+/// Mean squared error of linear colours (clamped to [0, 1], as displayed), over pixels.
+fn mse(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| {
+            (0..3)
+                .map(|c| {
+                    let d = f64::from(x[c].clamp(0.0, 1.0)) - f64::from(y[c].clamp(0.0, 1.0));
+                    d * d
+                })
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum();
+    sum / a.len() as f64
+}
+
+/// Writes `target/denoise-tests/<name>-actual.png` and `-diff.png` (FLIP heatmap against
+/// `reference`) for a failing comparison, and returns the folder.
+fn save_failure(name: &str, actual: &RenderOutput, reference: &RenderOutput) -> String {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("denoise-tests");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (actual.width, actual.height);
+    let save = |file: &str, rgba: &[u8]| {
+        image::save_buffer(dir.join(file), rgba, w, h, image::ColorType::Rgba8).unwrap();
+    };
+    save(&format!("{name}-actual.png"), &actual.rgba8);
+    save(&format!("{name}-reference.png"), &reference.rgba8);
+    let d = compare::compare(w, h, &reference.rgba8, &actual.rgba8);
+    image::save_buffer(
+        dir.join(format!("{name}-diff.png")),
+        &d.heatmap,
+        w,
+        h,
+        image::ColorType::Rgb8,
+    )
+    .unwrap();
+    dir.display().to_string()
+}
+
+/// The converged image: `spp` samples per pixel, no denoiser.
+fn reference(ctx: &Context, renderer: &Renderer, camera: &Camera, spp: u32) -> RenderOutput {
+    let s = RenderSettings {
+        seed: 99,
+        ..settings(DenoiseMode::None, spp)
+    };
+    renderer.render_rt(ctx, &s, camera, false).unwrap()
+}
+
+#[test]
+fn without_history_temporal_mode_returns_the_frame_as_shaded() {
+    let ctx = common::gpu();
+    let scene = soft_cornell();
+    let camera = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        let spp = if path == RenderPath::Hybrid { 2 } else { 1 };
+        let raw = targets(
+            &ctx,
+            &renderer,
+            &scene,
+            path,
+            &settings(DenoiseMode::None, spp),
+        )
+        .render(&ctx, &camera)
+        .unwrap();
+        let mut t = targets(
+            &ctx,
+            &renderer,
+            &scene,
+            path,
+            &settings(DenoiseMode::Temporal, spp),
+        );
+        let split = t.render(&ctx, &camera).unwrap();
+        // Demodulated, accumulated over one frame and multiplied back: the colour again.
+        let mut worst = 0f32;
+        for (a, b) in raw.color.iter().zip(&split.color) {
+            for c in 0..3 {
+                worst = worst.max((a[c] - b[c]).abs() / a[c].abs().max(0.05));
+            }
+        }
+        assert!(worst < 1e-3, "{path:?}: worst relative change {worst}");
+        // The guide's parts never exceed the colour they split.
+        let guide = t.denoiser().unwrap().read_guide(&ctx).unwrap();
+        for (g, c) in guide.iter().zip(&raw.color) {
+            let w = g.diffuse[3].max(1e-6);
+            for (k, &colour) in c.iter().take(3).enumerate() {
+                let parts = (g.diffuse[k] + g.unfiltered[k]) / w;
+                assert!(
+                    parts <= colour * 1.001 + 1e-5,
+                    "{path:?}: parts {parts} > {colour}"
+                );
+            }
+        }
+        assert!(
+            guide.iter().any(|g| g.diffuse[0] > 0.0),
+            "{path:?}: no diffuse light in the split"
+        );
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn the_spatial_filter_lowers_the_error_of_one_frame() {
+    let ctx = common::gpu();
+    let scene = soft_cornell();
+    let camera = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    // 128² (the à-trous footprint, 62 pixels, then covers a wall, not the whole image).
+    let side = 128;
+    let truth = renderer
+        .render_rt(
+            &ctx,
+            &RenderSettings {
+                seed: 99,
+                ..sized(DenoiseMode::None, 512, side)
+            },
+            &camera,
+            false,
+        )
+        .unwrap();
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        let raw = targets(
+            &ctx,
+            &renderer,
+            &scene,
+            path,
+            &sized(DenoiseMode::None, 1, side),
+        )
+        .render(&ctx, &camera)
+        .unwrap();
+        let svgf = targets(
+            &ctx,
+            &renderer,
+            &scene,
+            path,
+            &sized(DenoiseMode::Svgf, 1, side),
+        )
+        .render(&ctx, &camera)
+        .unwrap();
+        let (e_raw, e_svgf) = (
+            mse(&raw.color, &truth.color),
+            mse(&svgf.color, &truth.color),
+        );
+        // On the room's diffuse walls (instances 0-4) the filter has the most to do; the
+        // mirror and glass spheres' sharp reflections are left to accumulation over frames.
+        let walls = |img: &RenderOutput| -> Vec<[f32; 4]> {
+            img.color
+                .iter()
+                .zip(&raw.aov)
+                .filter(|(_, a)| (0..5).contains(&a.instance()))
+                .map(|(c, _)| *c)
+                .collect()
+        };
+        let (w_raw, w_svgf) = (
+            mse(&walls(&raw), &walls(&truth)),
+            mse(&walls(&svgf), &walls(&truth)),
+        );
+        if e_svgf >= 0.9 * e_raw || w_svgf >= 0.6 * w_raw {
+            let dir = save_failure(&format!("one-frame-{}", path.as_str()), &svgf, &truth);
+            panic!(
+                "{path:?}: MSE raw {e_raw:.3e}, one denoised frame {e_svgf:.3e}; on the walls {w_raw:.3e} and {w_svgf:.3e} (images in {dir})"
+            );
+        }
+        // Its passes are timed under their own scopes.
+        for scope in [
+            "denoise temporal",
+            "denoise variance",
+            "denoise atrous",
+            "denoise remodulate",
+        ] {
+            assert!(
+                svgf.gpu_ms.iter().any(|(n, ms)| n == scope && *ms >= 0.0),
+                "{path:?}: no {scope} timing in {:?}",
+                svgf.gpu_ms
+            );
+        }
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn thirty_accumulated_frames_beat_sixteen_samples_per_pixel() {
+    let ctx = common::gpu();
+    let scene = soft_cornell();
+    let camera = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let truth = reference(&ctx, &renderer, &camera, 1024);
+    let sixteen = renderer
+        .render_rt(&ctx, &settings(DenoiseMode::None, 16), &camera, false)
+        .unwrap();
+    let mut seq = Sequence::new(
+        &ctx,
+        &renderer,
+        &scene,
+        &settings(DenoiseMode::Svgf, 1),
+        camera,
+        CameraPath::Static,
+        SequenceOptions {
+            path: RenderPath::RayTraced,
+            reuse: Default::default(),
+            reference: false,
+        },
+    )
+    .unwrap();
+    let frames = seq.prepare_bursts(&ctx, 30, FRAMES, 1 << 30);
+    let frames = frames.unwrap();
+    let mut last = None;
+    let mut start = 0;
+    while start < 30 {
+        let end = (start + frames).min(30);
+        last = seq.render_burst(&ctx, start..end).unwrap().pop();
+        start = end;
+    }
+    let last = last.unwrap();
+    let (e16, e30) = (
+        mse(&sixteen.color, &truth.color),
+        mse(&last.output.color, &truth.color),
+    );
+    if e30 > e16 {
+        let dir = save_failure("thirty-frames", &last.output, &truth);
+        panic!("MSE after 30 denoised frames {e30:.3e}, 16 spp {e16:.3e} (images in {dir})");
+    }
+    let lengths = seq
+        .full_targets()
+        .denoiser()
+        .unwrap()
+        .history_lengths(&ctx)
+        .unwrap();
+    let max = lengths.iter().cloned().fold(0.0, f32::max);
+    assert_eq!(max, 30.0, "a static pixel's history is every frame so far");
+    common::assert_validation_clean(&ctx);
+}
+
+/// A white floor (y = 0) and, over x < 0, a white plane one unit above it, seen from straight
+/// above, lit by a small sun from the upper left: the upper plane is lit, the floor beside
+/// its edge lies in its shadow. The same normal on both sides, a step in depth and in light.
+fn step_scene() -> (Scene, Camera) {
+    let white = Material {
+        base_color: Vec4::new(0.8, 0.8, 0.8, 1.0),
+        metallic: 0.0,
+        roughness: 1.0,
+        layers: Some(Box::new(MaterialLayers {
+            specular: 0.0,
+            ..Default::default()
+        })),
+        ..Default::default()
+    };
+    let scene = assemble(
+        vec![quad(0)],
+        vec![
+            Instance {
+                geometry: 0,
+                transform: Mat4::from_scale(Vec3::new(20.0, 1.0, 20.0)),
+                node: 0,
+            },
+            Instance {
+                geometry: 0,
+                transform: Mat4::from_translation(Vec3::new(-5.0, 1.0, 0.0))
+                    * Mat4::from_scale(Vec3::new(10.0, 1.0, 20.0)),
+                node: 1,
+            },
+        ],
+        vec![white],
+        vec![Light {
+            kind: LightKind::Directional,
+            color: Vec3::ONE,
+            intensity: 3.0,
+            range: f32::INFINITY,
+            position: Vec3::ZERO,
+            direction: Vec3::new(1.0, -1.0, 0.0).normalize(),
+            size: 0.02,
+        }],
+        vec![],
+    );
+    let camera = look_at(Vec3::new(0.0, 8.0, 0.0), Vec3::ZERO, 12.0);
+    (scene, camera)
+}
+
+#[test]
+fn the_spatial_filter_keeps_a_depth_edge() {
+    let ctx = common::gpu();
+    let (scene, camera) = step_scene();
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let truth = reference(&ctx, &renderer, &camera, 1024);
+    let out = renderer
+        .render_rt(&ctx, &settings(DenoiseMode::Svgf, 1), &camera, true)
+        .unwrap();
+    // The edge's column: where the hit depth jumps along the middle row.
+    let row = SIDE as usize / 2;
+    let depth = |x: usize| out.aov[row * SIDE as usize + x].depth();
+    let edge = (1..SIDE as usize)
+        .find(|&x| (depth(x) - depth(x - 1)).abs() > 0.5)
+        .expect("no depth edge in the middle row");
+    assert!((16..48).contains(&edge), "edge at column {edge}");
+    let luminance = |c: &[f32; 4]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    // Mean over the rows of the 3 columns beside the edge on each side (the edge column's
+    // pixels straddle it and are left out).
+    let side_mean = |img: &[[f32; 4]], cols: std::ops::Range<usize>| {
+        let mut sum = 0.0;
+        let mut n = 0.0;
+        for y in 8..SIDE as usize - 8 {
+            for x in cols.clone() {
+                sum += luminance(&img[y * SIDE as usize + x]);
+                n += 1.0;
+            }
+        }
+        sum / n
+    };
+    let near = (edge - 4)..(edge - 1);
+    let far = (edge + 1)..(edge + 4);
+    let (t_near, t_far) = (
+        side_mean(&truth.color, near.clone()),
+        side_mean(&truth.color, far.clone()),
+    );
+    assert!(
+        t_near > 4.0 * t_far,
+        "the upper side should be lit, the lower in shadow: {t_near} vs {t_far}"
+    );
+    for (name, cols, want) in [("upper", near, t_near), ("lower", far, t_far)] {
+        let got = side_mean(&out.color, cols);
+        assert!(
+            (got - want).abs() <= 0.06 * want + 0.01 * t_near,
+            "{name} side of the edge: denoised {got}, reference {want}"
+        );
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn hybrid_and_both_backends_denoise_alike() {
+    let ctx = common::gpu();
+    let scene = soft_cornell();
+    let camera = scene.cameras[0];
+    let s = settings(DenoiseMode::Svgf, 1);
+    let mut images = Vec::new();
+    for backend in backends(&ctx) {
+        let renderer = Renderer::new(&ctx, &scene, backend).unwrap();
+        for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+            let out = targets(&ctx, &renderer, &scene, path, &s)
+                .render(&ctx, &camera)
+                .unwrap();
+            images.push((format!("{backend:?} {path:?}"), out.rgba8));
+        }
+    }
+    let (first_name, first) = &images[0];
+    for (name, img) in &images[1..] {
+        let d = compare::compare(SIDE, SIDE, first, img);
+        assert!(
+            d.flip_mean <= 0.01,
+            "{name} against {first_name}: FLIP {}",
+            d.flip_mean
+        );
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+fn orbit_sequence(ctx: &Context, renderer: &Renderer, scene: &Scene, path: RenderPath) -> Sequence {
+    Sequence::new(
+        ctx,
+        renderer,
+        scene,
+        &settings(DenoiseMode::Svgf, 1),
+        scene.cameras[0],
+        CameraPath::Orbit {
+            degrees_per_frame: 1.0,
+            pivot: Vec3::new(0.0, 2.0, 0.0),
+        },
+        SequenceOptions {
+            path,
+            reuse: Default::default(),
+            reference: false,
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn denoised_frames_repeat_bit_for_bit_in_bursts_and_one_by_one() {
+    let ctx = common::gpu();
+    let scene = soft_cornell();
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        let one_by_one: Vec<Vec<u8>> = {
+            let mut seq = orbit_sequence(&ctx, &renderer, &scene, path);
+            (0..5)
+                .map(|k| seq.render_frame(&ctx, k).unwrap().output.rgba8)
+                .collect()
+        };
+        let burst: Vec<Vec<u8>> = {
+            let mut seq = orbit_sequence(&ctx, &renderer, &scene, path);
+            let n = seq.prepare_bursts(&ctx, 5, FRAMES, 1 << 30).unwrap();
+            assert_eq!(n, 5);
+            seq.render_burst(&ctx, 0..5)
+                .unwrap()
+                .into_iter()
+                .map(|f| f.output.rgba8)
+                .collect()
+        };
+        let again: Vec<Vec<u8>> = {
+            let mut seq = orbit_sequence(&ctx, &renderer, &scene, path);
+            (0..5)
+                .map(|k| seq.render_frame(&ctx, k).unwrap().output.rgba8)
+                .collect()
+        };
+        assert!(one_by_one == again, "{path:?}: two runs differ");
+        assert!(
+            one_by_one == burst,
+            "{path:?}: burst and frame by frame differ"
+        );
+        // History is used: frame 4 differs from a fresh render of the same frame.
+        let mut fresh = orbit_sequence(&ctx, &renderer, &scene, path);
+        let alone = fresh.render_frame(&ctx, 4).unwrap().output.rgba8;
+        assert!(
+            alone != one_by_one[4],
+            "{path:?}: history made no difference"
+        );
+    }
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn a_camera_cut_drops_the_history() {
+    let ctx = common::gpu();
+    let scene = soft_cornell();
+    let a = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let s = settings(DenoiseMode::Svgf, 1);
+    let mut t = targets(&ctx, &renderer, &scene, RenderPath::RayTraced, &s);
+    for _ in 0..4 {
+        t.render(&ctx, &a).unwrap();
+    }
+    let lengths = t.denoiser().unwrap().history_lengths(&ctx).unwrap();
+    assert!(lengths.contains(&4.0), "no history before the cut");
+    // A small step keeps the history ...
+    let mut nudged = a;
+    nudged.camera_to_world = Mat4::from_translation(Vec3::new(0.01, 0.0, 0.0)) * a.camera_to_world;
+    t.render(&ctx, &nudged).unwrap();
+    let lengths = t.denoiser().unwrap().history_lengths(&ctx).unwrap();
+    assert!(
+        lengths.iter().any(|&l| l >= 5.0),
+        "a small step lost the history"
+    );
+    // ... a jump across the room does not.
+    let mut cut = a;
+    cut.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 0.0, -1.5))
+        * Mat4::from_rotation_y(0.9)
+        * a.camera_to_world;
+    let after_cut = t.render(&ctx, &cut).unwrap();
+    let lengths = t.denoiser().unwrap().history_lengths(&ctx).unwrap();
+    assert!(
+        lengths.iter().all(|&l| l <= 1.0),
+        "history used after a cut: longest {}",
+        lengths.iter().cloned().fold(0.0, f32::max)
+    );
+    let fresh = targets(&ctx, &renderer, &scene, RenderPath::RayTraced, &s)
+        .render(&ctx, &cut)
+        .unwrap();
+    assert_eq!(
+        after_cut.rgba8, fresh.rgba8,
+        "the frame after a cut is not a fresh one"
+    );
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn a_disoccluded_pixel_starts_again_within_one_frame() {
+    let ctx = common::gpu();
+    let scene = soft_cornell();
+    let a = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let s = settings(DenoiseMode::Temporal, 1);
+    let mut t = targets(&ctx, &renderer, &scene, RenderPath::RayTraced, &s);
+    let mut first = None;
+    for _ in 0..4 {
+        first = Some(t.render(&ctx, &a).unwrap());
+    }
+    let first = first.unwrap();
+    // A sideways step (not a cut) uncovers the wall behind the box and spheres.
+    let mut b = a;
+    b.camera_to_world = a.camera_to_world * Mat4::from_translation(Vec3::new(1.5, 0.0, 0.0));
+    let second = t.render(&ctx, &b).unwrap();
+    let lengths = t.denoiser().unwrap().history_lengths(&ctx).unwrap();
+    // Where each of b's hits was in a's image, and what a saw there.
+    let setup = CameraSetup::new(&a, SIDE, SIDE, renderer.scene_scale());
+    let view_proj = setup.proj * setup.view();
+    let (mut disoccluded, mut kept, mut continued) = (0, 0, 0);
+    for (i, hit) in second.aov.iter().enumerate() {
+        if !hit.hit() {
+            continue;
+        }
+        let p = hit.world_position();
+        let clip = view_proj * p.extend(1.0);
+        let px = (clip.truncate() / clip.w).truncate() * 0.5 + glam::Vec2::splat(0.5);
+        let (x, y) = ((px.x * SIDE as f32) as i32, (px.y * SIDE as f32) as i32);
+        if x < 1 || y < 1 || x >= SIDE as i32 - 1 || y >= SIDE as i32 - 1 {
+            continue;
+        }
+        // Hidden in a: every neighbour there saw something at least 5 % of the depth nearer.
+        let hidden = (-1..=1).all(|dy| {
+            (-1..=1).all(|dx| {
+                let seen = &first.aov[((y + dy) as u32 * SIDE + (x + dx) as u32) as usize];
+                seen.hit()
+                    && (seen.world_position() - setup.camera_to_world.w_axis.truncate()).length()
+                        < 0.95 * (p - setup.camera_to_world.w_axis.truncate()).length()
+            })
+        });
+        if hidden {
+            disoccluded += 1;
+            assert_eq!(
+                lengths[i], 1.0,
+                "disoccluded pixel {i} kept {} frames",
+                lengths[i]
+            );
+        } else {
+            kept += 1;
+            continued += usize::from(lengths[i] >= 2.0);
+        }
+    }
+    assert!(disoccluded >= 20, "only {disoccluded} disoccluded pixels");
+    assert!(
+        continued * 10 >= kept * 8,
+        "{continued} of {kept} visible pixels kept their history"
+    );
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn denoise_settings_are_checked() {
+    let bad = [
+        (
+            RenderSettings {
+                denoise: DenoiseMode::Svgf,
+                ..Default::default()
+            },
+            "--shading distributed",
+        ),
+        (
+            RenderSettings {
+                history_cap: 0,
+                ..settings(DenoiseMode::Svgf, 1)
+            },
+            "--history-cap",
+        ),
+    ];
+    for (s, want) in bad {
+        let e = s.validate(1 << 14).unwrap_err().to_string();
+        assert!(e.contains(want), "{e}");
+    }
+    let (out, _) = common::run_rqr(
+        &[
+            "render",
+            "--denoise",
+            "svgf",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+            "/dev/null",
+        ],
+        &[],
+        std::time::Duration::from_secs(120),
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--shading distributed"));
+    let (out, _) = common::run_rqr(
+        &[
+            "render",
+            "--shading",
+            "distributed",
+            "--denoise",
+            "svgf",
+            "--frames",
+            "2",
+            "--reproject",
+            "--sampler",
+            "center",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+            "/tmp/rqr-denoise-reproject.png",
+        ],
+        &[],
+        std::time::Duration::from_secs(120),
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("temporal reuse"), "{err}");
+}
