@@ -100,8 +100,36 @@ def oidn_cli():
     return shutil.which("oidnDenoise")
 
 
+def on_frame(folder, repeats):
+    """OIDN on the frame `examples/denoise_bench.rs` left in `folder` (raw.pfm with
+    guide.albedo.pfm and guide.normal.pfm, the same 1-spp frame rqr's denoiser filtered), scored
+    against its reference.pfm next to rqr's own outputs (denoised1.pfm: that frame alone;
+    denoised30.pfm: after 30 frames of history)."""
+    import pyoidn
+
+    load = lambda name: read_pfm(os.path.join(folder, name))
+    ref, color = load("reference.pfm"), load("raw.pfm")
+    albedo, normal = load("guide.albedo.pfm"), load("guide.normal.pfm")
+    rows = [{"method": "rqr 1 spp, raw", **scores(color, ref), "ms": None},
+            {"method": "rqr 16 spp, raw", **scores(load("raw16.pfm"), ref), "ms": None},
+            {"method": "rqr svgf, this frame alone", **scores(load("denoised1.pfm"), ref), "ms": None},
+            {"method": "rqr svgf, after 30 frames", **scores(load("denoised30.pfm"), ref), "ms": None}]
+    for quality in ("high", "fast"):
+        times, out = [], None
+        for _ in range(repeats):
+            t = time.perf_counter()
+            out = pyoidn.denoise(color, albedo, normal, hdr=True, quality=quality)
+            times.append((time.perf_counter() - t) * 1e3)
+        write_pfm(os.path.join(folder, f"oidn_{quality}.pfm"), out)
+        rows.append({"method": f"OIDN {quality} + albedo + normal", **scores(out, ref),
+                     "ms": sorted(times)[len(times) // 2]})
+    return {"folder": folder, "rows": rows}
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--frame-dir", default=None,
+                   help="score OIDN on the frame examples/denoise_bench.rs wrote here, and stop")
     p.add_argument("--rqr", default="target/release/rqr", help="the rqr binary")
     p.add_argument("--scene", default=None, help="glTF file (default: the built-in room)")
     p.add_argument("--size", default="256x256", help="WxH")
@@ -110,6 +138,9 @@ def main():
     p.add_argument("--keep", default=None, help="folder to keep the images in")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     args = p.parse_args()
+    if args.frame_dir:
+        print(json.dumps(on_frame(args.frame_dir, args.repeats), indent=2))
+        return
     import pyoidn
 
     size = tuple(int(v) for v in args.size.split("x"))

@@ -21,6 +21,25 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Guides { Den
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Aovs { Aov v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Surfaces { DenoiseSurface v[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Moments { DenoiseMoments v[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Histories { DenoiseHistory v[]; };
+
+// The edge texel's w bits on a miss.
+const uint EDGE_MISS = 0xFFFFFFFFu;
+
+// Octahedral encoding of a unit normal (Cigolle et al. 2014) into two snorm16.
+uint encode_normal(vec3 n) {
+    n /= abs(n.x) + abs(n.y) + abs(n.z);
+    vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
+    return packSnorm2x16(e);
+}
+
+vec3 decode_normal(uint bits) {
+    vec2 e = unpackSnorm2x16(bits);
+    vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
+    float t = max(-n.z, 0.0);
+    n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
+    return normalize(n);
+}
 
 // Albedos are clamped away from 0 so that a black surface divides and multiplies back exactly.
 const float MIN_ALBEDO = 1e-3;

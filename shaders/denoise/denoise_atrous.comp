@@ -41,10 +41,15 @@ void main() {
     vec4 s = pair_load(pc.source, i, 1u);
     EdgeCentre c = edge_centre(i);
     if (c.hit) {
-        float sigma_d = params.phi_color * sqrt(max(blurred_variance(pix, 0u), 0.0)) + 1e-10;
-        float sigma_s = params.phi_color * sqrt(max(blurred_variance(pix, 1u), 0.0)) + 1e-10;
+        // The first iteration smooths the variance estimate over 3x3 (SVGF); later ones take
+        // the pixel's own, already filtered by the iterations before.
+        bool first = pc.step == 1u;
+        float var_d = first ? blurred_variance(pix, 0u) : d.a;
+        float var_s = first ? blurred_variance(pix, 1u) : s.a;
+        float sigma_d = params.phi_color * sqrt(max(var_d, 0.0)) + 1e-10;
+        float sigma_s = params.phi_color * sqrt(max(var_s, 0.0)) + 1e-10;
         float ld = luma(d.rgb), ls = luma(s.rgb);
-        float radius = SPECULAR_RADIUS * Guides(params.guide).v[i].specular_albedo.a;
+        float radius = SPECULAR_RADIUS * Histories(params.history).v[i].specular_albedo.a;
         float inv_two_r2 = radius > 0.0 ? 0.5 / (radius * radius) : -1.0;
         vec4 sum_d = d * vec4(vec3(KERNEL[0] * KERNEL[0]), KERNEL[0] * KERNEL[0] * KERNEL[0] * KERNEL[0]);
         vec4 sum_s = s * vec4(vec3(KERNEL[0] * KERNEL[0]), KERNEL[0] * KERNEL[0] * KERNEL[0] * KERNEL[0]);

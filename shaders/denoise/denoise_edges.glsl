@@ -11,23 +11,31 @@ struct EdgeCentre {
     vec3 normal;
 };
 
+// The pixel's edge texel (written by the temporal pass: 16 bytes, where the AOV is 80).
 EdgeCentre edge_centre(uint i) {
-    Aov a = Aovs(params.aov).v[i];
+    vec4 e = Vec4s(params.edges).v[i];
     EdgeCentre c;
-    c.hit = a.instance != AOV_NO_ID;
-    c.position = a.position.xyz;
-    c.normal = a.normal_depth.xyz;
+    uint bits = floatBitsToUint(e.w);
+    c.hit = bits != EDGE_MISS;
+    c.position = e.xyz;
+    c.normal = c.hit ? decode_normal(bits) : vec3(0.0);
     return c;
+}
+
+// x^128 by squaring (phi_normal, the exponent, is 128; a CPU device's pow is far slower).
+float pow128(float x) {
+    x *= x; x *= x; x *= x; x *= x; x *= x; x *= x; x *= x;
+    return x;
 }
 
 // Weight of neighbour j from the centre's geometry (0 for a miss on either side).
 float geometry_weight(EdgeCentre c, uint j) {
-    Aov a = Aovs(params.aov).v[j];
-    if (!c.hit || a.instance == AOV_NO_ID) {
+    EdgeCentre q = edge_centre(j);
+    if (!c.hit || !q.hit) {
         return 0.0;
     }
-    float w_normal = pow(max(dot(c.normal, a.normal_depth.xyz), 0.0), params.phi_normal);
-    vec3 offset = a.position.xyz - c.position;
+    float w_normal = pow128(max(dot(c.normal, q.normal), 0.0));
+    vec3 offset = q.position - c.position;
     float off_plane = abs(dot(offset, c.normal)) / max(length(offset), 1e-12);
     float w_plane = exp(-off_plane / params.phi_plane);
     return w_normal * w_plane;

@@ -1,23 +1,25 @@
 #version 460
 // Denoising, last pass: the filtered diffuse and specular illumination multiplied back by
-// their albedos, plus what was never filtered (emission, misses). One thread per pixel.
+// their albedos, plus what was never filtered (emission), both accumulated over the pixel's
+// history like the illumination; misses as traced. One thread per pixel.
 #extension GL_GOOGLE_include_directive : require
 #include "denoise.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-// The illumination to remodulate: the last à-trous output, or the accumulation.
+// source: the illumination to remodulate (the last à-trous output, or the accumulation);
+// target: this frame's history, whose accumulated albedos multiply it back.
 layout(push_constant) uniform Push { DenoiseAtrousPush pc; };
 
 void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(pix)) return;
     uint i = pixel_index(pix);
-    DenoiseGuide g = Guides(params.guide).v[i];
-    float w = g.unfiltered.a > 0.0 ? g.unfiltered.a : 1.0;
-    vec3 c = g.unfiltered.rgb / w;
+    vec3 c;
     if (pixel_hit(i)) {
-        c += max(g.diffuse_albedo.rgb, vec3(MIN_ALBEDO)) * pair_load(pc.source, i, 0u).rgb
-           + max(g.specular_albedo.rgb, vec3(MIN_ALBEDO)) * pair_load(pc.source, i, 1u).rgb;
+        // This frame's accumulated albedos and unfiltered light (pc.target: the history).
+        DenoiseHistory h = Histories(pc.target).v[i];
+        c = h.unfiltered.rgb + h.diffuse_albedo.rgb * pair_load(pc.source, i, 0u).rgb
+          + h.specular_albedo.rgb * pair_load(pc.source, i, 1u).rgb;
     } else {
         // A miss has no surface to filter on: its colour as traced.
         vec4 raw = Vec4s(params.color).v[i];

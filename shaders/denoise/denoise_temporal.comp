@@ -52,12 +52,21 @@ void main() {
     here.normal = a.geometric_samples.xyz;
     here.depth = a.normal_depth.w;
     Surfaces(params.surface).v[i] = here;
+    Vec4s(params.edges).v[i] = hit ? vec4(here.position, uintBitsToFloat(encode_normal(a.normal_depth.xyz)))
+                                   : vec4(0.0, 0.0, 0.0, uintBitsToFloat(EDGE_MISS));
+    DenoiseGuide guide = Guides(params.guide).v[i];
+    float gw = guide.unfiltered.a > 0.0 ? guide.unfiltered.a : 1.0;
+    DenoiseHistory acc;
+    acc.diffuse_albedo = vec4(max(guide.diffuse_albedo.rgb, vec3(MIN_ALBEDO)), 0.0);
+    acc.specular_albedo = vec4(max(guide.specular_albedo.rgb, vec3(MIN_ALBEDO)), guide.specular_albedo.a);
+    acc.unfiltered = vec4(guide.unfiltered.rgb / gw, 0.0);
 
     vec3 d, s;
     demodulated(i, d, s);
     vec4 m = vec4(luma(d), luma(d) * luma(d), luma(s), luma(s) * luma(s));
 
     vec3 hd = vec3(0.0), hs = vec3(0.0);
+    vec4 hda = vec4(0.0), hsa = vec4(0.0), hu = vec4(0.0);
     vec4 hm = vec4(0.0);
     float hl = 0.0;
     float taps = 0.0;
@@ -76,8 +85,12 @@ void main() {
                 continue;
             }
             float w = ((k & 1) != 0 ? f.x : 1.0 - f.x) * ((k >> 1) != 0 ? f.y : 1.0 - f.y);
-            hd += w * pair_load(params.prev_history, j, 0u).rgb;
-            hs += w * pair_load(params.prev_history, j, 1u).rgb;
+            DenoiseHistory h = Histories(params.prev_history).v[j];
+            hd += w * h.diffuse.rgb;
+            hs += w * h.specular.rgb;
+            hda += w * h.diffuse_albedo;
+            hsa += w * h.specular_albedo;
+            hu += w * h.unfiltered;
             DenoiseMoments pm = Moments(params.prev_moments).v[j];
             hm += w * pm.moments;
             hl += w * pm.frames;
@@ -95,6 +108,9 @@ void main() {
         float alpha_m = max(alpha, params.moments_alpha);
         d = mix(hd, d, alpha);
         s = mix(hs, s, alpha);
+        acc.diffuse_albedo = mix(hda / taps, acc.diffuse_albedo, alpha);
+        acc.specular_albedo = mix(hsa / taps, acc.specular_albedo, alpha);
+        acc.unfiltered = mix(hu / taps, acc.unfiltered, alpha);
         m = mix(hm, m, alpha_m);
         out_m.frames = frames;
     } else {
@@ -113,5 +129,7 @@ void main() {
     // The accumulation itself, not its filtered image, is what the next frame blends with
     // (SVGF feeds the first à-trous iteration back; that blurs a static view a little more
     // every frame, where the accumulation converges to the unbiased mean).
-    pair_store(params.history, i, vec4(d, 0.0), vec4(s, 0.0));
+    acc.diffuse = vec4(d, 0.0);
+    acc.specular = vec4(s, 0.0);
+    Histories(params.history).v[i] = acc;
 }

@@ -49,6 +49,24 @@ pub struct DenoiseSurface {
     pub depth: f32,
 }
 
+/// What the next frame blends with, per pixel: the accumulated demodulated illumination and
+/// the accumulated albedos and unfiltered light it is multiplied back with (so that a jittered
+/// sampler's albedo and emission edges are averaged over frames too, not flicker).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct DenoiseHistory {
+    /// rgb: diffuse illumination.
+    pub diffuse: [f32; 4],
+    /// rgb: specular illumination.
+    pub specular: [f32; 4],
+    /// rgb: diffuse albedo.
+    pub diffuse_albedo: [f32; 4],
+    /// rgb: specular albedo; a: roughness.
+    pub specular_albedo: [f32; 4],
+    /// rgb: unfiltered light.
+    pub unfiltered: [f32; 4],
+}
+
 /// Per-pixel temporal state of the denoiser.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -111,11 +129,14 @@ pub struct DenoiseParams {
     pub moments: u64,
     /// The previous frame's [`DenoiseMoments`].
     pub prev_moments: u64,
-    /// Accumulated illumination the next frame blends with: 2 `vec4` per pixel (diffuse,
-    /// specular; rgb), this frame's.
+    /// [`DenoiseHistory`] per pixel, this frame's.
     pub history: u64,
-    /// The previous frame's accumulated illumination.
+    /// The previous frame's [`DenoiseHistory`].
     pub prev_history: u64,
+    /// What the spatial passes test edges on, one `vec4` per pixel: world position, and the
+    /// shading normal octahedron-encoded into two 16-bit snorms (the bits of w; all ones on a
+    /// miss).
+    pub edges: u64,
     /// This frame's accumulated illumination, 2 `vec4` per pixel (rgb, variance).
     pub accumulated: u64,
     /// Ping-pong buffers of the à-trous iterations, 2 `vec4` per pixel each.

@@ -30,8 +30,8 @@ use ash::vk;
 use glam::Mat4;
 
 use crate::interface::denoise::{
-    DenoiseAtrousPush, DenoiseMoments, DenoiseParams, DenoiseSurface, BINDING_DENOISE_PARAMS,
-    DN_HISTORY, DN_SPATIAL, DN_WEIGHTED_COLOR,
+    DenoiseAtrousPush, DenoiseHistory, DenoiseMoments, DenoiseParams, DenoiseSurface,
+    BINDING_DENOISE_PARAMS, DN_HISTORY, DN_SPATIAL, DN_WEIGHTED_COLOR,
 };
 use crate::interface::{self as io, bindings, push_bytes};
 use crate::render::{GpuFrame, PassContext, RenderSettings};
@@ -108,8 +108,10 @@ pub fn bytes_per_pixel() -> u64 {
     let surface = std::mem::size_of::<DenoiseSurface>() as u64;
     let moments = std::mem::size_of::<DenoiseMoments>() as u64;
     let pair = 32;
+    let history = std::mem::size_of::<DenoiseHistory>() as u64;
     let guide = std::mem::size_of::<io::denoise::DenoiseGuide>() as u64;
-    2 * surface + 2 * moments + 5 * pair + guide + 16
+    let edges = 16;
+    2 * surface + 2 * moments + 2 * history + 3 * pair + guide + edges + 16
 }
 
 /// Whether the camera moved from `prev` to `next` (camera-to-world matrices) by more than a
@@ -152,6 +154,7 @@ pub struct Denoiser {
     surfaces: [Buffer; 2],
     moments: [Buffer; 2],
     history: [Buffer; 2],
+    edges: Buffer,
     accumulated: Buffer,
     ping: Buffer,
     pong: Buffer,
@@ -204,6 +207,7 @@ impl Denoiser {
         let surface_bytes = std::mem::size_of::<DenoiseSurface>() as u64;
         let moments_bytes = std::mem::size_of::<DenoiseMoments>() as u64;
         let guide_bytes = std::mem::size_of::<io::denoise::DenoiseGuide>() as u64;
+        let history_bytes = std::mem::size_of::<DenoiseHistory>() as u64;
         let sets = [
             temporal.allocate_set()?,
             variance.allocate_set()?,
@@ -233,9 +237,10 @@ impl Denoiser {
                 buffer("denoise moments", moments_bytes)?,
             ],
             history: [
-                buffer("denoise history", 32)?,
-                buffer("denoise history", 32)?,
+                buffer("denoise history", history_bytes)?,
+                buffer("denoise history", history_bytes)?,
             ],
+            edges: buffer("denoise edges", 16)?,
             accumulated: buffer("denoise accumulation", 32)?,
             ping: buffer("denoise ping", 32)?,
             pong: buffer("denoise pong", 32)?,
@@ -321,6 +326,7 @@ impl Denoiser {
             prev_moments: self.moments[before].address(),
             history: self.history[now].address(),
             prev_history: self.history[before].address(),
+            edges: self.edges.address(),
             accumulated: self.accumulated.address(),
             ping: self.ping.address(),
             pong: self.pong.address(),
@@ -369,6 +375,7 @@ impl Denoiser {
         };
         let push = DenoiseAtrousPush {
             source: filtered.address(),
+            target: self.history[now].address(),
             ..Default::default()
         };
         run(&self.remodulate, &self.sets[3], SCOPE_REMODULATE, push);

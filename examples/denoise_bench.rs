@@ -1,0 +1,618 @@
+//! The denoiser's benchmark (`scripts/bench-denoise.sh` runs it on the three scenes): against a
+//! converged reference rendered in batches of 16 samples, at `--size`² and 1 spp per frame,
+//! distributed shading, ray-traced path:
+//!
+//! - static camera, 30 frames: MSE of the denoised frame 30 against raw 16 spp;
+//! - temporal stability: mean absolute difference of consecutive output frames (20..30),
+//!   denoised against raw;
+//! - camera motion: 60 frames of `orbit:0.5`, mean FLIP against per-frame references (every
+//!   10th frame), denoised against raw;
+//! - cost: the denoiser's passes against the whole 1-spp frame at `--cost-size`², GPU
+//!   timestamps over a burst after a warm-up;
+//! - with `--ghosting` (an animated scene, static camera): mean FLIP, against per-frame
+//!   references, of the pixels the moving object left 4 frames earlier, and the lag.
+//!
+//! It writes the raw frame 30 with its albedo and normal guides, the reference and rqr's
+//! outputs as PFM into `--out`, for `scripts/oidn_denoise.py` to run OIDN on the same frame,
+//! and prints one JSON object.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result};
+use clap::Parser;
+use glam::{Mat4, Vec3, Vec4};
+use rqr::accel::Backend;
+use rqr::environment::GpuEnvironment;
+use rqr::render::denoise::{self, DenoiseMode};
+use rqr::render::drivers::animated::{AnimatedFrames, AnimationUpdate};
+use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
+use rqr::render::image::{compare, output, tonemap};
+use rqr::render::readback::RingContents;
+use rqr::render::{
+    FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading,
+};
+use rqr::scene::{Camera, Instance, Material, Scene};
+use rqr::vk::{Context, ContextOptions};
+use serde_json::json;
+
+#[derive(Parser)]
+struct Args {
+    /// glTF scene (omitted: the built-in one).
+    scene: Option<PathBuf>,
+    /// Image side in pixels.
+    #[arg(long, default_value_t = 128)]
+    size: u32,
+    /// Samples per pixel of the references.
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Image side of the cost measurement.
+    #[arg(long, default_value_t = 512)]
+    cost_size: u32,
+    /// Environment map lighting the scene.
+    #[arg(long)]
+    environment: Option<PathBuf>,
+    /// Radius of every point and spot light.
+    #[arg(long)]
+    light_radius: Option<f32>,
+    /// Add a rough metal sphere on the scene's floor (its bounds' bottom centre).
+    #[arg(long)]
+    add_rough_sphere: bool,
+    /// Measure ghosting on the scene's first animation (static camera) instead of the rest;
+    /// the scene stands on a floor added under its bounds, where a ghost would show.
+    #[arg(long)]
+    ghosting: bool,
+    /// Folder for the PFM images.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+const STATIC_FRAMES: u32 = 30;
+const ORBIT_FRAMES: u32 = 60;
+const ORBIT_DEG: f32 = 0.5;
+const GHOST_FRAMES: u32 = 24;
+const GHOST_LAG: u32 = 4;
+
+fn main() -> Result<()> {
+    env_logger::init();
+    let args = Args::parse();
+    std::fs::create_dir_all(&args.out)?;
+    let ctx = Context::new(&ContextOptions::default())?;
+    let mut scene = match &args.scene {
+        Some(p) => rqr::scene::load(p, &Default::default())
+            .with_context(|| format!("loading {}", p.display()))?,
+        None => rqr::scene::load_default()?,
+    };
+    if let Some(r) = args.light_radius {
+        for l in &mut scene.lights {
+            l.size = r;
+        }
+    }
+    if args.add_rough_sphere {
+        add_rough_sphere(&mut scene);
+    }
+    let camera = scene
+        .cameras
+        .first()
+        .copied()
+        .unwrap_or_else(|| rqr::scene::auto_camera(&scene.bounds, 1.0));
+    if args.ghosting {
+        add_floor(&mut scene);
+    }
+    let environment = match &args.environment {
+        Some(p) => Some(rqr::environment::map::load(p)?.0),
+        None => None,
+    };
+    let settings = |denoise: DenoiseMode, spp: u32, side: u32| RenderSettings {
+        width: side,
+        height: side,
+        spp,
+        sampler: SamplerKind::Sobol,
+        shading: Shading::Distributed,
+        denoise,
+        environment_background: true,
+        ..Default::default()
+    };
+    if args.ghosting {
+        let report = ghosting(&ctx, &args, &scene, camera, environment.as_ref(), &settings)?;
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    let mut renderer = Renderer::new(&ctx, &scene, Backend::Bvh)?;
+    if let Some(map) = &environment {
+        renderer.set_environment(&ctx, Some(GpuEnvironment::prepare(&ctx, map)?))?;
+    }
+    let side = args.size;
+
+    // Static camera: the reference, raw 16 spp, and the denoised and raw sequences.
+    let reference = render_reference(
+        &ctx,
+        &renderer,
+        &settings(DenoiseMode::None, 1, side),
+        &camera,
+        args.reference_spp,
+    )?;
+    let sixteen =
+        renderer.render_rt(&ctx, &settings(DenoiseMode::None, 16, side), &camera, false)?;
+    let denoised = sequence(
+        &ctx,
+        &renderer,
+        &scene,
+        &settings(DenoiseMode::Svgf, 1, side),
+        camera,
+        CameraPath::Static,
+        STATIC_FRAMES,
+    )?;
+    let raw = sequence(
+        &ctx,
+        &renderer,
+        &scene,
+        &settings(DenoiseMode::None, 1, side),
+        camera,
+        CameraPath::Static,
+        STATIC_FRAMES,
+    )?;
+    let last = (STATIC_FRAMES - 1) as usize;
+    let stability = |frames: &[SequenceFrame]| -> f64 {
+        let pairs = &frames[20..];
+        pairs
+            .windows(2)
+            .map(|w| mean_abs_diff(&w[0].output.color, &w[1].output.color))
+            .sum::<f64>()
+            / (pairs.len() - 1) as f64
+    };
+    // The single-frame filter on the same frame (frame 30's samples, no history).
+    let single = {
+        let s = settings(DenoiseMode::Svgf, 1, side);
+        let mut t = FrameTargets::new(&ctx, &renderer, RenderPath::RayTraced, &s, &[], true)?;
+        let mut out = None;
+        for k in [last as u32] {
+            out = Some(render_numbered(&ctx, &mut t, &camera, k)?);
+        }
+        out.unwrap()
+    };
+    // Guides of frame 30 for OIDN: albedo and normal of the same samples.
+    let guides = {
+        let s = settings(DenoiseMode::None, 1, side);
+        let mut t = FrameTargets::new(&ctx, &renderer, RenderPath::RayTraced, &s, &[], true)?;
+        render_numbered(&ctx, &mut t, &camera, last as u32)?
+    };
+    write(&args.out, "reference", &reference)?;
+    write(&args.out, "raw", &raw[last].output)?;
+    write(&args.out, "raw16", &sixteen)?;
+    write(&args.out, "denoised30", &denoised[last].output)?;
+    write(&args.out, "denoised1", &single)?;
+    for name in ["albedo", "normal"] {
+        output::write_aov(
+            &output::aov_path(&args.out.join("guide.pfm"), name, output::FloatFormat::Pfm),
+            &guides,
+            name,
+            output::FloatFormat::Pfm,
+        )?;
+    }
+    let static_report = json!({
+        "mse_raw_1spp": mse(&raw[last].output.color, &reference.color),
+        "mse_raw_16spp": mse(&sixteen.color, &reference.color),
+        "mse_denoised_single_frame": mse(&single.color, &reference.color),
+        "mse_denoised_frame_30": mse(&denoised[last].output.color, &reference.color),
+        "stability_raw": stability(&raw),
+        "stability_denoised": stability(&denoised),
+    });
+
+    // Camera motion: per-frame references every 10th frame.
+    let orbit = CameraPath::Orbit {
+        degrees_per_frame: ORBIT_DEG,
+        pivot: 0.5 * (scene.bounds.min + scene.bounds.max),
+    };
+    let moving = sequence(
+        &ctx,
+        &renderer,
+        &scene,
+        &settings(DenoiseMode::Svgf, 1, side),
+        camera,
+        orbit.clone(),
+        ORBIT_FRAMES,
+    )?;
+    let moving_raw = sequence(
+        &ctx,
+        &renderer,
+        &scene,
+        &settings(DenoiseMode::None, 1, side),
+        camera,
+        orbit.clone(),
+        ORBIT_FRAMES,
+    )?;
+    let (mut flip_denoised, mut flip_raw, mut n) = (0.0, 0.0, 0.0);
+    for k in (9..ORBIT_FRAMES).step_by(10) {
+        let cam = orbit.camera(&camera, k);
+        let r = render_reference(
+            &ctx,
+            &renderer,
+            &settings(DenoiseMode::None, 1, side),
+            &cam,
+            args.reference_spp / 4,
+        )?;
+        flip_denoised += f64::from(
+            compare::compare(side, side, &r.rgba8, &moving[k as usize].output.rgba8).flip_mean,
+        );
+        flip_raw += f64::from(
+            compare::compare(side, side, &r.rgba8, &moving_raw[k as usize].output.rgba8).flip_mean,
+        );
+        n += 1.0;
+    }
+    let motion_report = json!({
+        "flip_raw": flip_raw / n,
+        "flip_denoised": flip_denoised / n,
+        "reference_spp": args.reference_spp / 4,
+        "frames_compared": n,
+    });
+
+    // Cost at --cost-size: a burst after a warm-up.
+    let cost = {
+        let s = settings(DenoiseMode::Svgf, 1, args.cost_size);
+        let mut seq = Sequence::new(
+            &ctx,
+            &renderer,
+            &scene,
+            &s,
+            camera,
+            CameraPath::Static,
+            SequenceOptions {
+                path: RenderPath::RayTraced,
+                reuse: Default::default(),
+                reference: false,
+            },
+        )?;
+        let burst = seq.prepare_bursts(
+            &ctx,
+            8,
+            RingContents {
+                rgba8: true,
+                color: false,
+                aov: false,
+                states: false,
+            },
+            1 << 30,
+        )?;
+        seq.warm_up(&ctx, 0, burst.min(4))?;
+        // Timed: the second burst, whose pixels have history (the first frames' young pixels
+        // take the variance pass's 7x7 estimate).
+        seq.render_burst(&ctx, 0..burst)?;
+        let frames = seq.render_burst(&ctx, burst..2 * burst)?;
+        let (mut denoise_ms, mut frame_ms) = (0.0, 0.0);
+        for f in &frames {
+            frame_ms += f.frame_gpu_ms;
+            denoise_ms += f
+                .output
+                .gpu_ms
+                .iter()
+                .filter(|(name, _)| name.starts_with("denoise "))
+                .map(|p| p.1)
+                .sum::<f64>();
+        }
+        let per = |x: f64| x / frames.len() as f64;
+        let shaded = per(frame_ms) - per(denoise_ms);
+        json!({
+            "size": args.cost_size,
+            "frames": frames.len(),
+            "frame_ms": per(frame_ms),
+            "denoise_ms": per(denoise_ms),
+            "denoise_share_of_undenoised_frame": per(denoise_ms) / shaded.max(1e-9),
+            "passes": frames[0].output.gpu_ms,
+        })
+    };
+    let report = json!({
+        "device": ctx.info().name,
+        "scene": args.scene.as_ref().map_or("built-in".into(), |p| p.display().to_string()),
+        "size": side,
+        "reference_spp": args.reference_spp,
+        "static": static_report,
+        "motion": motion_report,
+        "cost": cost,
+        "history_cap": denoise::DEFAULT_HISTORY_CAP,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}
+
+/// A rough metal sphere (roughness 0.35) on the floor of the scene's bounds, a fifth of their
+/// width across.
+fn add_rough_sphere(scene: &mut Scene) {
+    let material = scene.materials.len() as u32;
+    scene.materials.push(Material {
+        name: "rough metal".into(),
+        base_color: Vec4::new(0.9, 0.75, 0.55, 1.0),
+        metallic: 1.0,
+        roughness: 0.35,
+        ..Default::default()
+    });
+    let geometry = scene.geometries.len() as u32;
+    scene
+        .geometries
+        .push(rqr::scene::procedural::sphere(material, 64, 32));
+    let b = scene.bounds;
+    let size = b.max - b.min;
+    let radius = 0.1 * size.x.min(size.z);
+    let centre = Vec3::new(
+        b.min.x + 0.3 * size.x,
+        b.min.y + radius,
+        b.min.z + 0.6 * size.z,
+    );
+    scene.instances.push(Instance {
+        geometry,
+        transform: Mat4::from_translation(centre) * Mat4::from_scale(Vec3::splat(radius)),
+        node: 0,
+    });
+}
+
+/// A grey Lambert floor under the scene's bounds, ten times their width.
+fn add_floor(scene: &mut Scene) {
+    let material = scene.materials.len() as u32;
+    scene.materials.push(Material {
+        name: "floor".into(),
+        base_color: Vec4::new(0.6, 0.6, 0.6, 1.0),
+        metallic: 0.0,
+        roughness: 1.0,
+        ..Default::default()
+    });
+    let geometry = scene.geometries.len() as u32;
+    scene
+        .geometries
+        .push(rqr::scene::procedural::quad(material));
+    let b = scene.bounds;
+    let size = (b.max - b.min).max_element() * 10.0;
+    let centre = 0.5 * (b.min + b.max);
+    let transform = Mat4::from_translation(Vec3::new(centre.x, b.min.y, centre.z))
+        * Mat4::from_scale(Vec3::new(size, 1.0, size));
+    // A node of its own that no scene root reaches: posing leaves it at the identity.
+    let node = scene.rig.nodes.len();
+    scene.rig.nodes.push(rqr::scene::pose::RigNode {
+        parent: None,
+        rest: rqr::scene::pose::LocalTransform::Matrix(Mat4::IDENTITY),
+        skin: None,
+        weights: Vec::new(),
+    });
+    scene.rig.instance_local.push(transform);
+    scene.instances.push(Instance {
+        geometry,
+        transform,
+        node,
+    });
+}
+
+/// `frames` frames of `path` (one by one).
+fn sequence(
+    ctx: &Context,
+    renderer: &Renderer,
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: Camera,
+    path: CameraPath,
+    frames: u32,
+) -> Result<Vec<SequenceFrame>> {
+    let mut seq = Sequence::new(
+        ctx,
+        renderer,
+        scene,
+        settings,
+        camera,
+        path,
+        SequenceOptions {
+            path: RenderPath::RayTraced,
+            reuse: Default::default(),
+            reference: false,
+        },
+    )?;
+    (0..frames).map(|k| Ok(seq.render_frame(ctx, k)?)).collect()
+}
+
+/// Frame `k` of a sequence through `camera` in `targets` (its samples numbered k × spp on).
+fn render_numbered(
+    ctx: &Context,
+    targets: &mut FrameTargets,
+    camera: &Camera,
+    k: u32,
+) -> Result<RenderOutput> {
+    let frame = targets.sequence_frame(camera, k);
+    ctx.run("benchmark frame", |cmd| {
+        targets.record(ctx, cmd, &frame, None, Some((targets.readback_ring(), 0)));
+        Ok(())
+    })?;
+    Ok(targets.read()?)
+}
+
+/// The ray-traced image at `spp` samples, in batches of 16 with successive seeds, averaged
+/// and tonemapped on the host.
+fn render_reference(
+    ctx: &Context,
+    renderer: &Renderer,
+    settings: &RenderSettings,
+    camera: &Camera,
+    spp: u32,
+) -> Result<RenderOutput> {
+    let pixels = settings.pixels() as usize;
+    let mut sum = vec![[0.0f64; 3]; pixels];
+    let mut done = 0;
+    let mut batch = 0;
+    while done < spp {
+        let n = 16.min(spp - done);
+        let s = RenderSettings {
+            spp: n,
+            seed: 1000 + batch,
+            ..settings.clone()
+        };
+        let out = renderer.render_rt(ctx, &s, camera, false)?;
+        for (acc, c) in sum.iter_mut().zip(&out.color) {
+            for k in 0..3 {
+                acc[k] += f64::from(c[k]) * f64::from(n);
+            }
+        }
+        done += n;
+        batch += 1;
+    }
+    let color: Vec<[f32; 4]> = sum
+        .iter()
+        .map(|c| {
+            [
+                (c[0] / f64::from(spp)) as f32,
+                (c[1] / f64::from(spp)) as f32,
+                (c[2] / f64::from(spp)) as f32,
+                1.0,
+            ]
+        })
+        .collect();
+    let rgba8 = color
+        .iter()
+        .flat_map(|c| {
+            tonemap::tonemap_rgba8([c[0], c[1], c[2]], settings.tonemap, settings.exposure)
+        })
+        .collect();
+    Ok(RenderOutput {
+        width: settings.width,
+        height: settings.height,
+        color,
+        rgba8,
+        aov: Vec::new(),
+        rays: Default::default(),
+        samples: 0,
+        gpu_ms: Vec::new(),
+    })
+}
+
+fn write(dir: &Path, name: &str, out: &RenderOutput) -> Result<()> {
+    output::write_color_pfm(&dir.join(format!("{name}.pfm")), out)?;
+    output::write_png(&dir.join(format!("{name}.png")), out)?;
+    Ok(())
+}
+
+/// Mean squared error of linear colours clamped to [0, 1] (as displayed), as the tests compute it.
+fn mse(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| {
+            (0..3)
+                .map(|c| {
+                    (f64::from(x[c].clamp(0.0, 1.0)) - f64::from(y[c].clamp(0.0, 1.0))).powi(2)
+                })
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum();
+    sum / a.len() as f64
+}
+
+fn mean_abs_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| {
+            (0..3)
+                .map(|c| (f64::from(x[c].clamp(0.0, 1.0)) - f64::from(y[c].clamp(0.0, 1.0))).abs())
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum();
+    sum / a.len() as f64
+}
+
+/// Static camera on an animated scene: frame k shows the animation at k / 30 s. Pixels the
+/// object covered GHOST_LAG frames earlier and no longer covers are compared with the
+/// frame's reference; the lag is how many frames after being uncovered such pixels take to
+/// come within mean FLIP 0.05.
+fn ghosting(
+    ctx: &Context,
+    args: &Args,
+    rest: &Scene,
+    camera: Camera,
+    environment: Option<&rqr::environment::EnvironmentMap>,
+    settings: &dyn Fn(DenoiseMode, u32, u32) -> RenderSettings,
+) -> Result<serde_json::Value> {
+    let side = args.size;
+    let fps = 30.0;
+    let animations = vec![0usize];
+    let mut results = Vec::new();
+    for mode in [DenoiseMode::Svgf, DenoiseMode::None] {
+        let mut anim = AnimatedFrames::new(
+            ctx,
+            rest,
+            &animations,
+            0.0,
+            Backend::Bvh,
+            rqr::accel::bvh::BvhBuild::Host,
+        )?;
+        if let Some(map) = environment {
+            anim.set_environment(ctx, Some(GpuEnvironment::prepare(ctx, map)?))?;
+        }
+        let posed = rest.posed(&animations, 0.0);
+        let s = settings(mode, 1, side);
+        let mut seq = Sequence::new(
+            ctx,
+            anim.renderer(),
+            &posed,
+            &s,
+            camera,
+            CameraPath::Static,
+            SequenceOptions {
+                path: RenderPath::RayTraced,
+                reuse: Default::default(),
+                reference: false,
+            },
+        )?;
+        let mut covered: Vec<Vec<bool>> = Vec::new();
+        let mut flips: Vec<(u32, f64, usize)> = Vec::new();
+        for k in 0..GHOST_FRAMES {
+            if k > 0 {
+                let (posed, _) = anim.update_with(ctx, k as f32 / fps, AnimationUpdate::Refit)?;
+                seq.update_scene(ctx, anim.renderer(), &posed, camera)?;
+            }
+            let frame = seq.render_frame(ctx, k)?;
+            let mut t = FrameTargets::new(
+                ctx,
+                anim.renderer(),
+                RenderPath::RayTraced,
+                &settings(DenoiseMode::None, 1, side),
+                &[],
+                true,
+            )?;
+            let mask_frame = t.render(ctx, &camera)?;
+            // The figure: every instance but the floor (the last one).
+            let floor = (rest.instances.len() - 1) as i32;
+            covered.push(
+                mask_frame
+                    .aov
+                    .iter()
+                    .map(|a| a.hit() && a.instance() != floor)
+                    .collect(),
+            );
+            if k >= GHOST_LAG {
+                let before = &covered[(k - GHOST_LAG) as usize];
+                let now = &covered[k as usize];
+                let left: Vec<usize> = (0..now.len()).filter(|&i| before[i] && !now[i]).collect();
+                if left.is_empty() {
+                    continue;
+                }
+                let r = render_reference(
+                    ctx,
+                    anim.renderer(),
+                    &settings(DenoiseMode::None, 1, side),
+                    &camera,
+                    args.reference_spp / 4,
+                )?;
+                let d = compare::compare(side, side, &r.rgba8, &frame.output.rgba8);
+                let flip = left.iter().map(|&i| f64::from(d.error_map[i])).sum::<f64>()
+                    / left.len() as f64;
+                flips.push((k, flip, left.len()));
+            }
+        }
+        let mean = flips.iter().map(|f| f.1).sum::<f64>() / flips.len().max(1) as f64;
+        results.push(json!({
+            "denoise": mode.as_str(),
+            "mean_flip_left_pixels": mean,
+            "per_frame": flips,
+        }));
+    }
+    // Lag: the smallest j such that pixels uncovered j frames earlier are within FLIP 0.05.
+    Ok(
+        json!({ "device": ctx.info().name, "size": side, "lag_frames_compared": GHOST_LAG, "results": results }),
+    )
+}
