@@ -1,7 +1,9 @@
 //! `rqr compare --reference-spp N`: error against time. A converged image of the distributed
 //! model (ray traced, N samples per pixel) is the reference; the Whitted model and the
 //! distributed one at 1, 4 and 16 spp, on both paths, are rendered and reported with
-//! their FLIP and PSNR against it next to their GPU milliseconds.
+//! their FLIP and PSNR against it next to their GPU milliseconds. With `--denoise`, the
+//! denoised 1-spp frame joins them twice: filtered alone (no history), and after
+//! [`DENOISED_FRAMES`] frames of a static camera (its GPU ms: that last frame's).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -11,6 +13,8 @@ use rqr::accel::Backend;
 use rqr::environment::EnvironmentMap;
 use rqr::render::image::tonemap::tonemap_rgba8;
 use rqr::render::image::{compare, output};
+use rqr::render::denoise::DenoiseMode;
+use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
 use rqr::render::passes::gbuffer;
 use rqr::render::{RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading};
 use rqr::scene::{Camera, Scene};
@@ -39,6 +43,9 @@ const TIMED_FRAMES: usize = 3;
 
 /// The distributed spp the ladder shows.
 const LADDER_SPP: [u32; 3] = [1, 4, 16];
+
+/// Frames of history behind the ladder's accumulated denoised row.
+pub const DENOISED_FRAMES: u32 = 30;
 
 fn render_path(
     ctx: &Context,
@@ -137,6 +144,7 @@ pub fn error_against_time(
         sampler: SamplerKind::Sobol,
         shading: Shading::Distributed,
         seed,
+        denoise: DenoiseMode::None,
         ..settings.clone()
     };
     // Other seeds than the ladder's, so the reference's noise is independent of theirs.
@@ -153,6 +161,7 @@ pub fn error_against_time(
         RenderSettings {
             shading: Shading::Whitted,
             diffuse_bounces: 0,
+            denoise: DenoiseMode::None,
             ..settings.clone()
         },
     )];
@@ -161,6 +170,13 @@ pub fn error_against_time(
             format!("distributed {spp} spp"),
             distributed(spp, settings.seed),
         ));
+    }
+    let denoised = settings.denoise.enabled().then(|| RenderSettings {
+        denoise: settings.denoise,
+        ..distributed(1, settings.seed)
+    });
+    if let Some(s) = &denoised {
+        configs.push((format!("{} 1 spp alone", s.denoise.as_str()), s.clone()));
     }
     // One frame of each model and path first: a CPU device may finish compiling a pipeline
     // on its first dispatch, which is not the frame's cost.
@@ -196,6 +212,25 @@ pub fn error_against_time(
             });
         }
     }
+    if let Some(s) = &denoised {
+        for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+            let out = accumulated(ctx, &renderer, scene, s, camera, path)?;
+            let config = format!("{} 1 spp after {DENOISED_FRAMES} frames", s.denoise.as_str());
+            if path == RenderPath::RayTraced {
+                let name = format!("quality-{}.png", config.replace(' ', "-"));
+                output::write_png(&dir.join(name), &out)?;
+            }
+            let d = compare::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
+            rows.push(QualityRow {
+                config,
+                path: path.as_str(),
+                spp: 1,
+                gpu_ms: out.total_ms(),
+                flip_mean: d.flip_mean,
+                psnr_db: d.psnr_db,
+            });
+        }
+    }
     let mut md = format!(
         "Error against a converged reference (distributed, ray traced, {reference_spp} spp, {} ms GPU), {} backend, {}x{}; GPU timestamps of one frame (median of 3 below 16 spp) after a warm-up frame of each model and path:\n\n| shading | path | spp | GPU ms | FLIP mean | PSNR dB |\n|---|---|---:|---:|---:|---:|\n",
         fmt_ms(reference.total_ms()),
@@ -215,6 +250,16 @@ pub fn error_against_time(
             r.psnr_db
         )?;
     }
+    // report.json and report.html (written before the ladder) gain its rows and chart.
+    let report_path = dir.join("report.json");
+    if let Ok(text) = std::fs::read_to_string(&report_path) {
+        let mut full: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("cannot parse '{}'", report_path.display()))?;
+        full["quality"] = json!({ "reference_spp": reference_spp, "rows": &rows });
+        std::fs::write(&report_path, serde_json::to_string_pretty(&full)?)
+            .with_context(|| format!("cannot write '{}'", report_path.display()))?;
+        super::report_html::write(dir, &full)?;
+    }
     std::fs::write(dir.join("quality.md"), &md)
         .with_context(|| format!("cannot write '{}'", dir.join("quality.md").display()))?;
     let report = json!({
@@ -233,6 +278,35 @@ pub fn error_against_time(
     )
     .with_context(|| format!("cannot write '{}'", dir.join("quality.json").display()))?;
     Ok(md)
+}
+
+/// Frame [`DENOISED_FRAMES`] of a static camera's denoised sequence on `path`.
+fn accumulated(
+    ctx: &Context,
+    renderer: &Renderer,
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: &Camera,
+    path: RenderPath,
+) -> Result<RenderOutput> {
+    let mut seq = Sequence::new(
+        ctx,
+        renderer,
+        scene,
+        settings,
+        *camera,
+        CameraPath::Static,
+        SequenceOptions {
+            path,
+            reuse: Default::default(),
+            reference: false,
+        },
+    )?;
+    let mut last = None;
+    for k in 0..DENOISED_FRAMES {
+        last = Some(seq.render_frame(ctx, k)?);
+    }
+    Ok(last.context("no frame rendered")?.output)
 }
 
 fn fmt_ms(ms: f64) -> String {

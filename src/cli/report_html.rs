@@ -38,13 +38,14 @@ const PATH_FIELDS: [&str; 6] = [
 ];
 
 /// Top-level fields shown in the header or the settings section.
-const TOP_FIELDS: [&str; 6] = [
+const TOP_FIELDS: [&str; 7] = [
     "schema",
     "scene",
     "device",
     "device_type",
     "settings",
     "backends",
+    "quality",
 ];
 
 /// Colours of the per-pass bars, assigned to pass names in order of first appearance.
@@ -291,6 +292,15 @@ fn render(report: &Value, images: &[BackendImages]) -> Result<String> {
     h.push_str("<section><h2>GPU time per pass</h2>");
     h.push_str(&pass_chart(backends));
     h.push_str("<p class=\"note\">One bar per backend and path: its passes' GPU ms as the report gives them (<code>gpu_ms</code>; how they were measured is in the line under the title), stacked in the report's order; hover a segment for its value.</p></section>");
+    if let Some(rows) = report["quality"]["rows"].as_array() {
+        h.push_str("<section><h2>Error against time</h2>");
+        h.push_str(&quality_chart(rows));
+        let _ = write!(
+            h,
+            "<p class=\"note\">Mean FLIP against the converged reference ({} spp, distributed, ray traced) over each configuration's GPU ms per frame (log scale): the Whitted model, distributed shading at 1, 4 and 16 spp and, with <code>--denoise</code>, the denoised 1-spp frame alone and after its history; ray traced and hybrid. Lower left is better.</p></section>",
+            esc(&scalar(&report["quality"]["reference_spp"]))
+        );
+    }
     h.push_str("<section><h2>Rays by kind</h2>");
     rays_table(backends, &mut h);
     h.push_str("</section>");
@@ -564,6 +574,108 @@ fn pass_chart(backends: &[Value]) -> String {
 }
 
 /// The smallest 1, 2 or 5 × 10ⁿ at least `raw` (1 for a non-positive `raw`).
+/// Error against time as an inline SVG: one point per quality row at (GPU ms on a log axis,
+/// mean FLIP), coloured by path and labelled with its configuration.
+fn quality_chart(rows: &[Value]) -> String {
+    let points: Vec<(String, String, f64, f64)> = rows
+        .iter()
+        .filter_map(|r| {
+            Some((
+                scalar(&r["config"]),
+                scalar(&r["path"]),
+                r["gpu_ms"].as_f64()?.max(1e-3),
+                r["flip_mean"].as_f64()?,
+            ))
+        })
+        .collect();
+    if points.is_empty() {
+        return String::new();
+    }
+    let (lo, hi) = points.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+        (lo.min(p.2.log10()), hi.max(p.2.log10()))
+    });
+    let (lo, hi) = (lo.floor(), hi.ceil().max(lo.floor() + 1.0));
+    let flip_max = points.iter().map(|p| p.3).fold(0.0, f64::max);
+    let step = nice_step(flip_max / 4.0);
+    let y_max = ((flip_max / step).ceil() * step).max(step);
+    let (left, top, w, h) = (60.0, 20.0, 620.0, 300.0);
+    let x = |ms: f64| left + w * (ms.log10() - lo) / (hi - lo);
+    let y = |flip: f64| top + h * (1.0 - flip / y_max);
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "<svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {vw} {vh}\" width=\"{vw}\" height=\"{vh}\" role=\"img\" aria-label=\"FLIP against GPU ms\">",
+        vw = left + w + 200.0,
+        vh = top + h + 40.0
+    );
+    let mut decade = lo;
+    while decade <= hi + 1e-9 {
+        let tx = x(10f64.powf(decade));
+        let _ = write!(
+            s,
+            "<line x1=\"{tx:.1}\" y1=\"{top}\" x2=\"{tx:.1}\" y2=\"{:.1}\" class=\"grid\"/><text x=\"{tx:.1}\" y=\"{:.1}\" class=\"tick\">{} ms</text>",
+            top + h,
+            top + h + 16.0,
+            num(10f64.powf(decade))
+        );
+        decade += 1.0;
+    }
+    let mut tick = 0.0;
+    while tick <= y_max + step * 1e-6 {
+        let ty = y(tick);
+        let _ = write!(
+            s,
+            "<line x1=\"{left}\" y1=\"{ty:.1}\" x2=\"{:.1}\" y2=\"{ty:.1}\" class=\"grid\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"end\">{}</text>",
+            left + w,
+            left - 6.0,
+            ty + 4.0,
+            num(tick)
+        );
+        tick += step;
+    }
+    let _ = write!(
+        s,
+        "<text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\">GPU ms per frame</text><text x=\"4\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">FLIP</text><circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"5\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">ray traced</text><circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"5\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">hybrid</text>",
+        left + w / 2.0,
+        top + h + 34.0,
+        top - 6.0,
+        left + w + 20.0,
+        top + 10.0,
+        PALETTE[0],
+        left + w + 30.0,
+        top + 14.0,
+        left + w + 20.0,
+        top + 30.0,
+        PALETTE[1],
+        left + w + 30.0,
+        top + 34.0,
+    );
+    for (config, path, ms, flip) in &points {
+        let colour = if path == "rt" { PALETTE[0] } else { PALETTE[1] };
+        let (px, py) = (x(*ms), y(*flip));
+        let _ = write!(
+            s,
+            "<circle cx=\"{px:.1}\" cy=\"{py:.1}\" r=\"5\" fill=\"{colour}\"><title>{} · {}: {} ms, FLIP {}</title></circle>",
+            esc(config),
+            esc(path),
+            num(*ms),
+            num(*flip),
+        );
+        // One label per configuration (the ray-traced point's; hover for the hybrid one).
+        if path == "rt" {
+            let _ = write!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">{}</text>",
+                px + 7.0,
+                py - 7.0,
+                esc(config)
+            );
+        }
+    }
+    s.push_str("</svg>");
+    s
+}
+
 fn nice_step(raw: f64) -> f64 {
     if raw <= 0.0 || !raw.is_finite() {
         return 1.0;
