@@ -11,10 +11,10 @@ use std::path::Path;
 use anyhow::{Context as _, Result};
 use rqr::accel::Backend;
 use rqr::environment::EnvironmentMap;
-use rqr::render::image::tonemap::tonemap_rgba8;
-use rqr::render::image::{compare, output};
 use rqr::render::denoise::DenoiseMode;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
+use rqr::render::image::tonemap::tonemap_rgba8;
+use rqr::render::image::{compare, output};
 use rqr::render::passes::gbuffer;
 use rqr::render::{RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading};
 use rqr::scene::{Camera, Scene};
@@ -215,7 +215,10 @@ pub fn error_against_time(
     if let Some(s) = &denoised {
         for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
             let out = accumulated(ctx, &renderer, scene, s, camera, path)?;
-            let config = format!("{} 1 spp after {DENOISED_FRAMES} frames", s.denoise.as_str());
+            let config = format!(
+                "{} 1 spp after {DENOISED_FRAMES} frames",
+                s.denoise.as_str()
+            );
             if path == RenderPath::RayTraced {
                 let name = format!("quality-{}.png", config.replace(' ', "-"));
                 output::write_png(&dir.join(name), &out)?;
@@ -250,6 +253,15 @@ pub fn error_against_time(
             r.psnr_db
         )?;
     }
+    let rows_json: Vec<serde_json::Value> = rows
+        .iter()
+        .map(serde_json::to_value)
+        .collect::<Result<_, _>>()?;
+    std::fs::write(
+        dir.join("quality.svg"),
+        super::report_html::quality_svg(&rows_json),
+    )
+    .with_context(|| format!("cannot write '{}'", dir.join("quality.svg").display()))?;
     // report.json and report.html (written before the ladder) gain its rows and chart.
     let report_path = dir.join("report.json");
     if let Ok(text) = std::fs::read_to_string(&report_path) {

@@ -574,6 +574,17 @@ fn pass_chart(backends: &[Value]) -> String {
 }
 
 /// The smallest 1, 2 or 5 × 10ⁿ at least `raw` (1 for a non-positive `raw`).
+/// [`quality_chart`] as a standalone SVG file (its styles inline), for `quality.svg`.
+pub fn quality_svg(rows: &[Value]) -> String {
+    let chart = quality_chart(rows);
+    chart.replacen(
+        "role=\"img\"",
+        "font-family=\"sans-serif\" font-size=\"12\" role=\"img\"><style>.grid{stroke:#ddd}.tick{text-anchor:middle;fill:#666}</style><g",
+        1,
+    )
+    .replacen("</svg>", "</g></svg>", 1)
+}
+
 /// Error against time as an inline SVG: one point per quality row at (GPU ms on a log axis,
 /// mean FLIP), coloured by path and labelled with its configuration.
 fn quality_chart(rows: &[Value]) -> String {
@@ -625,7 +636,7 @@ fn quality_chart(rows: &[Value]) -> String {
         let ty = y(tick);
         let _ = write!(
             s,
-            "<line x1=\"{left}\" y1=\"{ty:.1}\" x2=\"{:.1}\" y2=\"{ty:.1}\" class=\"grid\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"end\">{}</text>",
+            "<line x1=\"{left}\" y1=\"{ty:.1}\" x2=\"{:.1}\" y2=\"{ty:.1}\" class=\"grid\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" style=\"text-anchor:end\">{}</text>",
             left + w,
             left - 6.0,
             ty + 4.0,
@@ -635,7 +646,7 @@ fn quality_chart(rows: &[Value]) -> String {
     }
     let _ = write!(
         s,
-        "<text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\">GPU ms per frame</text><text x=\"4\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">FLIP</text><circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"5\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">ray traced</text><circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"5\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">hybrid</text>",
+        "<text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\">GPU ms per frame</text><text x=\"4\" y=\"{:.1}\" class=\"tick\" style=\"text-anchor:start\">FLIP</text><circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"5\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" style=\"text-anchor:start\">ray traced</text><circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"5\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" style=\"text-anchor:start\">hybrid</text>",
         left + w / 2.0,
         top + h + 34.0,
         top - 6.0,
@@ -665,7 +676,7 @@ fn quality_chart(rows: &[Value]) -> String {
         if path == "rt" {
             let _ = write!(
                 s,
-                "<text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" text-anchor=\"start\">{}</text>",
+                "<text x=\"{:.1}\" y=\"{:.1}\" class=\"tick\" style=\"text-anchor:start\">{}</text>",
                 px + 7.0,
                 py - 7.0,
                 esc(config)
@@ -826,6 +837,31 @@ mod tests {
             "files": {"rt": "x/rt.png"},
             "note from a later version": "<shown>",
         })
+    }
+
+    #[test]
+    fn quality_chart_places_every_row_by_time_and_error() {
+        let rows: Vec<Value> = [
+            ("whitted", "rt", 10.0, 0.2),
+            ("svgf 1 spp alone", "rt", 100.0, 0.1),
+            ("svgf 1 spp alone", "hybrid", 1000.0, 0.0),
+        ]
+        .iter()
+        .map(|(c, p, ms, f)| json!({"config": c, "path": p, "gpu_ms": ms, "flip_mean": f}))
+        .collect();
+        let svg = quality_chart(&rows);
+        assert_eq!(
+            svg.matches("<circle").count(),
+            3 + 2,
+            "three points and the legend's two"
+        );
+        // Log axis over 10..1000 ms: 10 ms at the left edge, 1000 at the right (60 + 620).
+        assert!(svg.contains("<circle cx=\"60.0\" cy=\"20.0\""), "{svg}");
+        assert!(svg.contains("<circle cx=\"680.0\" cy=\"320.0\""), "{svg}");
+        // One label per configuration, from its ray-traced point.
+        assert_eq!(svg.matches(">svgf 1 spp alone</text>").count(), 1);
+        assert!(svg.contains("<title>svgf 1 spp alone · hybrid: 1000 ms, FLIP 0</title>"));
+        assert!(quality_chart(&[]).is_empty());
     }
 
     #[test]
