@@ -1,7 +1,7 @@
 #version 460
 // Denoising, last pass: the filtered diffuse and specular illumination multiplied back by
 // their albedos, plus what was never filtered (emission), both accumulated over the pixel's
-// history like the illumination; misses as traced. One thread per pixel.
+// history like the illumination (a miss's colour is all unfiltered light). One thread per pixel.
 #extension GL_GOOGLE_include_directive : require
 #include "denoise.glsl"
 
@@ -14,16 +14,13 @@ void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(pix)) return;
     uint i = pixel_index(pix);
-    vec3 c;
+    // This frame's accumulated albedos and unfiltered light (pc.target: the history); a miss
+    // has only unfiltered light (what it shows, accumulated).
+    DenoiseHistory h = Histories(pc.target).v[i];
+    vec3 c = h.unfiltered.rgb;
     if (pixel_hit(i)) {
-        // This frame's accumulated albedos and unfiltered light (pc.target: the history).
-        DenoiseHistory h = Histories(pc.target).v[i];
-        c = h.unfiltered.rgb + h.diffuse_albedo.rgb * pair_load(pc.source, i, 0u).rgb
-          + h.specular_albedo.rgb * pair_load(pc.source, i, 1u).rgb;
-    } else {
-        // A miss has no surface to filter on: its colour as traced.
-        vec4 raw = Vec4s(params.color).v[i];
-        c = (params.flags & DN_WEIGHTED_COLOR) != 0u ? (raw.a > 0.0 ? raw.rgb / raw.a : vec3(0.0)) : raw.rgb;
+        c += h.diffuse_albedo.rgb * pair_load(pc.source, i, 0u).rgb
+           + h.specular_albedo.rgb * pair_load(pc.source, i, 1u).rgb;
     }
     Vec4s(params.denoised).v[i] = vec4(c, 1.0);
 }

@@ -40,6 +40,16 @@ vec2 previous_pixel(ivec2 pix, Aov a) {
     return vec2(pix) + 0.5 + motion;
 }
 
+// The same for a miss: the motion of the far-plane point its pixel looks through (the
+// camera's rotation; a miss has no surface point).
+vec2 previous_miss_pixel(ivec2 pix) {
+    vec2 centre = vec2(pix) + 0.5;
+    vec2 ndc = centre / vec2(params.width, params.height) * 2.0 - 1.0;
+    vec4 far = params.inv_view_proj * vec4(ndc, 1.0, 1.0);
+    vec3 world = far.xyz / far.w;
+    return centre + to_pixels(params.prev_view_proj, world) - to_pixels(params.view_proj, world);
+}
+
 void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(pix)) return;
@@ -60,6 +70,11 @@ void main() {
     acc.diffuse_albedo = vec4(max(guide.diffuse_albedo.rgb, vec3(MIN_ALBEDO)), 0.0);
     acc.specular_albedo = vec4(max(guide.specular_albedo.rgb, vec3(MIN_ALBEDO)), guide.specular_albedo.a);
     acc.unfiltered = vec4(guide.unfiltered.rgb / gw, 0.0);
+    if (!hit) {
+        // All of a miss's colour is unfiltered (with several samples, some may have hit).
+        vec4 c = Vec4s(params.color).v[i];
+        acc.unfiltered = vec4((params.flags & DN_WEIGHTED_COLOR) != 0u ? (c.a > 0.0 ? c.rgb / c.a : vec3(0.0)) : c.rgb, 0.0);
+    }
 
     vec3 d, s;
     demodulated(i, d, s);
@@ -70,8 +85,10 @@ void main() {
     vec4 hm = vec4(0.0);
     float hl = 0.0;
     float taps = 0.0;
-    if (hit && (params.flags & DN_HISTORY) != 0u) {
-        vec2 p = previous_pixel(pix, a) - 0.5;
+    if ((params.flags & DN_HISTORY) != 0u) {
+        // Misses keep a history too (of what they show, the unfiltered light), so that a
+        // jittered environment background averages over frames like the surfaces.
+        vec2 p = (hit ? previous_pixel(pix, a) : previous_miss_pixel(pix)) - 0.5;
         ivec2 base = ivec2(floor(p));
         vec2 f = p - vec2(base);
         for (int k = 0; k < 4; ++k) {
@@ -80,8 +97,8 @@ void main() {
             uint j = pixel_index(q);
             DenoiseSurface was = Surfaces(params.prev_surface).v[j];
             if (was.instance != a.instance
-                || !surfaces_match(was.position, was.normal, here.position, here.normal, max(here.depth, 1e-6),
-                                   params.plane_threshold, params.normal_threshold)) {
+                || (hit && !surfaces_match(was.position, was.normal, here.position, here.normal, max(here.depth, 1e-6),
+                                           params.plane_threshold, params.normal_threshold))) {
                 continue;
             }
             float w = ((k & 1) != 0 ? f.x : 1.0 - f.x) * ((k >> 1) != 0 ? f.y : 1.0 - f.y);
@@ -114,7 +131,7 @@ void main() {
         m = mix(hm, m, alpha_m);
         out_m.frames = frames;
     } else {
-        out_m.frames = hit ? 1.0 : 0.0;
+        out_m.frames = 1.0;
     }
     out_m.moments = m;
     Moments(params.moments).v[i] = out_m;

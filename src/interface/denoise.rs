@@ -89,6 +89,8 @@ pub struct DenoiseParams {
     pub view_proj: [f32; 16],
     /// proj × view of the previous frame.
     pub prev_view_proj: [f32; 16],
+    /// The inverse of `view_proj` (where a miss's pixel looks: its far-plane point).
+    pub inv_view_proj: [f32; 16],
     /// Width.
     pub width: u32,
     /// Height.

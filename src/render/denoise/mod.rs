@@ -305,6 +305,7 @@ impl Denoiser {
         let params = DenoiseParams {
             view_proj: view_proj.to_cols_array(),
             prev_view_proj: previous.map_or(view_proj, |p| p.1).to_cols_array(),
+            inv_view_proj: view_proj.inverse().to_cols_array(),
             width: self.width,
             height: self.height,
             flags,
