@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::time::Duration;
 
-mod common;
+use crate::support as common;
 
 use common::run_rqr as rqr;
 

@@ -4,7 +4,7 @@
 //! directory, a permission error), through the binary's top-level printer for the same three
 //! paths, and over every `#[error(...)]` in `src/`.
 
-mod common;
+use crate::support as common;
 
 use std::error::Error as _;
 use std::io::ErrorKind;

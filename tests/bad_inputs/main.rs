@@ -3,16 +3,20 @@
 //! file and the element (exit code 1), or loads with the documented warning and then renders
 //! with every backend; never a panic, a hang or a validation error.
 
-#[path = "../common/mod.rs"]
-mod common;
-#[path = "../scene_util/mod.rs"]
-mod scene_util;
+#[path = "../support/mod.rs"]
+mod support;
+
+use support as common;
+use support::scene_files as scene_util;
 
 mod animation;
+mod cli_errors;
 mod corpus;
 mod environment;
+mod error_chains;
 mod extensions;
 mod manifest;
+mod scene_errors;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;

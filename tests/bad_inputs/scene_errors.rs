@@ -1,7 +1,7 @@
 //! Bad input: every broken file yields a `SceneError` that names the file and the element,
 //! never a panic.
 
-mod scene_util;
+use crate::support::scene_files as scene_util;
 
 use rqr::scene::{self, LoadOptions, Scene, SceneError};
 use scene_util::{asset, bytes, png, png_header, quad_doc, Builder};

@@ -1,7 +1,7 @@
 //! `auto` for `--backend`, `--raster`, `--bvh-build` and `--texture-format` by measurement,
 //! tested without timing: measured numbers are injected (directly, or as a cache file in an
 //! isolated `XDG_CACHE_HOME`).
-mod common;
+use crate::support as common;
 
 use std::path::PathBuf;
 use std::time::Duration;

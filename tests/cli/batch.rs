@@ -2,7 +2,7 @@
 //! (missing output, stale temporary file), `--force`, and shards whose union is the
 //! single-process run, byte for byte. Also the library API it is built on.
 
-mod common;
+use crate::support as common;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! The rendering commands end to end through the real binary.
 
-mod common;
+use crate::support as common;
 
 use std::path::Path;
 use std::process::Command;

@@ -1,6 +1,6 @@
 //! `rqr info`: counts as text and JSON, scene choice, and clean failures on bad input.
 
-mod scene_util;
+use crate::support::scene_files as scene_util;
 
 use std::process::Command;
 

@@ -1,7 +1,7 @@
 //! Hardware ray queries vs rqr's compute BVH on real scenes: the primary hits (instance,
 //! primitive, depth) must agree pixel for pixel from several camera views.
 
-mod common;
+use crate::support as common;
 
 use std::path::Path;
 

@@ -2,7 +2,7 @@
 //! `shaders/test/bvh_trace.comp` against the CPU brute-force reference (and against the
 //! hardware ray-query backend where the device has it) on generated scenes.
 
-mod common;
+use crate::support as common;
 
 use common::trace::{trace_with, TestHit};
 

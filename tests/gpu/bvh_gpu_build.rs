@@ -4,7 +4,7 @@
 //! SAH cost of both trees; and the memory order both lay their nodes out in (depth-first
 //! pre-order, every subtree's nodes and triangles contiguous).
 
-mod common;
+use crate::support as common;
 
 use common::trace::{trace_with, TestHit};
 
@@ -263,7 +263,7 @@ fn depth_first_check_reports_other_orders() {
 }
 
 /// Rays from inside closed meshes aimed exactly at every vertex and edge midpoint (as in
-/// tests/bvh_gpu.rs): none may escape the GPU-built BVH.
+/// tests/gpu/bvh_gpu.rs): none may escape the GPU-built BVH.
 #[test]
 fn gpu_built_closed_meshes_are_watertight() {
     let ctx = common::gpu();

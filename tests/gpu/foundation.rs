@@ -1,6 +1,6 @@
 //! Foundation: device probing, backend choice, compute round trip, timestamps, fence timeouts.
 
-mod common;
+use crate::support as common;
 
 use std::process::Command;
 use std::time::Duration;

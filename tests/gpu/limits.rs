@@ -2,7 +2,7 @@
 //! (render targets, acceleration structures, BVH), storage-buffer range, and a fence timeout
 //! in the middle of a frame that leaves the device usable and validation clean.
 
-mod common;
+use crate::support as common;
 
 use std::time::Duration;
 

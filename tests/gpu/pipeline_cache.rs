@@ -1,7 +1,7 @@
 //! The on-disk pipeline cache: written when a context closes, loaded by the next one for the
 //! same device, and a corrupt file gives one warning and a rebuilt cache, never a failure.
 
-mod common;
+use crate::support as common;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;

@@ -1,7 +1,7 @@
 //! The compute rasterizer (`--raster compute`) against the graphics pipeline: the same
 //! instance and primitive on ≥ 99.9 % of pixels, on both depth-test paths (64-bit atomics and
 //! the 32-bit fallback), and the hybrid ↔ ray-traced invariant with compute visibility.
-mod common;
+use crate::support as common;
 
 use rqr::accel::Backend;
 use rqr::render::image::compare;
@@ -92,13 +92,19 @@ fn compute_visibility_matches_graphics_on_the_builtin_scene() {
 /// rasterized by the binning invocation itself, and the image must not change.
 #[test]
 fn compute_visibility_survives_full_tile_bins() {
-    // Other tests of this binary may build rasterizers meanwhile with the small capacity
-    // too; their images must match graphics all the same.
-    std::env::set_var(rqr::render::passes::raster_compute::BIN_CAPACITY_ENV, "1");
+    // The capacity is read from the environment: set in a process of its own, never changed
+    // under the other tests of this binary (or the `rqr` processes they start).
+    let capacity = (rqr::render::passes::raster_compute::BIN_CAPACITY_ENV, "1");
+    if !common::in_own_process(
+        module_path!(),
+        "compute_visibility_survives_full_tile_bins",
+        &[capacity],
+    ) {
+        return;
+    }
     let scene = rqr::scene::load_default().unwrap();
     let camera = default_camera(&scene);
     assert_compute_matches_graphics("built-in, 1 bin entry", &scene, &camera, 96);
-    std::env::remove_var(rqr::render::passes::raster_compute::BIN_CAPACITY_ENV);
 }
 
 /// Camera inside the room looking into a corner: walls, floor and ceiling run behind the
@@ -140,7 +146,7 @@ fn compute_visibility_matches_graphics_on_gltf_samples() {
     }
 }
 
-/// The hybrid ↔ ray-traced invariant of tests/paths.rs with compute visibility: PSNR ≥ 40 dB,
+/// The hybrid ↔ ray-traced invariant of tests/render/paths.rs with compute visibility: PSNR ≥ 40 dB,
 /// FLIP mean ≤ 0.02, ids on ≥ 99.9 % of pixels.
 #[test]
 fn hybrid_with_compute_visibility_matches_ray_traced() {

@@ -1,6 +1,6 @@
 //! The GLSL optics and sampling functions agree with their unit-tested host mirrors.
 
-mod common;
+use crate::support as common;
 
 use glam::Vec3;
 use rqr::render::reference::optics;

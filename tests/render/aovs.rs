@@ -2,8 +2,8 @@
 //! texture, vertex colour and factor), shading normal, depth and integer ids, the same in the
 //! ray-traced path and in the hybrid path with either G-buffer layout, on every backend.
 
-mod common;
-mod scene_util;
+use crate::support as common;
+use crate::support::scene_files as scene_util;
 
 use glam::{Vec2, Vec3};
 use rqr::accel::Backend;

@@ -4,7 +4,7 @@
 //! converge at the Monte Carlo rate to a converged reference, furnaces keep their energy, the
 //! hybrid path equals the ray-traced one at equal samples and seed, and a seed fixes the image.
 
-mod common;
+use crate::support as common;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;

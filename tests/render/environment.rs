@@ -2,7 +2,7 @@
 //! both paths: a white furnace, a mirror sphere, the background's orientation and rotation, a
 //! rough metal's energy, and the prepared textures against host integrations.
 
-mod common;
+use crate::support as common;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;

@@ -3,7 +3,7 @@
 //! direction and irradiance under the map convention, a white plane lit (and shadowed by the
 //! sun) in the Whitted model, and the built-in environment of scenes without lights.
 
-mod common;
+use crate::support as common;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;

@@ -4,7 +4,7 @@
 //! heat map). A missing golden is written and the test fails: look at it, then commit it.
 //! `RQR_BLESS=1` rewrites every golden (only after looking at the differences).
 
-mod common;
+use crate::support as common;
 
 use std::path::{Path, PathBuf};
 

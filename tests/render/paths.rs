@@ -2,7 +2,7 @@
 //! Cornell room (independent of the glTF loader): hybrid == ray-traced where it should be,
 //! recursion depth and the weight cut-off behave as the seed says.
 
-mod common;
+use crate::support as common;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};

@@ -1,6 +1,6 @@
 //! Closed-form checks of the ray-traced path on procedural scenes (no glTF, no goldens).
 
-mod common;
+use crate::support as common;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::BackendChoice;

@@ -2,8 +2,8 @@
 //! skinning / morphing of the Khronos samples, on the CPU (`Scene::posed`) and on the GPU
 //! (`render::passes::skinning`), against a reference written here from the glTF spec's formulas.
 
-mod common;
-mod scene_util;
+use crate::support as common;
+use crate::support::scene_files as scene_util;
 
 use glam::{Mat4, Quat, Vec3};
 use rqr::render::passes::skinning::SkinningPass;
@@ -352,7 +352,7 @@ fn cli_renders_animated_frames_on_both_backends() {
         assert!(d.flip_mean < 0.01, "hw vs bvh frame: FLIP {}", d.flip_mean);
     }
     // Reuse between frames keeps one renderer updated in place (samples move with their
-    // objects, tests/reproject_animated.rs); the per-frame rebuild, which replaces that
+    // objects, tests/temporal/reproject_animated.rs); the per-frame rebuild, which replaces that
     // renderer, is refused with a clear error rather than rendered wrongly.
     let run = |extra: &[&str], name: &str| {
         let out = dir.join(name);

@@ -2,8 +2,8 @@
 //! positions (within quantization) as their sources and render alike; broken compressed views
 //! fail with errors naming the file and the buffer view.
 
-mod common;
-mod scene_util;
+use crate::support as common;
+use crate::support::scene_files as scene_util;
 
 use common::render_alike::assert_renders_alike;
 use glam::Vec3;

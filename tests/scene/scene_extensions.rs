@@ -1,8 +1,8 @@
 //! Texture coordinate sets beyond TEXCOORD_1, MultiUVTest, and the layered-material
 //! extensions (KHR_materials_specular, _clearcoat) against the same scenes without them.
 
-mod common;
-mod scene_util;
+use crate::support as common;
+use crate::support::scene_files as scene_util;
 
 use glam::Vec2;
 use rqr::accel::Backend;

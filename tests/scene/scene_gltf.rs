@@ -2,7 +2,7 @@
 //! instancing, texture transforms, scenes, cameras) and small crafted files (strips, fans,
 //! quantized attributes, lights, sRGB vs linear images, tangents).
 
-mod scene_util;
+use crate::support::scene_files as scene_util;
 
 use std::collections::HashSet;
 

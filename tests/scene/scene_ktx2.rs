@@ -4,12 +4,10 @@
 //! a KTX2 texture renders like the same texels from a PNG; KTX2 textures upload as the BC7
 //! blocks the transcoder makes, with the file's levels, and render like their RGBA8 upload.
 
-mod common;
-#[path = "scene_util/ktx2.rs"]
-mod ktx2;
-#[path = "scene_util/readback.rs"]
-mod readback;
-mod scene_util;
+use crate::support as common;
+use crate::support::ktx2;
+use crate::support::readback;
+use crate::support::scene_files as scene_util;
 
 use common::render_alike::assert_renders_alike;
 use readback::read_level;

@@ -3,8 +3,8 @@
 //! glTF spec defines, and Avocado_Quantized renders like Avocado (its non-normalized
 //! UNSIGNED_SHORT texture coordinates are scaled by KHR_texture_transform by ~2.4e-4).
 
-mod common;
-mod scene_util;
+use crate::support as common;
+use crate::support::scene_files as scene_util;
 
 use glam::{Vec2, Vec3};
 use rqr::accel::Backend;

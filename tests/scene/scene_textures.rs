@@ -1,10 +1,9 @@
 //! Texture upload: every image once, with mips, sRGB vs UNORM, one sampler per distinct
 //! state, validation clean; oversized images fail clearly.
 
-mod common;
-#[path = "scene_util/readback.rs"]
-mod readback;
-mod scene_util;
+use crate::support as common;
+use crate::support::readback;
+use crate::support::scene_files as scene_util;
 
 use common::{assert_validation_clean, gpu};
 use rqr::scene::textures::{mip_levels, GpuTextures};

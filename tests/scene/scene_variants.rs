@@ -2,8 +2,8 @@
 //! mapped material, `rqr info` lists the variants, unknown names and broken mappings fail
 //! naming the file and the element.
 
-mod common;
-mod scene_util;
+use crate::support as common;
+use crate::support::scene_files as scene_util;
 
 use std::time::Duration;
 

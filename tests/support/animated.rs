@@ -1,12 +1,11 @@
-//! Helpers of the animated-scene tests (tests/animation_update.rs, tests/reproject_animated.rs).
+//! Helpers of the animated-scene tests (`temporal::animation_update`,
+//! `temporal::reproject_animated`).
 
 use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene};
 
 /// Loads `assets/gltf/<rel>` in its rest pose, with the indices of its first animation.
 pub fn load(rel: &str) -> (Scene, Vec<usize>) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
+    let path = super::scene_files::asset(rel);
     let s = rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     let first = s.select_animations(&AnimationSelection::default()).unwrap();
     (s, first)

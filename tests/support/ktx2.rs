@@ -2,8 +2,6 @@
 //! `basis-universal` crate writes `.basis` files) rewrapped into the KTX2 container that
 //! KHR_texture_basisu requires, so a test can encode the texels it also keeps uncompressed.
 
-#![allow(dead_code)]
-
 use basis_universal::{BasisTextureFormat, ColorSpace, Compressor, CompressorParams};
 
 /// The 12-byte KTX2 identifier.

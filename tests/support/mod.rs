@@ -1,11 +1,19 @@
-//! Shared test helpers: a validated Vulkan context and the checks every GPU test ends with.
+//! What the integration-test binaries share (each includes this tree as its `support`
+//! module): a validated Vulkan context and the checks every GPU test ends with, running the
+//! `rqr` binary with a time limit, running a test in a process of its own, and the helpers of
+//! the submodules (crafted glTF files, KTX2 encoding, texture readback, ray tracing through
+//! the test shader, closed-form optics, animated scenes, image cross-checks).
+// Every binary uses a different part of it.
 #![allow(dead_code)]
 
 use rqr::vk::{Context, ContextOptions, VkError};
 
 pub mod animated;
+pub mod ktx2;
 pub mod optics;
+pub mod readback;
 pub mod render_alike;
+pub mod scene_files;
 pub mod trace;
 
 pub const INSTALL_HINT: &str =
@@ -135,4 +143,39 @@ pub fn run_json(cmd: &mut std::process::Command) -> serde_json::Value {
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_slice(&out.stdout).expect("one JSON document on stdout")
+}
+
+/// Set in the process [`in_own_process`] starts: the name of the test it runs there.
+const OWN_PROCESS_ENV: &str = "RQR_TEST_IN_OWN_PROCESS";
+
+/// For the tests that need a process to themselves (resident memory, the process
+/// environment): the other tests of a binary run in threads beside them. Called first in such
+/// a test with `module_path!()`, the test's function name and the environment it needs;
+/// returns `true` in the process it starts, where the caller then runs the test's body.
+/// Elsewhere it runs this test binary again on that one test (with `env` added), asserts that
+/// it ran and passed (printing its output), and returns `false`: the caller returns.
+pub fn in_own_process(module: &str, test: &str, env: &[(&str, &str)]) -> bool {
+    // libtest names a test by its path without the crate: `batch_soak::memory_stays_flat…`.
+    let name = match module.split_once("::") {
+        Some((_crate, path)) => format!("{path}::{test}"),
+        None => test.to_string(),
+    };
+    if std::env::var(OWN_PROCESS_ENV).is_ok_and(|v| v == name) {
+        return true;
+    }
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let out = std::process::Command::new(exe)
+        .args([name.as_str(), "--exact", "--nocapture", "--test-threads=1"])
+        .env(OWN_PROCESS_ENV, &name)
+        .envs(env.iter().copied())
+        .output()
+        .expect("running the test binary");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{name} failed in its own process");
+    assert!(
+        stdout.contains("test result: ok. 1 passed"),
+        "{name} did not run in its own process"
+    );
+    false
 }

@@ -1,5 +1,4 @@
 //! Reading uploaded texture levels back to the host (texture upload tests).
-#![allow(dead_code)]
 
 use rqr::scene::textures::GpuTextures;
 use rqr::vk::{vk, Buffer, Context, MemoryLocation};

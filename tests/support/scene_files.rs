@@ -1,6 +1,5 @@
 //! Helpers for scene tests: crafting small glTF / GLB files in memory, and reading the
 //! copied sample models under `assets/gltf/`.
-#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 

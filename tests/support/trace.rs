@@ -1,5 +1,4 @@
 //! Traces rays through `shaders/test/bvh_trace.comp` with either ray backend.
-#![allow(dead_code)]
 
 use bytemuck::{Pod, Zeroable};
 use rqr::accel::bvh::cpu::Ray;

@@ -4,7 +4,7 @@
 //! backends must agree on the primary hits of updated frames, and static geometry must never
 //! be built again (counted).
 
-mod common;
+use crate::support as common;
 
 use glam::{Mat4, Vec2, Vec3};
 use rqr::accel::bvh::BvhBuild;

@@ -2,7 +2,7 @@
 //! and statistics as frames submitted one by one, the statistics add up in every frame, and a
 //! loop of 100 frames allocates no device memory after its first frame.
 
-mod common;
+use crate::support as common;
 
 use rqr::accel::Backend;
 use rqr::render::drivers::burst;

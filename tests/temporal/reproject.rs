@@ -1,7 +1,7 @@
 //! Temporal reprojection, frameless rendering and adaptive sub-sampling on small
 //! images of the procedural Cornell room (lavapipe is slow: ≤ 96×96, few frames).
 
-mod common;
+use crate::support as common;
 
 use std::process::Command;
 

@@ -3,7 +3,7 @@
 //! the moving objects are reused where they went, which world-space positions cannot do
 //! (checked by rendering the same frames with the anchors off).
 
-mod common;
+use crate::support as common;
 
 use rqr::accel::bvh::BvhBuild;
 use rqr::accel::BackendChoice;
