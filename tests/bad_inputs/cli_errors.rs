@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::time::Duration;
 
-use crate::support as common;
+use crate::support;
 
-use common::run_rqr as rqr;
+use support::run_rqr as rqr;
 
 /// Environment in which any Vulkan use fails with "no Vulkan device" (exit code 2).
 const NO_VULKAN: &[(&str, &str)] = &[
@@ -364,7 +364,7 @@ fn closed_stdout_ends_commands_quietly() {
         &["render", "--width", "8", "--height", "8", "-o", out_png_arg],
     ];
     for args in cases {
-        let (out, _) = common::run_rqr_stdout_closed(args, VALIDATED, Duration::from_secs(120));
+        let (out, _) = support::run_rqr_stdout_closed(args, VALIDATED, Duration::from_secs(120));
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(141), "rqr {args:?}: {err}");
         for bad in ["panicked", "Broken pipe", "rqr: error", "Validation Error"] {

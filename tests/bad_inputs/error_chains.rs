@@ -4,7 +4,7 @@
 //! directory, a permission error), through the binary's top-level printer for the same three
 //! paths, and over every `#[error(...)]` in `src/`.
 
-use crate::support as common;
+use crate::support;
 
 use std::error::Error as _;
 use std::io::ErrorKind;
@@ -137,7 +137,7 @@ fn the_cli_prints_each_file_error_clause_once() {
         let os = std::fs::read(&path).unwrap_err().to_string();
         for command in ["render", "info"] {
             let args = [command, shown.as_str()];
-            let (out, _) = common::run_rqr(&args, NO_VULKAN, Duration::from_secs(30));
+            let (out, _) = support::run_rqr(&args, NO_VULKAN, Duration::from_secs(30));
             let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
             assert_eq!(out.status.code(), Some(1), "rqr {args:?}: {stderr}");
             let lines: Vec<&str> = stderr.lines().collect();

@@ -6,9 +6,6 @@
 #[path = "../support/mod.rs"]
 mod support;
 
-use support as common;
-use support::scene_files as scene_util;
-
 mod animation;
 mod cli_errors;
 mod corpus;
@@ -51,7 +48,7 @@ fn write_case(dir: &Path, case: &Case) -> PathBuf {
 
 /// Runs `rqr args` with validation on, killing it after `limit`.
 fn rqr(args: &[&str], limit: Duration) -> (Output, Duration) {
-    common::run_rqr(args, &[("RQR_VALIDATION", "1")], limit)
+    support::run_rqr(args, &[("RQR_VALIDATION", "1")], limit)
 }
 
 /// Loads in a thread with a deadline: `Ok(scene stats)` or `Err(message)`, the message with

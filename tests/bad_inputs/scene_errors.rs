@@ -1,10 +1,10 @@
 //! Bad input: every broken file yields a `SceneError` that names the file and the element,
 //! never a panic.
 
-use crate::support::scene_files as scene_util;
+use crate::support::scene_files;
 
 use rqr::scene::{self, LoadOptions, Scene, SceneError};
-use scene_util::{asset, bytes, png, png_header, quad_doc, Builder};
+use scene_files::{asset, bytes, png, png_header, quad_doc, Builder};
 use serde_json::{json, Value};
 
 fn load_doc(doc: &Value) -> Result<Scene, SceneError> {
@@ -87,7 +87,7 @@ fn truncated_and_malformed_json() {
     let e = err(&json!({"asset": {"version": "1.0"}}));
     assert!(e.contains("version 1.0"), "{e}");
     // A GLB whose first chunk is not JSON.
-    let mut glb = scene_util::glb(b"{}", None);
+    let mut glb = scene_files::glb(b"{}", None);
     glb[16..20].copy_from_slice(b"BIN\0");
     let e = scene::load_slice(&glb, None, "bad.glb", &LoadOptions::default())
         .unwrap_err()
@@ -133,7 +133,7 @@ fn buffer_shorter_than_the_accessor_needs() {
     let mut d = b.document(doc);
     d["buffers"] = json!([{"byteLength": 12}]);
     let e = scene::load_slice(
-        &scene_util::glb(&bytes(&d), None),
+        &scene_files::glb(&bytes(&d), None),
         None,
         "bad.glb",
         &LoadOptions::default(),

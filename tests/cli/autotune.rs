@@ -1,7 +1,7 @@
 //! `auto` for `--backend`, `--raster`, `--bvh-build` and `--texture-format` by measurement,
 //! tested without timing: measured numbers are injected (directly, or as a cache file in an
 //! isolated `XDG_CACHE_HOME`).
-use crate::support as common;
+use crate::support;
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -15,7 +15,7 @@ use rqr::vk::{DeviceInfo, DeviceSelector};
 
 fn lavapipe() -> DeviceInfo {
     let report = rqr::vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto)
-        .expect(common::INSTALL_HINT);
+        .expect(support::INSTALL_HINT);
     report.devices[report.selected.unwrap()].clone()
 }
 
@@ -318,7 +318,7 @@ fn cli_auto_uses_the_cached_measurement_and_flags_still_force() {
     let cache = dir.to_str().unwrap();
     let env = [("XDG_CACHE_HOME", cache), ("RQR_NO_AUTOTUNE", "0")];
 
-    let (out, _) = common::run_rqr(&["probe", "--json"], &env, Duration::from_secs(60));
+    let (out, _) = support::run_rqr(&["probe", "--json"], &env, Duration::from_secs(60));
     assert!(
         out.status.success(),
         "{}",
@@ -349,7 +349,7 @@ fn cli_auto_uses_the_cached_measurement_and_flags_still_force() {
     );
     assert_eq!(d["autotune"]["texture_block_ms"], 80.0);
     assert_eq!(d["autotune"]["texture_rgba8_ms"], 1.5);
-    let (out, _) = common::run_rqr(&["probe"], &env, Duration::from_secs(60));
+    let (out, _) = support::run_rqr(&["probe"], &env, Duration::from_secs(60));
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("KTX2 textures (auto)       rgba8 (auto (measured): sampling 80.000 ms BC7"),
@@ -373,7 +373,7 @@ fn cli_auto_uses_the_cached_measurement_and_flags_still_force() {
             png.to_str().unwrap(),
         ];
         args.extend_from_slice(extra);
-        let (out, _) = common::run_rqr(&args, &env, Duration::from_secs(300));
+        let (out, _) = support::run_rqr(&args, &env, Duration::from_secs(300));
         assert!(
             out.status.success(),
             "{}",
@@ -394,7 +394,7 @@ fn cli_auto_uses_the_cached_measurement_and_flags_still_force() {
     assert_eq!(j["raster_reason"], "forced by --raster graphics");
 
     // RQR_NO_AUTOTUNE=1: today's feature rule, cache ignored.
-    let (out, _) = common::run_rqr(
+    let (out, _) = support::run_rqr(
         &["probe", "--json"],
         &[("XDG_CACHE_HOME", cache), ("RQR_NO_AUTOTUNE", "1")],
         Duration::from_secs(60),
@@ -411,7 +411,7 @@ fn cli_auto_uses_the_cached_measurement_and_flags_still_force() {
 
     // A corrupt cache: a warning, the rule, success.
     std::fs::write(&path, "garbage").unwrap();
-    let (out, _) = common::run_rqr(&["probe", "--json"], &env, Duration::from_secs(60));
+    let (out, _) = support::run_rqr(&["probe", "--json"], &env, Duration::from_secs(60));
     assert!(out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("autotune cache unusable"), "{stderr}");
@@ -430,7 +430,7 @@ fn cli_auto_uses_the_cached_measurement_and_flags_still_force() {
 #[test]
 fn texture_sampling_measures_both_formats() {
     use rqr::render::passes::texture_sampling;
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let t = texture_sampling::measure(&ctx, 1).unwrap();
     let (name, block_ms) = t.block.expect("lavapipe samples BC7");
     assert_eq!(name, "BC7");
@@ -441,5 +441,5 @@ fn texture_sampling_measures_both_formats() {
         "texture sampling: {block_ms:.3} ms BC7, {:.3} ms RGBA8",
         t.rgba8_ms
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

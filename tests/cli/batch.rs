@@ -2,7 +2,7 @@
 //! (missing output, stale temporary file), `--force`, and shards whose union is the
 //! single-process run, byte for byte. Also the library API it is built on.
 
-use crate::support as common;
+use crate::support;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -52,7 +52,7 @@ fn write_manifest(dir: &Path) -> PathBuf {
 fn batch(args: &[&str]) -> std::process::Output {
     let mut full = vec!["batch"];
     full.extend_from_slice(args);
-    common::run_rqr(&full, &[], LIMIT).0
+    support::run_rqr(&full, &[], LIMIT).0
 }
 
 /// Every file under `dir` except results files, with its bytes.
@@ -283,7 +283,7 @@ fn the_library_renders_many_cameras_from_one_upload() {
         assert!(v.gpu_ms > 0.0);
     }
     assert_ne!(views[0].rgba8, views[1].rgba8);
-    common::assert_validation_clean(device.context());
+    support::assert_validation_clean(device.context());
 }
 
 #[test]
@@ -303,7 +303,7 @@ fn visible_devices_without_nvidia_gpus_warn_once_and_fall_back() {
         "--out",
         out.to_str().unwrap(),
     ];
-    let (run, _) = common::run_rqr(&args, &[("CUDA_VISIBLE_DEVICES", "3")], LIMIT);
+    let (run, _) = support::run_rqr(&args, &[("CUDA_VISIBLE_DEVICES", "3")], LIMIT);
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{err}");
     assert_eq!(
@@ -312,7 +312,7 @@ fn visible_devices_without_nvidia_gpus_warn_once_and_fall_back() {
         "{err}"
     );
     assert!(out.join("a/000.png").is_file());
-    let (probe, _) = common::run_rqr(&["probe"], &[], LIMIT);
+    let (probe, _) = support::run_rqr(&["probe"], &[], LIMIT);
     let text = String::from_utf8_lossy(&probe.stdout);
     assert!(
         text.contains("PCI bus id") && text.contains("device UUID"),
@@ -368,7 +368,7 @@ fn jobs_render_under_their_environment_and_a_missing_map_fails_alone() {
     let manifest = dir.join("manifest.jsonl");
     std::fs::write(&manifest, lines.join("\n") + "\n").unwrap();
     let out = dir.join("out");
-    let run = common::run_rqr(
+    let run = support::run_rqr(
         &[
             "batch",
             manifest.to_str().unwrap(),

@@ -3,7 +3,7 @@
 //! level then, and the device allocator's bytes return to their baseline after every cycle.
 //! `RQR_SOAK_CYCLES` sets the number of measured cycles (default 1000).
 
-use crate::support as common;
+use crate::support;
 
 use std::path::Path;
 
@@ -25,7 +25,7 @@ fn rss_bytes() -> u64 {
 fn memory_stays_flat_over_many_load_render_drop_cycles() {
     // Resident memory is the whole process's, and the other tests of this binary run in
     // threads beside this one: the cycles run in a process of their own.
-    if !common::in_own_process(
+    if !support::in_own_process(
         module_path!(),
         "memory_stays_flat_over_many_load_render_drop_cycles",
         &[],
@@ -41,14 +41,14 @@ fn memory_stays_flat_over_many_load_render_drop_cycles() {
         validation: Some(true),
         ..Default::default()
     })
-    .expect(common::INSTALL_HINT);
+    .expect(support::INSTALL_HINT);
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/gltf");
     let scenes = [
         assets.join("Box/Box.glb"),
         assets.join("BoxTextured/BoxTextured.glb"),
     ];
     let ctx = device.context();
-    assert!(ctx.validation_enabled(), "{}", common::INSTALL_HINT);
+    assert!(ctx.validation_enabled(), "{}", support::INSTALL_HINT);
     let empty = ctx.allocated_bytes();
     let cycle = |k: usize| {
         let scene = device.load_scene(&scenes[k % 2]).unwrap();
@@ -95,5 +95,5 @@ fn memory_stays_flat_over_many_load_render_drop_cycles() {
         peak_rss as f64 <= baseline_rss as f64 * 1.05,
         "RSS grew from {baseline_rss} to {peak_rss} bytes over {cycles} cycles"
     );
-    common::assert_validation_clean(ctx);
+    support::assert_validation_clean(ctx);
 }

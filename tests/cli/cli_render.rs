@@ -1,6 +1,6 @@
 //! The rendering commands end to end through the real binary.
 
-use crate::support as common;
+use crate::support;
 
 use std::path::Path;
 use std::process::Command;
@@ -24,7 +24,7 @@ fn tmpdir(name: &str) -> std::path::PathBuf {
 fn render_writes_png_exr_aovs_and_json() {
     let dir = tmpdir("render");
     let png = dir.join("room.png");
-    let j = common::run_json(
+    let j = support::run_json(
         rqr()
             .args([
                 "render",
@@ -88,7 +88,7 @@ fn hybrid_render_traces_no_primary_rays() {
     let mut pixels = Vec::new();
     for gbuffer in ["visibility", "full"] {
         let png = dir.join(format!("h_{gbuffer}.png"));
-        let j = common::run_json(
+        let j = support::run_json(
             rqr()
                 .args([
                     "render",
@@ -247,7 +247,7 @@ fn compare_writes_every_file_with_a_consistent_report() {
 
 #[test]
 fn bench_reports_build_and_ray_throughput_per_backend() {
-    let j = common::run_json(rqr().args([
+    let j = support::run_json(rqr().args([
         "bench",
         "--all-backends",
         "--all-bvh-builds",

@@ -1,6 +1,6 @@
 //! `rqr info`: counts as text and JSON, scene choice, and clean failures on bad input.
 
-use crate::support::scene_files as scene_util;
+use crate::support::scene_files;
 
 use std::process::Command;
 
@@ -57,7 +57,7 @@ fn info_json_has_every_field() {
 
 #[test]
 fn info_counts_instanced_and_unique_triangles() {
-    let path = scene_util::asset("SimpleInstancing/SimpleInstancing.glb");
+    let path = scene_files::asset("SimpleInstancing/SimpleInstancing.glb");
     let v = info_json(&[path.to_str().unwrap()]);
     assert_eq!(v["triangles"], 1500);
     assert_eq!(v["unique_triangles"], 12);
@@ -68,7 +68,7 @@ fn info_counts_instanced_and_unique_triangles() {
         serde_json::json!(["EXT_mesh_gpu_instancing"])
     );
 
-    let ms = scene_util::asset("MultipleScenes/MultipleScenes.gltf");
+    let ms = scene_files::asset("MultipleScenes/MultipleScenes.gltf");
     let ms = ms.to_str().unwrap();
     assert_eq!(info_json(&[ms])["triangles"], 2);
     assert_eq!(info_json(&[ms, "--scene", "0"])["triangles"], 1);
@@ -101,7 +101,7 @@ fn info_fails_cleanly_on_bad_input() {
     let broken = dir.join("broken.glb");
     std::fs::write(&broken, b"glTF\x02\0\0\0\xff\0\0\0JSON").unwrap();
     let missing = dir.join("missing.gltf");
-    let sparse = scene_util::asset("SimpleSparseAccessor/SimpleSparseAccessor.gltf");
+    let sparse = scene_files::asset("SimpleSparseAccessor/SimpleSparseAccessor.gltf");
     for (args, needle) in [
         (vec!["info", missing.to_str().unwrap()], "missing.gltf"),
         (vec!["info", broken.to_str().unwrap()], "truncated GLB"),
@@ -123,7 +123,7 @@ fn info_fails_cleanly_on_bad_input() {
 
 #[test]
 fn info_json_lists_each_extension_with_its_status() {
-    let cc = scene_util::asset("ClearCoatTest/ClearCoatTest.glb");
+    let cc = scene_files::asset("ClearCoatTest/ClearCoatTest.glb");
     let v = info_json(&[cc.to_str().unwrap()]);
     assert_eq!(
         v["extensions"],
@@ -133,12 +133,12 @@ fn info_json_lists_each_extension_with_its_status() {
     // stdout still says which (exit status 1, the error on stderr).
     let dir = std::env::temp_dir().join(format!("rqr-info-ext-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let mut b = scene_util::Builder::default();
-    let mut doc = scene_util::quad_doc(&mut b, serde_json::json!({}));
+    let mut b = scene_files::Builder::default();
+    let mut doc = scene_files::quad_doc(&mut b, serde_json::json!({}));
     doc["extensionsUsed"] =
         serde_json::json!(["KHR_materials_iridescence", "KHR_texture_transform"]);
     let optional = dir.join("optional.gltf");
-    std::fs::write(&optional, scene_util::bytes(&b.document(doc.clone()))).unwrap();
+    std::fs::write(&optional, scene_files::bytes(&b.document(doc.clone()))).unwrap();
     let v = info_json(&[optional.to_str().unwrap()]);
     assert_eq!(
         v["extensions"],
@@ -150,7 +150,7 @@ fn info_json_lists_each_extension_with_its_status() {
     doc["extensionsUsed"] = serde_json::json!(["KHR_materials_diffuse_transmission"]);
     doc["extensionsRequired"] = serde_json::json!(["KHR_materials_diffuse_transmission"]);
     let required = dir.join("required.gltf");
-    std::fs::write(&required, scene_util::bytes(&b.document(doc))).unwrap();
+    std::fs::write(&required, scene_files::bytes(&b.document(doc))).unwrap();
     let out = rqr(&["info", "--json", required.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     let v: Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");

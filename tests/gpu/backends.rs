@@ -1,21 +1,13 @@
 //! Hardware ray queries vs rqr's compute BVH on real scenes: the primary hits (instance,
 //! primitive, depth) must agree pixel for pixel from several camera views.
 
-use crate::support as common;
-
-use std::path::Path;
+use crate::support;
+use crate::support::scene_files::load_asset;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::Backend;
 use rqr::render::{RenderSettings, Renderer};
-use rqr::scene::{Camera, LoadOptions, Scene};
-
-fn asset(rel: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
-    rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
-}
+use rqr::scene::{Camera, Scene};
 
 /// The automatic camera, and the same camera orbited about the scene centre by ±35° and raised.
 fn views(scene: &Scene) -> Vec<Camera> {
@@ -37,7 +29,7 @@ fn views(scene: &Scene) -> Vec<Camera> {
 }
 
 fn cross_check(name: &str, scene: &Scene) {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     assert!(
         ctx.features().ray_query,
         "the cross-check needs a device with ray queries (lavapipe has them)"
@@ -85,7 +77,7 @@ fn cross_check(name: &str, scene: &Scene) {
         // Same hits → same shadow rays (trace_any) and the same secondary ray counts.
         assert_eq!(a.rays.shadow, b.rays.shadow, "{name} view {v}: shadow rays");
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
@@ -97,7 +89,7 @@ fn builtin_scene_backends_agree() {
 fn instanced_scene_backends_agree() {
     cross_check(
         "SimpleInstancing",
-        &asset("SimpleInstancing/SimpleInstancing.glb"),
+        &load_asset("SimpleInstancing/SimpleInstancing.glb"),
     );
 }
 
@@ -105,7 +97,7 @@ fn instanced_scene_backends_agree() {
 fn alpha_mask_scene_backends_agree() {
     cross_check(
         "AlphaBlendModeTest",
-        &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
+        &load_asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
     );
 }
 
@@ -113,7 +105,7 @@ fn alpha_mask_scene_backends_agree() {
 fn many_triangle_scene_backends_agree() {
     cross_check(
         "TransmissionRoughnessTest (78k triangles)",
-        &asset("TransmissionRoughnessTest/TransmissionRoughnessTest.glb"),
+        &load_asset("TransmissionRoughnessTest/TransmissionRoughnessTest.glb"),
     );
 }
 
@@ -127,7 +119,7 @@ fn animated_frame_backends_agree() {
         ("InterpolationTest/InterpolationTest.glb", 0.6),
         ("AnimatedMorphCube/AnimatedMorphCube.glb", 1.0),
     ] {
-        let rest = asset(rel);
+        let rest = load_asset(rel);
         let all = rest
             .select_animations(&rqr::scene::AnimationSelection::All)
             .unwrap();

@@ -2,9 +2,9 @@
 //! `shaders/test/bvh_trace.comp` against the CPU brute-force reference (and against the
 //! hardware ray-query backend where the device has it) on generated scenes.
 
-use crate::support as common;
+use crate::support;
 
-use common::trace::{trace_with, TestHit};
+use support::trace::{trace_with, TestHit};
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Quat, Vec3};
@@ -36,7 +36,7 @@ fn words<T: Pod>(v: &T) -> Vec<u32> {
 
 #[test]
 fn bvh_records_match_glsl_layout() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let node: BvhNode = distinct(2);
     let tri: BvhTriangle = distinct(3);
     let inst: BvhInstance = distinct(4);
@@ -122,7 +122,7 @@ fn bvh_records_match_glsl_layout() {
         "fma(a, a, -a*a) = {device_fma}"
     );
     eprintln!("device fma() fused: {}", device_fma != 0.0);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -283,23 +283,23 @@ fn check_scene(ctx: &Context, name: &str, scene: &Scene, rays: &[Ray]) {
 
 #[test]
 fn random_triangles_match_cpu_reference() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let mut rng = Rng::new(11);
     let scene = scene_of(vec![random_triangles(&mut rng, 5000, 10.0, 1.5)], vec![]);
     let rays = random_rays(&mut rng, &scene, 20_000);
     check_scene(&ctx, "random triangles", &scene, &rays);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn instanced_grid_with_mirrored_scaled_rotated_transforms_matches_cpu_reference() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let mut rng = Rng::new(12);
     let scene = instanced_grid(&mut rng, 6, 5);
     assert!(scene.instances.iter().any(Instance::flips_winding));
     let rays = random_rays(&mut rng, &scene, 20_000);
     check_scene(&ctx, "instanced grid", &scene, &rays);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// Rays from inside closed meshes (plain and under a rotated, scaled, mirrored instance)
@@ -308,7 +308,7 @@ fn instanced_grid_with_mirrored_scaled_rotated_transforms_matches_cpu_reference(
 /// not watertight (a few of ~8000 rays escape the 8x8x6 cube on Mesa 25).
 #[test]
 fn closed_meshes_are_watertight_at_shared_edges_and_vertices() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let transforms = [
         Mat4::IDENTITY,
         Mat4::from_scale_rotation_translation(
@@ -382,12 +382,12 @@ fn closed_meshes_are_watertight_at_shared_edges_and_vertices() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn alpha_mask_hits_are_skipped() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = alpha_quads();
     let mut rays = Vec::new();
     for i in 0..64 {
@@ -424,16 +424,16 @@ fn alpha_mask_hits_are_skipped() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn empty_scene_misses() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let mut rng = Rng::new(5);
     let scene = scene_of(vec![], vec![]);
     let rays = random_rays(&mut rng, &scene, 100);
     let got = trace_gpu(&ctx, &scene, &rays, Which::Bvh);
     assert!(got.iter().all(|h| h.instance == -1 && h.any_hit == 0));
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -4,18 +4,17 @@
 //! SAH cost of both trees; and the memory order both lay their nodes out in (depth-first
 //! pre-order, every subtree's nodes and triangles contiguous).
 
-use crate::support as common;
+use crate::support;
+use crate::support::scene_files::load_asset;
 
-use common::trace::{trace_with, TestHit};
-
-use std::path::Path;
+use support::trace::{trace_with, TestHit};
 
 use glam::{Mat4, Quat, Vec3};
 use rqr::accel::bvh::cpu::Ray;
 use rqr::accel::bvh::layout::{decode_link, LINK_LEAF};
 use rqr::accel::bvh::testing::*;
 use rqr::accel::bvh::{locality, sah, BvhBuild, BvhBuildOptions, BvhData, BvhError, GpuBvh};
-use rqr::scene::{Instance, LoadOptions, Scene};
+use rqr::scene::{Instance, Scene};
 use rqr::vk::{Binding, Context};
 
 fn build(ctx: &Context, scene: &Scene, how: BvhBuild) -> GpuBvh {
@@ -165,16 +164,9 @@ fn bumpy_sphere(stacks: u32, slices: u32) -> Scene {
     scene_of(vec![g], vec![])
 }
 
-fn asset(rel: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
-    rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
-}
-
 #[test]
 fn bumpy_sphere_100k_gpu_build_matches_host_build() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     // 2 * 224 * 223 = 99 904 triangles.
     let scene = bumpy_sphere(224, 224);
     assert!(scene.triangle_count() > 99_000);
@@ -187,20 +179,20 @@ fn bumpy_sphere_100k_gpu_build_matches_host_build() {
         "GPU SAH {:.1} % above the host's",
         (sah_ratio - 1.0) * 100.0
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn gltf_and_builtin_scenes_gpu_build_matches_host_build() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     for (name, scene) in [
         (
             "SimpleInstancing",
-            asset("SimpleInstancing/SimpleInstancing.glb"),
+            load_asset("SimpleInstancing/SimpleInstancing.glb"),
         ),
         (
             "TransmissionRoughnessTest",
-            asset("TransmissionRoughnessTest/TransmissionRoughnessTest.glb"),
+            load_asset("TransmissionRoughnessTest/TransmissionRoughnessTest.glb"),
         ),
         ("built-in", rqr::scene::load_default().unwrap()),
     ] {
@@ -208,17 +200,17 @@ fn gltf_and_builtin_scenes_gpu_build_matches_host_build() {
         let (hits, _) = compare_builds(&ctx, name, &scene, &rays);
         assert!(hits > rays.len() / 10, "{name}: only {hits} hits");
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn instanced_grid_gpu_build_matches_host_build() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let mut rng = Rng::new(12);
     let scene = instanced_grid(&mut rng, 6, 5);
     let rays = random_rays(&mut rng, &scene, 20_000);
     compare_builds(&ctx, "instanced grid", &scene, &rays);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// The order check itself: a tree whose root lists its inner children in another order than
@@ -266,7 +258,7 @@ fn depth_first_check_reports_other_orders() {
 /// tests/gpu/bvh_gpu.rs): none may escape the GPU-built BVH.
 #[test]
 fn gpu_built_closed_meshes_are_watertight() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let transform = Mat4::from_scale_rotation_translation(
         Vec3::new(-1.5, 0.75, 1.25),
         Quat::from_rotation_y(0.7) * Quat::from_rotation_x(-0.3),
@@ -314,14 +306,14 @@ fn gpu_built_closed_meshes_are_watertight() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// One triangle; zero-area (collinear) triangles among normal ones; many copies of one
 /// triangle (every PLOC distance ties); every triangle at one point (all skipped).
 #[test]
 fn degenerate_inputs_build_on_the_gpu() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let mut rng = Rng::new(3);
     let one = scene_of(
         vec![geometry(
@@ -396,12 +388,12 @@ fn degenerate_inputs_build_on_the_gpu() {
     assert!(trace(&ctx, &scene, &bvh, &rays)
         .iter()
         .all(|h| h.instance < 0 && h.any_hit == 0));
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn over_limit_and_over_memory_builds_are_refused_before_allocating() {
-    let mut ctx = common::gpu();
+    let mut ctx = support::gpu();
     let n = rqr::accel::bvh::gpu_build::GPU_BUILD_MAX_TRIANGLES + 1;
     let huge = geometry(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![0u32; 3 * n], 0);
     let scene = scene_of(vec![huge], vec![]);
@@ -434,7 +426,7 @@ fn over_limit_and_over_memory_builds_are_refused_before_allocating() {
         "unexpected error: {err}"
     );
     assert_eq!(ctx.allocated_bytes(), before, "allocated before refusing");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// The renderer with `--bvh-build gpu` sees the same primary hits as with the host build, and
@@ -444,7 +436,7 @@ fn renderer_with_gpu_built_bvh_matches_host_built() {
     use rqr::accel::bvh::BvhBuildChoice;
     use rqr::accel::Backend;
     use rqr::render::{RenderSettings, Renderer};
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (auto, reason) = BvhBuildChoice::Auto.resolve(ctx.info());
     if ctx.info().device_type == "cpu" {
         assert_eq!(auto, BvhBuild::Host, "{reason}");
@@ -487,7 +479,7 @@ fn renderer_with_gpu_built_bvh_matches_host_built() {
         "{ties} pixels hit another triangle"
     );
     assert_eq!(a.rays.shadow, b.rays.shadow, "shadow rays");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// `scene` animated to `time`: every vertex moved along a smooth field (coincident vertices
@@ -520,7 +512,7 @@ fn animate(scene: &Scene, time: f32) -> Scene {
 /// chains its SAH costs from frame to frame.
 #[test]
 fn refit_after_moving_vertices_matches_a_fresh_build() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let mut rng = Rng::new(21);
     for (name, scene) in [
         ("instanced grid", instanced_grid(&mut rng, 4, 3)),
@@ -560,14 +552,14 @@ fn refit_after_moving_vertices_matches_a_fresh_build() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// A refit of a scene whose topology changed, or whose new vertices or transforms cannot be
 /// bounded, is refused with an error naming the geometry, vertex or instance.
 #[test]
 fn refit_refuses_changed_topology_and_bad_values() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = bumpy_sphere(8, 8);
     let mut bvh = build(&ctx, &scene, BvhBuild::Gpu);
     let refit_error = |bvh: &mut GpuBvh, scene: &Scene| match bvh.refit(&ctx, scene) {
@@ -596,7 +588,7 @@ fn refit_refuses_changed_topology_and_bad_values() {
     let want = trace(&ctx, &scene, &build(&ctx, &scene, BvhBuild::Host), &rays);
     let got = trace(&ctx, &scene, &bvh, &rays);
     assert_same_hits("refit after refusals", &rays, &want, &got);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// The top level rebuilt on the GPU after the instances moved returns the same closest hits
@@ -604,12 +596,12 @@ fn refit_refuses_changed_topology_and_bad_values() {
 /// still matches.
 #[test]
 fn gpu_tlas_rebuild_after_moving_instances_matches_host_build() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let mut rng = Rng::new(31);
     for (name, scene) in [
         (
             "SimpleInstancing",
-            asset("SimpleInstancing/SimpleInstancing.glb"),
+            load_asset("SimpleInstancing/SimpleInstancing.glb"),
         ),
         ("instanced grid", instanced_grid(&mut rng, 5, 4)),
         ("built-in", rqr::scene::load_default().unwrap()),
@@ -645,5 +637,5 @@ fn gpu_tlas_rebuild_after_moving_instances_matches_host_build() {
         assert_same_hits(&format!("{name} (refit after rebuild)"), &rays, &want, &got);
         eprintln!("{name}: refit after rebuild {report:?}");
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -1,16 +1,16 @@
 //! Foundation: device probing, backend choice, compute round trip, timestamps, fence timeouts.
 
-use crate::support as common;
+use crate::support;
 
 use std::process::Command;
 use std::time::Duration;
 
-use common::{assert_validation_clean, gpu};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::shaders;
 use rqr::vk::{
     self, Binding, Buffer, ComputePipeline, DeviceSelector, GpuProfiler, MemoryLocation, VkError,
 };
+use support::{assert_validation_clean, gpu};
 
 fn rqr_bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_rqr"));
@@ -22,7 +22,7 @@ fn rqr_bin() -> Command {
 #[test]
 fn probe_finds_lavapipe_with_ray_query_and_picks_hw() {
     let report =
-        vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(common::INSTALL_HINT);
+        vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(support::INSTALL_HINT);
     let lvp = report
         .devices
         .iter()
@@ -31,7 +31,7 @@ fn probe_finds_lavapipe_with_ray_query_and_picks_hw() {
             panic!(
                 "no lavapipe device among {:?}\n{}",
                 report.devices.iter().map(|d| &d.name).collect::<Vec<_>>(),
-                common::INSTALL_HINT
+                support::INSTALL_HINT
             )
         });
     assert_eq!(lvp.device_type, "cpu");
@@ -55,7 +55,7 @@ fn probe_finds_lavapipe_with_ray_query_and_picks_hw() {
 
 #[test]
 fn probe_json_has_schema_and_honours_backend_bvh() {
-    let doc = common::run_json(rqr_bin().args(["probe", "--json", "--backend", "bvh"]));
+    let doc = support::run_json(rqr_bin().args(["probe", "--json", "--backend", "bvh"]));
     assert_eq!(doc["schema"], 1);
     assert!(doc["selected"].is_u64());
     let devices = doc["devices"].as_array().unwrap();
@@ -94,7 +94,7 @@ fn probe_json_has_schema_and_honours_backend_bvh() {
 #[test]
 fn the_device_the_probe_approves_opens() {
     let report =
-        vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(common::INSTALL_HINT);
+        vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(support::INSTALL_HINT);
     let probed = &report.devices[report.selected.expect("a selected device")];
     assert!(
         probed.missing_features.is_empty(),
@@ -322,7 +322,7 @@ fn gpu_with_sync() -> vk::Context {
         sync_validation: Some(true),
         ..Default::default()
     })
-    .expect(common::INSTALL_HINT);
-    assert!(ctx.validation_enabled(), "{}", common::INSTALL_HINT);
+    .expect(support::INSTALL_HINT);
+    assert!(ctx.validation_enabled(), "{}", support::INSTALL_HINT);
     ctx
 }

@@ -2,11 +2,9 @@
 //! (render targets, acceleration structures, BVH), storage-buffer range, and a fence timeout
 //! in the middle of a frame that leaves the device usable and validation clean.
 
-use crate::support as common;
-
 use std::time::Duration;
 
-use common::{assert_validation_clean, gpu};
+use crate::support::{assert_validation_clean, gpu};
 use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};

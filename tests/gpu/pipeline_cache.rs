@@ -1,7 +1,7 @@
 //! The on-disk pipeline cache: written when a context closes, loaded by the next one for the
 //! same device, and a corrupt file gives one warning and a rebuilt cache, never a failure.
 
-use crate::support as common;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -28,7 +28,7 @@ fn render_once(dir: &Path) {
         autotune: false,
         ..Default::default()
     })
-    .expect(common::INSTALL_HINT);
+    .expect(support::INSTALL_HINT);
     let scene = device.load_scene(&box_glb()).unwrap();
     let cameras = scene.orbit(1, [10.0, 10.0], 40.0, 0, 1.0);
     let options = ViewOptions {
@@ -102,7 +102,7 @@ fn a_corrupt_cache_warns_once_through_the_binary() {
     ];
     let env = [("RQR_CACHE_DIR", dir.to_str().unwrap())];
     let limit = Duration::from_secs(600);
-    let (first, _) = common::run_rqr(&args, &env, limit);
+    let (first, _) = support::run_rqr(&args, &env, limit);
     assert!(
         first.status.success(),
         "{}",
@@ -115,12 +115,12 @@ fn a_corrupt_cache_warns_once_through_the_binary() {
         .expect("a pipeline cache in RQR_CACHE_DIR")
         .path();
     std::fs::write(&file, b"RQRPIPE1 not really").unwrap();
-    let (second, _) = common::run_rqr(&args, &env, limit);
+    let (second, _) = support::run_rqr(&args, &env, limit);
     let err = String::from_utf8_lossy(&second.stderr);
     assert!(second.status.success(), "{err}");
     assert_eq!(err.matches("is unusable").count(), 1, "{err}");
     assert!(err.contains("rebuilding it"), "{err}");
-    let (third, _) = common::run_rqr(&args, &env, limit);
+    let (third, _) = support::run_rqr(&args, &env, limit);
     let err = String::from_utf8_lossy(&third.stderr);
     assert!(
         !err.contains("unusable"),

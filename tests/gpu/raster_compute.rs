@@ -1,7 +1,8 @@
 //! The compute rasterizer (`--raster compute`) against the graphics pipeline: the same
 //! instance and primitive on ≥ 99.9 % of pixels, on both depth-test paths (64-bit atomics and
 //! the 32-bit fallback), and the hybrid ↔ ray-traced invariant with compute visibility.
-use crate::support as common;
+use crate::support;
+use crate::support::scene_files::load_asset;
 
 use rqr::accel::Backend;
 use rqr::render::image::compare;
@@ -9,13 +10,6 @@ use rqr::render::passes::gbuffer;
 use rqr::render::passes::raster_compute::RasterMode;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::{Camera, Scene};
-
-fn asset(rel: &str) -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
-    rqr::scene::load(&path, &rqr::scene::LoadOptions::default()).unwrap()
-}
 
 fn default_camera(scene: &Scene) -> Camera {
     scene
@@ -36,7 +30,7 @@ fn ids(out: &RenderOutput) -> Vec<(i32, i32)> {
 /// exercised; the AOVs hold the first sample's ids) and asserts ids agree with the graphics
 /// pass on ≥ 99.9 % of pixels. Returns the fraction of pixels the graphics pass covered.
 fn assert_compute_matches_graphics(name: &str, scene: &Scene, camera: &Camera, size: u32) -> f64 {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     assert!(
         ctx.features().buffer_int64_atomics,
         "lavapipe exposes shaderBufferInt64Atomics; the 64-bit path must be tested"
@@ -77,7 +71,7 @@ fn assert_compute_matches_graphics(name: &str, scene: &Scene, camera: &Camera, s
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
     coverage
 }
 
@@ -95,7 +89,7 @@ fn compute_visibility_survives_full_tile_bins() {
     // The capacity is read from the environment: set in a process of its own, never changed
     // under the other tests of this binary (or the `rqr` processes they start).
     let capacity = (rqr::render::passes::raster_compute::BIN_CAPACITY_ENV, "1");
-    if !common::in_own_process(
+    if !support::in_own_process(
         module_path!(),
         "compute_visibility_survives_full_tile_bins",
         &[capacity],
@@ -140,7 +134,7 @@ fn compute_visibility_matches_graphics_on_gltf_samples() {
         ),
         ("SimpleInstancing", "SimpleInstancing/SimpleInstancing.glb"),
     ] {
-        let scene = asset(rel);
+        let scene = load_asset(rel);
         let covered = assert_compute_matches_graphics(name, &scene, &default_camera(&scene), 96);
         assert!(covered > 0.05, "{name} covers only {covered}");
     }
@@ -150,7 +144,7 @@ fn compute_visibility_matches_graphics_on_gltf_samples() {
 /// FLIP mean ≤ 0.02, ids on ≥ 99.9 % of pixels.
 #[test]
 fn hybrid_with_compute_visibility_matches_ray_traced() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = rqr::scene::load_default().unwrap();
     let draws = gbuffer::draws(&scene);
     let camera = default_camera(&scene);
@@ -192,12 +186,12 @@ fn hybrid_with_compute_visibility_matches_ray_traced() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn compute_raster_rejects_the_full_gbuffer() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = rqr::scene::load_default().unwrap();
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let s = RenderSettings {

@@ -1,6 +1,6 @@
 //! The GLSL optics and sampling functions agree with their unit-tested host mirrors.
 
-use crate::support as common;
+use crate::support;
 
 use glam::Vec3;
 use rqr::render::reference::optics;
@@ -9,7 +9,7 @@ use rqr::vk::{vk, Binding, Buffer, ComputePipeline, MemoryLocation};
 
 #[test]
 fn glsl_optics_and_sequences_match_the_host() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let count = 256u32;
     let out = Buffer::new(
         &ctx,
@@ -89,5 +89,5 @@ fn glsl_optics_and_sequences_match_the_host() {
     }
     // Angles above asin(1/1.5) = 0.7297 rad of the 1.5 rad sweep are totally reflected: ~131 of 256.
     assert!((126..136).contains(&tir), "{tir} TIR cases");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -2,8 +2,8 @@
 //! texture, vertex colour and factor), shading normal, depth and integer ids, the same in the
 //! ray-traced path and in the hybrid path with either G-buffer layout, on every backend.
 
-use crate::support as common;
-use crate::support::scene_files as scene_util;
+use crate::support;
+use crate::support::scene_files;
 
 use glam::{Vec2, Vec3};
 use rqr::accel::Backend;
@@ -13,7 +13,7 @@ use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::procedural::{camera_to_world, cornell, look_at};
 use rqr::scene::{Camera, LoadOptions, Scene};
-use scene_util::Builder;
+use scene_files::Builder;
 use serde_json::json;
 
 /// Every backend the device runs (lavapipe: the compute BVH only).
@@ -97,7 +97,7 @@ fn textured_quad() -> Scene {
     let col = b.floats(&colour, "VEC4");
     let idx = b.indices_u16(&[0, 1, 2, 0, 2, 3]);
     let rgba: Vec<u8> = TEXELS.iter().flatten().copied().collect();
-    let png = scene_util::png(2, 2, &rgba);
+    let png = scene_files::png(2, 2, &rgba);
     let doc = b.document(json!({
         "scene": 0,
         "scenes": [{"nodes": [0]}],
@@ -115,12 +115,12 @@ fn textured_quad() -> Scene {
         }}],
         "textures": [{"source": 0, "sampler": 0}],
         "samplers": [{"magFilter": 9728, "minFilter": 9728}],
-        "images": [{"uri": format!("data:image/png;base64,{}", scene_util::base64(&png))}],
+        "images": [{"uri": format!("data:image/png;base64,{}", scene_files::base64(&png))}],
     }));
     let dir = std::env::temp_dir().join(format!("rqr-aovs-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("textured_quad.gltf");
-    std::fs::write(&path, scene_util::bytes(&doc)).unwrap();
+    std::fs::write(&path, scene_files::bytes(&doc)).unwrap();
     rqr::scene::load(&path, &LoadOptions::default()).unwrap()
 }
 
@@ -162,7 +162,7 @@ fn aov_record_is_80_bytes_with_integer_ids_last() {
 /// report zero albedo and normal and the no-id marker.
 #[test]
 fn albedo_of_a_textured_surface_is_texel_times_vertex_colour_times_factor() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = textured_quad();
     let camera = quad_camera();
     let size = 48;
@@ -214,7 +214,7 @@ fn albedo_of_a_textured_surface_is_texel_times_vertex_colour_times_factor() {
             assert!(misses > 100, "{name}: only {misses} misses");
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// On the Cornell room (a diffuse box, a mirror and a glass sphere, coloured walls): every hit
@@ -224,7 +224,7 @@ fn albedo_of_a_textured_surface_is_texel_times_vertex_colour_times_factor() {
 /// wherever the ids agree.
 #[test]
 fn albedo_normal_depth_and_ids_agree_across_paths_on_the_cornell_room() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let camera = scene.cameras[0];
     let size = 64;
@@ -310,5 +310,5 @@ fn albedo_normal_depth_and_ids_agree_across_paths_on_the_cornell_room() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -4,7 +4,7 @@
 //! converge at the Monte Carlo rate to a converged reference, furnaces keep their energy, the
 //! hybrid path equals the ray-traced one at equal samples and seed, and a seed fixes the image.
 
-use crate::support as common;
+use crate::support;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
@@ -188,7 +188,7 @@ fn floor_pixels(out: &RenderOutput) -> Vec<(usize, f64)> {
 
 #[test]
 fn punctual_lights_keep_the_whitted_hard_shadow() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (scene, camera) = penumbra_scene(true, 0.0);
     for backend in backends(&ctx) {
         for hybrid in [false, true] {
@@ -228,12 +228,12 @@ fn punctual_lights_keep_the_whitted_hard_shadow() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn sphere_light_penumbra_follows_the_visible_fraction_of_its_disc() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (occluded, camera) = penumbra_scene(true, LIGHT_R);
     let (open, _) = penumbra_scene(false, LIGHT_R);
     let settings = penumbra_settings(Shading::Distributed, 256);
@@ -278,7 +278,7 @@ fn sphere_light_penumbra_follows_the_visible_fraction_of_its_disc() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// A unit sphere of `material` at the origin seen from +Z, no lights.
@@ -311,7 +311,7 @@ fn furnace_settings() -> RenderSettings {
 
 #[test]
 fn furnace_lambert_sphere_shows_its_albedo() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let albedo = 0.7;
     let (scene, camera) = sphere_scene(lambert(albedo));
     let map = EnvironmentMap::constant(64, [1.0; 3]);
@@ -339,12 +339,12 @@ fn furnace_lambert_sphere_shows_its_albedo() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn furnace_rough_metal_reflects_its_single_scattering_albedo() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let roughness = 0.5;
     let (scene, camera) = sphere_scene(Material {
         base_color: Vec4::ONE,
@@ -355,7 +355,7 @@ fn furnace_rough_metal_reflects_its_single_scattering_albedo() {
     let map = EnvironmentMap::constant(64, [1.0; 3]);
     // E(μ) on a table of μ, interpolated per pixel.
     let table: Vec<f64> = (0..=32)
-        .map(|k| common::optics::ggx_albedo((f64::from(k) / 32.0).max(0.02), f64::from(roughness)))
+        .map(|k| support::optics::ggx_albedo((f64::from(k) / 32.0).max(0.02), f64::from(roughness)))
         .collect();
     let albedo_at = |mu: f64| {
         let x = mu.clamp(0.0, 1.0) * 32.0;
@@ -407,7 +407,7 @@ fn soft_cornell(radius: f32) -> Scene {
 
 #[test]
 fn hybrid_equals_ray_traced_at_equal_samples_and_seed() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell(0.2);
     let camera = scene.cameras[0];
     let settings = RenderSettings {
@@ -437,12 +437,12 @@ fn hybrid_equals_ray_traced_at_equal_samples_and_seed() {
             rt.rays
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn a_seed_fixes_the_image_and_another_seed_changes_it() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell(0.2);
     let camera = scene.cameras[0];
     let mut settings = RenderSettings {
@@ -550,7 +550,7 @@ fn convergence_slope(
 
 #[test]
 fn estimates_converge_at_the_monte_carlo_rate() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     // A sphere light's penumbra.
     let (scene, _) = penumbra_scene(true, LIGHT_R);
     let camera = look_at(Vec3::new(0.75, 6.0, 0.0), Vec3::new(0.75, 0.0, 0.0), 12.0);
@@ -623,7 +623,7 @@ fn host_tonemapping_matches_the_gpu() {
     // References accumulated over several renders are tonemapped on the host.
     use rqr::render::image::tonemap::tonemap_rgba8;
     use rqr::render::Tonemap;
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let camera = scene.cameras[0];
     for (op, exposure) in [
@@ -656,7 +656,7 @@ fn reprojected_sequences_keep_each_reused_sample_as_it_was() {
     use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
     use rqr::render::temporal::{PixelSource, ReuseOptions};
     use rqr::render::RenderPath;
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell(0.2);
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let settings = RenderSettings {
@@ -722,5 +722,5 @@ fn reprojected_sequences_keep_each_reused_sample_as_it_was() {
             "{path:?}: frame 1's full render repeats frame 0's noise"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -2,7 +2,7 @@
 //! both paths: a white furnace, a mirror sphere, the background's orientation and rotation, a
 //! rough metal's energy, and the prepared textures against host integrations.
 
-use crate::support as common;
+use crate::support;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
@@ -92,7 +92,7 @@ fn each_path(ctx: &Context, mut f: impl FnMut(Backend, bool, &str)) {
 
 #[test]
 fn white_furnace_lambert_sphere_shows_its_albedo() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let albedo = 0.7;
     let material = Material {
         base_color: Vec4::new(albedo, albedo, albedo, 1.0),
@@ -121,14 +121,14 @@ fn white_furnace_lambert_sphere_shows_its_albedo() {
         }
         assert!(hits > 200, "{label}: the sphere covers {hits} pixels");
     });
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn rough_metal_under_a_constant_map_conserves_energy() {
     // GGX with F0 = 1 at roughness 0.5: with multiple-scattering compensation its directional
     // albedo is 1, so the sphere disappears into a constant map.
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let material = Material {
         base_color: Vec4::ONE,
         metallic: 1.0,
@@ -171,7 +171,7 @@ fn lookup(map: &EnvironmentMap, d: Vec3, rotation: f32) -> [f32; 3] {
 
 #[test]
 fn missed_camera_rays_show_the_map_under_the_convention_and_rotation() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let map = direction_map(256);
     // Looking along -X, slightly up: the sphere sits in the middle, misses all around.
     let scene = sphere_scene(Material::default(), Vec3::new(6.0, 1.0, 0.5));
@@ -192,7 +192,7 @@ fn missed_camera_rays_show_the_map_under_the_convention_and_rotation() {
                     misses += 1;
                     let e = lookup(
                         &map,
-                        common::optics::camera_dir(&scene, x, y, SIZE),
+                        support::optics::camera_dir(&scene, x, y, SIZE),
                         rotation,
                     );
                     for (c, &e) in e.iter().enumerate() {
@@ -215,12 +215,12 @@ fn missed_camera_rays_show_the_map_under_the_convention_and_rotation() {
     };
     let out = render(&ctx, &scene, &map, Backend::Bvh, false, &s);
     assert_eq!(&out.color[0][..3], &[9.0, 0.0, 9.0]);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn mirror_sphere_reflects_the_map() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let map = direction_map(512);
     let material = Material {
         base_color: Vec4::ONE,
@@ -262,12 +262,12 @@ fn mirror_sphere_reflects_the_map() {
         }
         assert!(checked > 200, "{label}: {checked} pixels checked");
     });
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn split_sum_table_matches_the_directional_albedo() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let env = GpuEnvironment::prepare(&ctx, &EnvironmentMap::constant(16, [1.0; 3])).unwrap();
     let (w, h, table) = env.read(&ctx, EnvTexture::Brdf, 0).unwrap();
     for (x, y) in [(10u32, 16u32), (32, 32), (50, 40), (60, 60), (20, 55)] {
@@ -275,18 +275,18 @@ fn split_sum_table_matches_the_directional_albedo() {
         let roughness = (y as f64 + 0.5) / h as f64;
         let t = table[(y * w + x) as usize];
         let gpu = (t[0] + t[1]) as f64;
-        let host = common::optics::ggx_albedo(n_dot_v, roughness);
+        let host = support::optics::ggx_albedo(n_dot_v, roughness);
         assert!(
             (gpu - host).abs() <= 0.03 * host,
             "E({n_dot_v:.3}, {roughness:.3}): table {gpu:.4}, quadrature {host:.4}"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn prepared_levels_match_brute_force_integration() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     // Smooth variation plus a broad bright patch (no single-texel sun: the reference
     // integrates texel by texel).
     let map = EnvironmentMap::from_fn(128, |d| {
@@ -369,7 +369,7 @@ fn prepared_levels_match_brute_force_integration() {
             "specular level {level} (roughness {roughness}): mean relative error {e:.4}"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
@@ -379,7 +379,7 @@ fn cli_renders_under_an_environment_file_and_reports_its_preparation() {
     let hdr = dir.join("map.hdr");
     std::fs::write(&hdr, rqr::environment::map::encode_hdr(&direction_map(64))).unwrap();
     let out = dir.join("out.png");
-    let json = common::run_json(
+    let json = support::run_json(
         std::process::Command::new(env!("CARGO_BIN_EXE_rqr"))
             .env("RQR_VALIDATION", "1")
             .env("RQR_CACHE_DIR", dir.join("cache"))
@@ -406,7 +406,7 @@ fn cli_renders_under_an_environment_file_and_reports_its_preparation() {
 
 #[test]
 fn prepared_textures_come_back_from_the_cache_and_a_corrupt_file_is_rebuilt() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let dir = std::env::temp_dir().join(format!("rqr-env-cache-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let map = direction_map(64);
@@ -439,7 +439,7 @@ fn prepared_textures_come_back_from_the_cache_and_a_corrupt_file_is_rebuilt() {
     let rebuilt = GpuEnvironment::prepare_cached(&ctx, &map, Some(&dir)).unwrap();
     assert!(!rebuilt.timing.cached);
     assert_eq!(read_all(&first), read_all(&rebuilt));
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -492,7 +492,7 @@ fn spheres_on_a_floor() -> Scene {
 
 #[test]
 fn hybrid_and_ray_traced_paths_agree_under_an_environment() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = spheres_on_a_floor();
     let map = direction_map(256);
     let s = RenderSettings {
@@ -524,7 +524,7 @@ fn hybrid_and_ray_traced_paths_agree_under_an_environment() {
         let d = rqr::render::image::compare::compare(96, 64, &images[0], &images[1]);
         assert!(d.flip_mean <= 0.01, "hw vs bvh FLIP {}", d.flip_mean);
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
@@ -532,7 +532,7 @@ fn reprojected_misses_show_the_environment_under_camera_motion() {
     use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
     use rqr::render::temporal::{PixelSource, ReuseOptions};
     use rqr::render::RenderPath;
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = spheres_on_a_floor();
     // Stripes around the vertical: 4° of orbit changes what a miss sees by up to 0.25.
     let striped = EnvironmentMap::from_fn(512, |d| {
@@ -618,7 +618,7 @@ fn reprojected_misses_show_the_environment_under_camera_motion() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// The map at `assets/environments/NAME.hdr`.
@@ -709,7 +709,7 @@ fn chi_square_p(x: f64, k: f64) -> f64 {
 fn environment_sampling_on_the_gpu_matches_its_host_twin_and_its_density() {
     use rqr::environment::sampling::SamplingTables;
     use rqr::interface::environment::{EnvSamplingTestPush, ENV_TEST_SAMPLE};
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let map = shipped_map("sunrise");
     let env = GpuEnvironment::prepare(&ctx, &map).unwrap();
     let host = SamplingTables::new(&map);
@@ -795,7 +795,7 @@ fn environment_sampling_on_the_gpu_matches_its_host_twin_and_its_density() {
     let p = chi_square_p(chi2, dof - 1.0);
     eprintln!("χ² {chi2:.1} over {dof} cells: p = {p:.3}");
     assert!(p > 1e-3, "χ² {chi2:.1} over {dof} cells: p = {p:.2e}");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// Luminance irradiance at +Y of `map` as piecewise-constant texels, integrated exactly:
@@ -840,7 +840,7 @@ fn environment_sampling_estimates_irradiance_with_low_variance() {
         EnvSamplingTestPush, ENV_STRATEGY_COSINE, ENV_STRATEGY_ENVIRONMENT, ENV_STRATEGY_MIS,
         ENV_TEST_IRRADIANCE,
     };
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let estimates = |env: &GpuEnvironment, strategy: u32, trials: u32, samples: u32| -> Vec<f64> {
         let push = EnvSamplingTestPush {
             count: trials,
@@ -900,5 +900,5 @@ fn environment_sampling_estimates_irradiance_with_low_variance() {
             "{name}: MIS {mis} against cosine {cosine} and environment {environment}"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

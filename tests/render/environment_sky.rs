@@ -3,7 +3,7 @@
 //! direction and irradiance under the map convention, a white plane lit (and shadowed by the
 //! sun) in the Whitted model, and the built-in environment of scenes without lights.
 
-use crate::support as common;
+use crate::support;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
@@ -333,7 +333,7 @@ fn render(ctx: &rqr::vk::Context, scene: &Scene, model: &SkyModel, hybrid: bool)
 
 #[test]
 fn a_white_plane_under_the_sky_is_lit_and_the_sun_casts_a_shadow() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let albedo = 0.8;
     let model = sky(45.0, 150.0, 3.0);
     let sun = model.sun_light(0.0, 1.0);
@@ -384,12 +384,12 @@ fn a_white_plane_under_the_sky_is_lit_and_the_sun_casts_a_shadow() {
             "{label}: shadowed floor {s} against albedo/π × sky = {shadow_expected}"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn missed_camera_rays_show_the_model_sky_through_the_gpu_lookup() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let model = sky(30.0, 200.0, 3.0);
     let sun = model.spec.sun_direction();
     // A small sphere far below the view; the camera looks up at the sky, 70° wide.
@@ -408,7 +408,7 @@ fn missed_camera_rays_show_the_model_sky_through_the_gpu_lookup() {
     let mut checked = 0;
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let d = common::optics::camera_dir(&scene, x, y, SIZE);
+            let d = support::optics::camera_dir(&scene, x, y, SIZE);
             if d.y < 5f32.to_radians().sin() || d.dot(sun) > 5f32.to_radians().cos() {
                 continue;
             }
@@ -425,7 +425,7 @@ fn missed_camera_rays_show_the_model_sky_through_the_gpu_lookup() {
         }
     }
     assert!(checked > 2000, "{checked} pixels");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 fn rqr_png(args: &[&str]) -> Vec<u8> {
@@ -450,7 +450,7 @@ fn rqr_png(args: &[&str]) -> Vec<u8> {
     all.push(&out_str);
     all.extend_from_slice(args);
     let cache = dir.join("cache");
-    let (o, _) = common::run_rqr(
+    let (o, _) = support::run_rqr(
         &all,
         &[
             ("RQR_VALIDATION", "1"),

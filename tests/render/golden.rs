@@ -4,14 +4,15 @@
 //! heat map). A missing golden is written and the test fails: look at it, then commit it.
 //! `RQR_BLESS=1` rewrites every golden (only after looking at the differences).
 
-use crate::support as common;
+use crate::support;
+use crate::support::scene_files::load_asset;
 
 use std::path::{Path, PathBuf};
 
 use rqr::accel::Backend;
 use rqr::render::image::compare;
 use rqr::render::{RenderSettings, Renderer};
-use rqr::scene::{LoadOptions, Scene};
+use rqr::scene::Scene;
 
 const SIZE: u32 = 96;
 /// Mean FLIP allowed against the golden: a wrong shadow or a flipped normal on a 96² image
@@ -24,13 +25,6 @@ fn golden_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
 }
 
-fn asset(rel: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
-    rqr::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
-}
-
 fn save(path: &Path, w: u32, h: u32, rgba: &[u8]) {
     image::RgbaImage::from_raw(w, h, rgba.to_vec())
         .unwrap()
@@ -40,7 +34,7 @@ fn save(path: &Path, w: u32, h: u32, rgba: &[u8]) {
 
 /// Renders `scene` with every backend and checks each against `tests/golden/<name>.png`.
 fn check(name: &str, scene: &Scene, settings: &RenderSettings) {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let camera = scene.cameras.first().copied().unwrap_or_else(|| {
         rqr::scene::auto_camera(
             &scene.bounds,
@@ -92,7 +86,7 @@ fn check(name: &str, scene: &Scene, settings: &RenderSettings) {
             ));
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
@@ -126,7 +120,7 @@ fn golden_builtin_depth1() {
 fn golden_normal_tangent_mirror() {
     check(
         "normal-tangent-mirror",
-        &asset("NormalTangentMirrorTest/NormalTangentMirrorTest.glb"),
+        &load_asset("NormalTangentMirrorTest/NormalTangentMirrorTest.glb"),
         &small(),
     );
 }
@@ -136,7 +130,7 @@ fn golden_normal_tangent_mirror() {
 fn golden_alpha_modes() {
     check(
         "alpha-blend-mode",
-        &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
+        &load_asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
         &small(),
     );
 }
@@ -146,7 +140,7 @@ fn golden_alpha_modes() {
 fn golden_attenuation() {
     check(
         "attenuation",
-        &asset("AttenuationTest/AttenuationTest.glb"),
+        &load_asset("AttenuationTest/AttenuationTest.glb"),
         &small(),
     );
 }
@@ -156,7 +150,7 @@ fn golden_attenuation() {
 fn golden_emissive_strength() {
     check(
         "emissive-strength",
-        &asset("EmissiveStrengthTest/EmissiveStrengthTest.glb"),
+        &load_asset("EmissiveStrengthTest/EmissiveStrengthTest.glb"),
         &small(),
     );
 }
@@ -166,7 +160,7 @@ fn golden_emissive_strength() {
 fn golden_texture_transform() {
     check(
         "texture-transform",
-        &asset("TextureTransformTest/TextureTransformTest.gltf"),
+        &load_asset("TextureTransformTest/TextureTransformTest.gltf"),
         &small(),
     );
 }
@@ -186,7 +180,7 @@ fn sky() -> RenderSettings {
 fn golden_clearcoat() {
     check(
         "clearcoat",
-        &asset("ClearCoatTest/ClearCoatTest.glb"),
+        &load_asset("ClearCoatTest/ClearCoatTest.glb"),
         &sky(),
     );
 }
@@ -195,5 +189,9 @@ fn golden_clearcoat() {
 /// reflection, with specular factor, texture and colour varying per row.
 #[test]
 fn golden_specular() {
-    check("specular", &asset("SpecularTest/SpecularTest.glb"), &sky());
+    check(
+        "specular",
+        &load_asset("SpecularTest/SpecularTest.glb"),
+        &sky(),
+    );
 }

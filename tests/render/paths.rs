@@ -2,7 +2,8 @@
 //! Cornell room (independent of the glTF loader): hybrid == ray-traced where it should be,
 //! recursion depth and the weight cut-off behave as the seed says.
 
-use crate::support as common;
+use crate::support;
+use crate::support::scene_files::load_asset;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};
@@ -38,7 +39,7 @@ fn diff(a: &RenderOutput, b: &RenderOutput) -> compare::ImageDiff {
 /// FLIP mean ≤ 0.02, primary ids on ≥ 99.9 % of pixels, the same secondary rays (± silhouettes),
 /// with both G-buffer layouts.
 fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let draws = gbuffer::draws(scene);
     let camera = scene
         .cameras
@@ -92,14 +93,7 @@ fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
-}
-
-fn asset(rel: &str) -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/gltf")
-        .join(rel);
-    rqr::scene::load(&path, &rqr::scene::LoadOptions::default()).unwrap()
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
@@ -121,17 +115,21 @@ fn hybrid_matches_ray_traced_on_the_builtin_scene() {
 
 #[test]
 fn hybrid_matches_ray_traced_on_textured_and_normal_mapped_models() {
-    assert_hybrid_matches_rt("BoxTextured", &asset("BoxTextured/BoxTextured.glb"), 128);
+    assert_hybrid_matches_rt(
+        "BoxTextured",
+        &load_asset("BoxTextured/BoxTextured.glb"),
+        128,
+    );
     assert_hybrid_matches_rt(
         "NormalTangentMirrorTest",
-        &asset("NormalTangentMirrorTest/NormalTangentMirrorTest.glb"),
+        &load_asset("NormalTangentMirrorTest/NormalTangentMirrorTest.glb"),
         128,
     );
 }
 
 #[test]
 fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let floor = Material {
         metallic: 0.0,
         ..Default::default()
@@ -197,12 +195,12 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn recursion_depth_changes_only_specular_pixels() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let renderer = Renderer::new(
         &ctx,
@@ -250,12 +248,12 @@ fn recursion_depth_changes_only_specular_pixels() {
             "only {changed_specular} specular pixels changed"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn weight_cutoff_saves_rays_without_visible_change() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let renderer = Renderer::new(
         &ctx,
@@ -282,12 +280,12 @@ fn weight_cutoff_saves_rays_without_visible_change() {
     );
     let d = diff(&full, &cut);
     assert!(d.flip_mean <= 0.01, "FLIP mean {}", d.flip_mean);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn adaptive_sampling_refines_edges_only() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let renderer = Renderer::new(
         &ctx,
@@ -332,7 +330,7 @@ fn adaptive_sampling_refines_edges_only() {
         "adaptive vs 16 spp grid: FLIP {}",
         d.flip_mean
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// Alpha MASK (tested at mip 0 by the same alpha_accepts() in traversal and raster) and BLEND
@@ -341,7 +339,7 @@ fn adaptive_sampling_refines_edges_only() {
 fn hybrid_matches_ray_traced_with_alpha_mask_and_blend() {
     assert_hybrid_matches_rt(
         "AlphaBlendModeTest",
-        &asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
+        &load_asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"),
         128,
     );
 }
@@ -349,7 +347,7 @@ fn hybrid_matches_ray_traced_with_alpha_mask_and_blend() {
 /// Hybrid ≡ ray-traced on an animated frame (CesiumMan skinned mid-stride).
 #[test]
 fn hybrid_matches_ray_traced_on_an_animated_frame() {
-    let rest = asset("CesiumMan/CesiumMan.glb");
+    let rest = load_asset("CesiumMan/CesiumMan.glb");
     let all = rest
         .select_animations(&rqr::scene::AnimationSelection::All)
         .unwrap();

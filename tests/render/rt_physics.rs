@@ -1,6 +1,6 @@
 //! Closed-form checks of the ray-traced path on procedural scenes (no glTF, no goldens).
 
-use crate::support as common;
+use crate::support;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::BackendChoice;
@@ -39,7 +39,7 @@ fn lit_plane(intensity: f32, height: f32) -> rqr::scene::Scene {
 
 #[test]
 fn lambert_plane_matches_inverse_square_cosine_law() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (intensity, height) = (25.0f32, 2.0f32);
     let scene = lit_plane(intensity, height);
     let backend = BackendChoice::Auto.resolve(ctx.info()).unwrap().0;
@@ -76,5 +76,5 @@ fn lambert_plane_matches_inverse_square_cosine_law() {
         checked += 1;
     }
     assert!(checked > 2000, "only {checked} pixels hit the plane");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -2,13 +2,13 @@
 //! skinning / morphing of the Khronos samples, on the CPU (`Scene::posed`) and on the GPU
 //! (`render::passes::skinning`), against a reference written here from the glTF spec's formulas.
 
-use crate::support as common;
-use crate::support::scene_files as scene_util;
+use crate::support;
+use crate::support::scene_files;
 
 use glam::{Mat4, Quat, Vec3};
 use rqr::render::passes::skinning::SkinningPass;
 use rqr::scene::{self, AnimationSelection, LoadOptions, Scene};
-use scene_util::asset;
+use scene_files::asset;
 
 fn load(rel: &str) -> Scene {
     scene::load(&asset(rel), &LoadOptions::default())
@@ -243,7 +243,7 @@ fn skinned_normals_follow_a_rotated_joint() {
 
 #[test]
 fn gpu_skinning_matches_the_reference() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     for rel in DEFORMED_SAMPLES {
         let s = load(rel);
         let all = s.select_animations(&AnimationSelection::All).unwrap();
@@ -297,7 +297,7 @@ fn gpu_skinning_matches_the_reference() {
         }
         assert!(checked > 0, "{rel}: no deformed instance checked");
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// `rqr render --frames` of an animated scene on both backends: the frames differ (the man
@@ -326,7 +326,7 @@ fn cli_renders_animated_frames_on_both_backends() {
             "-o",
             out.to_str().unwrap(),
         ];
-        let (o, _) = common::run_rqr(
+        let (o, _) = support::run_rqr(
             &args,
             &[("RQR_VALIDATION", "1"), ("RQR_NO_AUTOTUNE", "1")],
             std::time::Duration::from_secs(600),
@@ -370,7 +370,7 @@ fn cli_renders_animated_frames_on_both_backends() {
             out.to_str().unwrap(),
         ];
         a.extend_from_slice(extra);
-        common::run_rqr(
+        support::run_rqr(
             &a,
             &[("RQR_NO_AUTOTUNE", "1")],
             std::time::Duration::from_secs(120),
@@ -401,8 +401,8 @@ fn only_geometry_motion_counts_as_moving() {
     assert!(s.animation_moves_geometry(&step_scale));
 
     // A quad and an animated camera: only the camera moves.
-    let mut b = scene_util::Builder::default();
-    let mut doc = scene_util::quad_doc(&mut b, serde_json::json!({}));
+    let mut b = scene_files::Builder::default();
+    let mut doc = scene_files::quad_doc(&mut b, serde_json::json!({}));
     let times = b.floats(&[0.0, 1.0], "SCALAR");
     let moves = b.floats(&[0.0, 0.0, 3.0, 1.0, 0.0, 3.0], "VEC3");
     doc["scenes"] = serde_json::json!([{"nodes": [0, 1]}]);
@@ -413,7 +413,7 @@ fn only_geometry_motion_counts_as_moving() {
         "samplers": [{"input": times, "output": moves}],
         "channels": [{"sampler": 0, "target": {"node": 1, "path": "translation"}}],
     }]);
-    let bytes = scene_util::bytes(&b.document(doc));
+    let bytes = scene_files::bytes(&b.document(doc));
     let s = scene::load_slice(&bytes, None, "camera.gltf", &LoadOptions::default()).unwrap();
     let all = s.select_animations(&AnimationSelection::All).unwrap();
     assert!(!s.animation_moves_geometry(&all));
@@ -427,7 +427,7 @@ fn only_geometry_motion_counts_as_moving() {
 
 #[test]
 fn info_lists_animations_skins_and_morphs() {
-    let (o, _) = common::run_rqr(
+    let (o, _) = support::run_rqr(
         &[
             "info",
             "--json",
@@ -441,7 +441,7 @@ fn info_lists_animations_skins_and_morphs() {
     assert_eq!(v["skins"], 1);
     assert_eq!(v["animations"].as_array().unwrap().len(), 1);
     assert!(v["animations"][0]["duration"].as_f64().unwrap() > 1.0);
-    let (o, _) = common::run_rqr(
+    let (o, _) = support::run_rqr(
         &[
             "info",
             "--json",

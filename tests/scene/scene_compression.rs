@@ -2,14 +2,14 @@
 //! positions (within quantization) as their sources and render alike; broken compressed views
 //! fail with errors naming the file and the buffer view.
 
-use crate::support as common;
-use crate::support::scene_files as scene_util;
+use crate::support;
+use crate::support::scene_files;
 
-use common::render_alike::assert_renders_alike;
 use glam::Vec3;
 use rqr::scene::{self, LoadOptions, Scene};
-use scene_util::asset;
+use scene_files::asset;
 use serde_json::{json, Value};
+use support::render_alike::assert_renders_alike;
 
 fn load(rel: &str) -> Scene {
     scene::load(&asset(rel), &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
@@ -58,11 +58,11 @@ fn meshopt_files_match_their_sources() {
 
 #[test]
 fn meshopt_renders_like_its_source() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let a = load("Avocado/Avocado.gltf");
     let b = load("Avocado/Avocado_meshopt.glb");
     assert_renders_alike(&ctx, &a, &b, 96, 0.01, "Avocado vs Avocado_meshopt");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// The meshopt box with its JSON edited.
@@ -73,7 +73,7 @@ pub fn edited_box(edit: impl Fn(&mut Value)) -> Vec<u8> {
     let bin_start = 20 + json_len;
     let bin_len = u32::from_le_bytes(data[bin_start..bin_start + 4].try_into().unwrap()) as usize;
     edit(&mut doc);
-    scene_util::glb(
+    scene_files::glb(
         &serde_json::to_vec(&doc).unwrap(),
         Some(&data[bin_start + 8..bin_start + 8 + bin_len]),
     )
@@ -140,11 +140,11 @@ fn draco_cesium_man_matches_its_source() {
 
 #[test]
 fn draco_renders_like_its_source() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let a = load("CesiumMan/CesiumMan.glb");
     let b = load("CesiumMan_Draco/CesiumMan.gltf");
     assert_renders_alike(&ctx, &a, &b, 96, 0.01, "CesiumMan vs CesiumMan_Draco");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// `CesiumMan_Draco` loaded from its JSON after `edit`, with its buffer beside it.

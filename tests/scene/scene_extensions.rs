@@ -1,15 +1,15 @@
 //! Texture coordinate sets beyond TEXCOORD_1, MultiUVTest, and the layered-material
 //! extensions (KHR_materials_specular, _clearcoat) against the same scenes without them.
 
-use crate::support as common;
-use crate::support::scene_files as scene_util;
+use crate::support;
+use crate::support::scene_files;
 
 use glam::Vec2;
 use rqr::accel::Backend;
 use rqr::render::image::compare;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, Camera, LoadOptions, Scene};
-use scene_util::{asset, bytes, png, quad_doc, Builder};
+use scene_files::{asset, bytes, png, quad_doc, Builder};
 use serde_json::{json, Value};
 
 const SIZE: u32 = 64;
@@ -153,7 +153,7 @@ fn every_texcoord_set_is_read() {
     // The same picture through TEXCOORD_0, _1, _2 and _5 (the others hold decoys).
     let reference = load_doc(&quad_on_set(0, &[0]));
     let camera = scene::auto_camera(&reference.bounds, 1.0);
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     for backend in backends(&ctx) {
         let want = render(&ctx, &reference, &camera, backend);
         assert!(mean_level(&want) > 20.0, "the reference shows the texture");
@@ -173,7 +173,7 @@ fn every_texcoord_set_is_read() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
@@ -203,7 +203,7 @@ fn edit_glb(path: &str, edit: impl Fn(&mut Value)) -> Scene {
     let bin_len = u32::from_le_bytes(data[bin_start..bin_start + 4].try_into().unwrap()) as usize;
     let bin = &data[bin_start + 8..bin_start + 8 + bin_len];
     edit(&mut doc);
-    let glb = scene_util::glb(&serde_json::to_vec(&doc).unwrap(), Some(bin));
+    let glb = scene_files::glb(&serde_json::to_vec(&doc).unwrap(), Some(bin));
     scene::load_slice(&glb, None, path, &LoadOptions::default()).unwrap()
 }
 
@@ -236,7 +236,7 @@ fn multi_uv_test_reads_each_texture_through_its_own_set() {
     });
     let attributes_only = edit_glb("MultiUVTest/MultiUVTest.glb", swap_attributes);
     let camera = camera_for(&original);
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     for backend in backends(&ctx) {
         let a = render(&ctx, &original, &camera, backend);
         let b = render(&ctx, &both, &camera, backend);
@@ -258,7 +258,7 @@ fn multi_uv_test_reads_each_texture_through_its_own_set() {
             backend.as_str()
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// The scene with every material's layered extensions removed (as if the file had none).
@@ -295,7 +295,7 @@ fn specular_factor_removes_highlights() {
     }
     let camera = camera_for(&s);
     let plain = stripped(&s);
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     for backend in backends(&ctx) {
         let with = render_lit(&ctx, &s, &camera, backend);
         let zero = render_lit(&ctx, &factor_zero, &camera, backend);
@@ -320,7 +320,7 @@ fn specular_factor_removes_highlights() {
             backend.as_str()
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
@@ -338,7 +338,7 @@ fn clearcoat_adds_reflection() {
     assert_eq!(coated.layers.as_ref().unwrap().clearcoat, 1.0);
     let camera = camera_for(&s);
     let plain = stripped(&s);
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     for backend in backends(&ctx) {
         let with = render_lit(&ctx, &s, &camera, backend);
         let without = render_lit(&ctx, &plain, &camera, backend);
@@ -361,7 +361,7 @@ fn clearcoat_adds_reflection() {
             backend.as_str()
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]

@@ -2,13 +2,11 @@
 //! instancing, texture transforms, scenes, cameras) and small crafted files (strips, fans,
 //! quantized attributes, lights, sRGB vs linear images, tangents).
 
-use crate::support::scene_files as scene_util;
-
 use std::collections::HashSet;
 
+use crate::support::scene_files::{asset, bytes, index_rows, png, quad_doc, Builder};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rqr::scene::{self, AlphaMode, LightKind, LoadOptions, Projection, Scene, SceneError, Wrap};
-use scene_util::{asset, bytes, index_rows, png, quad_doc, Builder};
 use serde_json::json;
 
 fn load(rel: &str) -> Scene {

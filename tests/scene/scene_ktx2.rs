@@ -4,19 +4,18 @@
 //! a KTX2 texture renders like the same texels from a PNG; KTX2 textures upload as the BC7
 //! blocks the transcoder makes, with the file's levels, and render like their RGBA8 upload.
 
-use crate::support as common;
+use crate::support;
 use crate::support::ktx2;
 use crate::support::readback;
-use crate::support::scene_files as scene_util;
 
-use common::render_alike::assert_renders_alike;
+use crate::support::scene_files::{asset, base64, png, quad_doc, Builder};
 use readback::read_level;
 use rqr::render::image::compare;
 use rqr::scene::textures::GpuTextures;
 use rqr::scene::{self, LoadOptions, Scene, TextureFormat};
 use rqr::vk::{vk, Context};
-use scene_util::{asset, base64, png, quad_doc, Builder};
 use serde_json::{json, Value};
+use support::render_alike::assert_renders_alike;
 
 const SIZE: u32 = 64;
 
@@ -292,7 +291,7 @@ fn webp_texture_wins_over_its_png_fallback() {
 
 #[test]
 fn ktx2_texture_renders_like_its_png() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let original = picture(SIZE, SIZE);
     let from_png = load(&textured_quad(
         json!([data_uri("image/png", &png(SIZE, SIZE, &original))]),
@@ -310,7 +309,7 @@ fn ktx2_texture_renders_like_its_png() {
         0.02,
         "PNG vs UASTC KTX2 quad",
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// The block format this device uploads KTX2 textures as: BC7 on lavapipe and desktop GPUs.
@@ -339,7 +338,7 @@ fn device_blocks(ctx: &Context) -> (basisu::TargetFormat, vk::Format, vk::Format
 
 #[test]
 fn ktx2_textures_upload_as_blocks_with_the_files_levels() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (target, srgb_format, _) = device_blocks(&ctx);
     let original = picture(SIZE, SIZE);
     for (uastc, name) in [(true, "UASTC"), (false, "ETC1S")] {
@@ -392,7 +391,7 @@ fn ktx2_textures_upload_as_blocks_with_the_files_levels() {
     let tex = GpuTextures::upload(&ctx, &s).unwrap();
     assert_eq!(tex.images()[0].format, vk::Format::R8G8B8A8_SRGB);
     assert_eq!(tex.images()[0].mip_levels, 7, "generated chain");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// A quad whose base colour and metallic-roughness come from StainedGlassLamp's two KTX2
@@ -427,7 +426,7 @@ fn lamp_textures_quad() -> Vec<u8> {
 
 #[test]
 fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (_, srgb_format, unorm_format) = device_blocks(&ctx);
     let doc = lamp_textures_quad();
     let blocks = load(&doc).unwrap();
@@ -448,7 +447,7 @@ fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
         0.02,
         "StainedGlassLamp textures, RGBA8 vs block upload",
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// lavapipe's measured sampling times with BC7 faster, or RGBA8 faster (its real ordering).
@@ -478,7 +477,7 @@ fn texture_format_flag_chooses_the_upload() {
         &rqr::vk::DeviceSelector::Auto,
         rqr::accel::BackendChoice::Auto,
     )
-    .expect(common::INSTALL_HINT);
+    .expect(support::INSTALL_HINT);
     let device = report.devices[report.selected.unwrap()].clone();
     let inject = |bc7_faster: bool| {
         rqr::autotune::store(
@@ -566,7 +565,7 @@ fn texture_format_flag_chooses_the_upload() {
 
 #[test]
 fn ktx2_that_fails_the_block_transcode_names_file_and_image() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     device_blocks(&ctx);
     let ktx = ktx2::encode(&picture(SIZE, SIZE), SIZE, SIZE, true, true);
     let loaded = load(&ktx2_quad(&ktx)).unwrap();
@@ -591,7 +590,7 @@ fn ktx2_that_fails_the_block_transcode_names_file_and_image() {
             "want '{want}' in '{e}'"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// Writes the fuzz target's KTX2 and WebP seeds (`fuzz/seeds/quad_ktx2_*.glb`,
@@ -651,7 +650,7 @@ fn mutated_ktx2_files_fail_cleanly() {
         rng
     };
     // Each mutant that loads also uploads as blocks, or fails naming the file and image.
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     device_blocks(&ctx);
     let (mut loaded, mut failed, mut upload_failed) = (0, 0, 0);
     for name in [
@@ -696,5 +695,5 @@ fn mutated_ktx2_files_fail_cleanly() {
     eprintln!(
         "mutated KTX2 files: {loaded} loaded ({upload_failed} of them refused by the block upload), {failed} refused"
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -3,15 +3,14 @@
 //! glTF spec defines, and Avocado_Quantized renders like Avocado (its non-normalized
 //! UNSIGNED_SHORT texture coordinates are scaled by KHR_texture_transform by ~2.4e-4).
 
-use crate::support as common;
-use crate::support::scene_files as scene_util;
+use crate::support;
 
+use crate::support::scene_files::{asset, bytes, png, Builder};
 use glam::{Vec2, Vec3};
 use rqr::accel::Backend;
 use rqr::render::image::compare;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, LoadOptions, Scene};
-use scene_util::{asset, bytes, png, Builder};
 use serde_json::{json, Value};
 
 /// A glTF component type of KHR_mesh_quantization.
@@ -312,7 +311,7 @@ fn render(
 
 #[test]
 fn avocado_quantized_renders_like_avocado() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let plain = scene::load(&asset("Avocado/Avocado.gltf"), &LoadOptions::default()).unwrap();
     let quant = scene::load(
         &asset("Avocado_Quantized/Avocado.gltf"),
@@ -343,5 +342,5 @@ fn avocado_quantized_renders_like_avocado() {
             d.flip_mean
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

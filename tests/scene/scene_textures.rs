@@ -1,11 +1,10 @@
 //! Texture upload: every image once, with mips, sRGB vs UNORM, one sampler per distinct
 //! state, validation clean; oversized images fail clearly.
 
-use crate::support as common;
 use crate::support::readback;
-use crate::support::scene_files as scene_util;
+use crate::support::scene_files;
 
-use common::{assert_validation_clean, gpu};
+use crate::support::{assert_validation_clean, gpu};
 use rqr::scene::textures::{mip_levels, GpuTextures};
 use rqr::scene::{self, ImageData, LoadOptions, Sampler, Scene, Texture};
 use rqr::vk::{vk, Context, VkError};
@@ -83,7 +82,7 @@ fn mips_average_srgb_in_linear_space() {
 fn sample_model_textures_upload_validation_clean() {
     let ctx = gpu();
     let s = scene::load(
-        &scene_util::asset("TextureTransformTest/TextureTransformTest.gltf"),
+        &scene_files::asset("TextureTransformTest/TextureTransformTest.gltf"),
         &LoadOptions::default(),
     )
     .unwrap();

@@ -2,14 +2,13 @@
 //! mapped material, `rqr info` lists the variants, unknown names and broken mappings fail
 //! naming the file and the element.
 
-use crate::support as common;
-use crate::support::scene_files as scene_util;
+use crate::support;
 
 use std::time::Duration;
 
+use crate::support::scene_files::{bytes, quad_doc, Builder};
 use glam::Vec4;
 use rqr::scene::{self, LoadOptions, Scene};
-use scene_util::{bytes, quad_doc, Builder};
 use serde_json::json;
 
 /// A quad with three materials (white default, red, green) and variants "Red" and "Green"
@@ -86,7 +85,7 @@ fn info_lists_variants_and_render_takes_one() {
     let f = file.to_str().unwrap();
     let env = [("RQR_NO_AUTOTUNE", "1")];
     let limit = Duration::from_secs(120);
-    let (out, _) = common::run_rqr(&["info", "--json", "--variant", "Green", f], &env, limit);
+    let (out, _) = support::run_rqr(&["info", "--json", "--variant", "Green", f], &env, limit);
     assert!(
         out.status.success(),
         "{}",
@@ -95,11 +94,11 @@ fn info_lists_variants_and_render_takes_one() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["variants"], json!(["Red", "Green"]));
     assert_eq!(v["variant"], json!("Green"));
-    let (out, _) = common::run_rqr(&["info", f], &env, limit);
+    let (out, _) = support::run_rqr(&["info", f], &env, limit);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("variants           Red, Green"), "{text}");
     let png = dir.join("green.png");
-    let (out, _) = common::run_rqr(
+    let (out, _) = support::run_rqr(
         &[
             "render",
             f,
@@ -126,7 +125,7 @@ fn info_lists_variants_and_render_takes_one() {
         centre[1] > centre[0] && centre[1] > centre[2],
         "green quad: {centre:?}"
     );
-    let (out, _) = common::run_rqr(
+    let (out, _) = support::run_rqr(
         &[
             "render",
             f,

@@ -12,6 +12,12 @@ pub fn asset(rel: &str) -> PathBuf {
         .join(rel)
 }
 
+/// Loads the sample model `assets/gltf/<rel>`, panicking with the loader's message.
+pub fn load_asset(rel: &str) -> rqr::scene::Scene {
+    rqr::scene::load(&asset(rel), &rqr::scene::LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// One row of `assets/gltf/INDEX.tsv` (a copy of the sample models' index).
 pub struct IndexRow {
     pub name: String,

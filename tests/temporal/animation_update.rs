@@ -4,7 +4,7 @@
 //! backends must agree on the primary hits of updated frames, and static geometry must never
 //! be built again (counted).
 
-use crate::support as common;
+use crate::support;
 
 use glam::{Mat4, Vec2, Vec3};
 use rqr::accel::bvh::BvhBuild;
@@ -15,7 +15,7 @@ use rqr::render::passes::gbuffer::{self, GbufferLayout};
 use rqr::render::{FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer};
 use rqr::scene::{Camera, Instance, Scene};
 
-use common::animated::{camera, load};
+use support::animated::{camera, load};
 
 const SIZE: u32 = 64;
 
@@ -52,7 +52,7 @@ const CASES: [(&str, [f32; 3]); 3] = [
 
 #[test]
 fn updated_frames_match_rebuilt_frames_on_both_backends() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     assert!(
         ctx.features().ray_query,
         "the hw backend needs ray queries (lavapipe has them)"
@@ -152,14 +152,14 @@ fn updated_frames_match_rebuilt_frames_on_both_backends() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// Static geometry is built once; deformed BLASes are refitted (hw) and built again only
 /// after the policy's refit count; node-only animation does no skinning.
 #[test]
 fn updates_refit_deformed_geometry_and_never_rebuild_static_geometry() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     // RiggedSimple: one skinned mesh; BoxAnimated: two node-animated meshes, no skin.
     for (rel, deformed, geometries) in [
         ("RiggedSimple/RiggedSimple.glb", 1u64, 1u64),
@@ -222,7 +222,7 @@ fn updates_refit_deformed_geometry_and_never_rebuild_static_geometry() {
             "{rel}: {c:?}"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// RiggedSimple (one skinned mesh) plus an unskinned copy of its mesh beside it, placed by a
@@ -263,7 +263,7 @@ fn skinned_and_static() -> (Scene, Vec<usize>) {
 /// so and never the static one; the spliced BVH renders as a BVH built from scratch.
 #[test]
 fn bvh_rebuilds_only_the_deformed_bottom_levels() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (rest, anims) = skinned_and_static();
     let cam = camera(&rest);
     for build in [BvhBuild::Host, BvhBuild::Gpu] {
@@ -319,7 +319,7 @@ fn bvh_rebuilds_only_the_deformed_bottom_levels() {
             "{build:?}: {c:?}"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// World position of barycentrics `b` on triangle `prim` of instance `inst` of a posed scene.
@@ -339,7 +339,7 @@ fn world_point(s: &Scene, inst: usize, prim: usize, b: Vec2) -> Vec3 {
 /// animation); static geometry has none beyond the camera path's rounding.
 #[test]
 fn gbuffer_motion_vectors_follow_moving_objects() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let cases = [
         ("skinned + static", skinned_and_static(), [0.1, 0.9]),
         (
@@ -427,7 +427,7 @@ fn gbuffer_motion_vectors_follow_moving_objects() {
             assert!(still > 20, "{name}: only {still} static pixels");
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// `GpuBvh::refit_device` reads the skinned vertices on the GPU: positions it did not move
@@ -437,7 +437,7 @@ fn gbuffer_motion_vectors_follow_moving_objects() {
 fn device_refit_reads_gpu_vertices_and_refuses_non_finite_ones() {
     use rqr::accel::bvh::refit::DeviceVertices;
     use rqr::accel::bvh::{BvhBuildOptions, GpuBvh};
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (rest, anims) = load("RiggedSimple/RiggedSimple.glb");
     let posed = rest.posed(&anims, 0.5);
     let gpu = rqr::scene::gpu::GpuScene::upload(&ctx, &posed, 0).unwrap();
@@ -465,5 +465,5 @@ fn device_refit_reads_gpu_vertices_and_refuses_non_finite_ones() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("not finite"), "{err}");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -2,7 +2,7 @@
 //! and statistics as frames submitted one by one, the statistics add up in every frame, and a
 //! loop of 100 frames allocates no device memory after its first frame.
 
-use crate::support as common;
+use crate::support;
 
 use rqr::accel::Backend;
 use rqr::render::drivers::burst;
@@ -126,7 +126,7 @@ fn reuse_cases() -> Vec<(&'static str, RenderPath, ReuseOptions)> {
 
 #[test]
 fn bursts_give_the_images_and_statistics_of_single_frames() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let frames = 5;
@@ -188,12 +188,12 @@ fn bursts_give_the_images_and_statistics_of_single_frames() {
         }
         assert!(!burst[0].reused_history);
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn one_pass_and_two_pass_scatter_give_the_same_frames() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     assert!(
         ctx.features().buffer_int64_atomics,
         "the test device (lavapipe) has 64-bit buffer atomics, so both scatters are compared"
@@ -223,12 +223,12 @@ fn one_pass_and_two_pass_scatter_give_the_same_frames() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn a_burst_longer_than_prepared_is_refused() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let mut seq = sequence(
@@ -244,12 +244,12 @@ fn a_burst_longer_than_prepared_is_refused() {
         .err()
         .expect("2 frames > 1 slot");
     assert!(err.to_string().contains("prepare_bursts"), "{err}");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn a_hundred_frames_allocate_no_memory_after_the_first() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let reproject = ReuseOptions {
@@ -313,12 +313,12 @@ fn a_hundred_frames_allocate_no_memory_after_the_first() {
             "{path:?}: repeated frames allocated device memory"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn time_alternating_times_every_frame_of_every_target() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let draws = gbuffer::draws(&scene);
@@ -344,5 +344,5 @@ fn time_alternating_times_every_frame_of_every_target() {
         .render_hybrid(&ctx, &draws, &s, &scene.cameras[0], false)
         .unwrap();
     assert_eq!(timed.outputs[1].rgba8, single_hybrid.rgba8);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }

@@ -1,7 +1,7 @@
 //! Temporal reprojection, frameless rendering and adaptive sub-sampling on small
 //! images of the procedural Cornell room (lavapipe is slow: ≤ 96×96, few frames).
 
-use crate::support as common;
+use crate::support;
 
 use std::process::Command;
 
@@ -88,12 +88,12 @@ fn assert_stats_add_up(frame: &SequenceFrame) {
 
 #[test]
 fn static_camera_reprojection_equals_full_renders() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     for backend in backends(&ctx) {
         static_camera_on(&ctx, &scene, backend);
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 fn static_camera_on(ctx: &Context, scene: &Scene, backend: Backend) {
@@ -151,7 +151,7 @@ fn static_camera_on(ctx: &Context, scene: &Scene, backend: Backend) {
 /// ClearCoatTest reproduces the full render every frame.
 #[test]
 fn layered_materials_shade_alike_when_reprojected() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("assets/gltf/ClearCoatTest/ClearCoatTest.glb");
     let scene = rqr::scene::load(&path, &rqr::scene::LoadOptions::default()).unwrap();
@@ -178,7 +178,7 @@ fn layered_materials_shade_alike_when_reprojected() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// With RQR_DEBUG_DIR set: writes sources | frame | reference, 4x, for looking at failures.
@@ -278,7 +278,7 @@ fn specular_instances(scene: &Scene) -> Vec<i32> {
 
 #[test]
 fn specular_and_transmissive_pixels_are_never_reused() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let specular = specular_instances(&scene);
     assert_eq!(specular.len(), 2, "the mirror and the glass sphere");
@@ -321,7 +321,7 @@ fn specular_and_transmissive_pixels_are_never_reused() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// A diffuse wall with a diffuse block floating in front of it.
@@ -382,13 +382,13 @@ fn project(camera: &Camera, size: u32, p: Vec3) -> Option<usize> {
 
 #[test]
 fn disocclusions_are_traced_not_smeared() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = block_before_wall();
     for backend in backends(&ctx) {
         let r = Renderer::new(&ctx, &scene, backend).unwrap();
         disocclusions_on(&ctx, &scene, &r);
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 fn disocclusions_on(ctx: &Context, scene: &Scene, r: &Renderer) {
@@ -456,7 +456,7 @@ fn disocclusions_on(ctx: &Context, scene: &Scene, r: &Renderer) {
 /// the pixels from neighbours, and matches the full render).
 #[test]
 fn adaptive_subsampling_caches_planar_blocks_without_rays() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = renderer(&ctx, &scene);
     let reuse = ReuseOptions {
@@ -488,12 +488,12 @@ fn adaptive_subsampling_caches_planar_blocks_without_rays() {
     );
     let rc = next.reference.as_ref().unwrap();
     assert!(rc.diff.flip_mean < 0.05, "FLIP {}", rc.diff.flip_mean);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn adaptive_subsampling_interpolates_smooth_blocks() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = renderer(&ctx, &scene);
     let reuse = ReuseOptions {
@@ -532,12 +532,12 @@ fn adaptive_subsampling_interpolates_smooth_blocks() {
             }
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn frameless_sweeps_over_every_pixel() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = renderer(&ctx, &scene);
     let n = 64usize;
@@ -584,7 +584,7 @@ fn frameless_sweeps_over_every_pixel() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// A moving camera leaves holes (empty pixels no neighbour fills), which are traced anyway:
@@ -593,7 +593,7 @@ fn frameless_sweeps_over_every_pixel() {
 /// holes.
 #[test]
 fn frameless_counts_holes_toward_its_budget() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = renderer(&ctx, &scene);
     let reuse = ReuseOptions {
@@ -630,12 +630,12 @@ fn frameless_counts_holes_toward_its_budget() {
             "{mode:?}: the orbit left {holes} holes"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn max_age_and_frame_ranges() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = cornell();
     let r = renderer(&ctx, &scene);
     let reuse = ReuseOptions {
@@ -674,7 +674,7 @@ fn max_age_and_frame_ranges() {
     // Skipping a frame restarts the cache.
     let b6 = b.render_frame(&ctx, 6).unwrap();
     assert_eq!(b6.stats.traced, b6.stats.pixels);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]

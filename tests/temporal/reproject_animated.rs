@@ -3,7 +3,7 @@
 //! the moving objects are reused where they went, which world-space positions cannot do
 //! (checked by rendering the same frames with the anchors off).
 
-use crate::support as common;
+use crate::support;
 
 use rqr::accel::bvh::BvhBuild;
 use rqr::accel::BackendChoice;
@@ -13,7 +13,7 @@ use rqr::render::temporal::{ReuseOptions, RtVisibility};
 use rqr::render::{RenderPath, RenderSettings};
 use rqr::vk::Context;
 
-use common::animated::{camera, load};
+use support::animated::{camera, load};
 
 const SIZE: u32 = 64;
 const FPS: f32 = 24.0;
@@ -133,7 +133,7 @@ fn assert_close_to_full_renders(what: &str, frames: &[Frame], max_ray_fraction: 
 /// wherever a limb moved, and those pixels are traced again.
 #[test]
 fn hybrid_reprojection_follows_a_skinned_figure() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let rel = "CesiumMan/CesiumMan.glb";
     let mode = (RenderPath::Hybrid, RtVisibility::Edges);
     let tracked = run(&ctx, rel, mode, 60, true, true);
@@ -162,7 +162,7 @@ fn hybrid_reprojection_follows_a_skinned_figure() {
         reusing_sum(tracked, |f| f.expired) > 0,
         "samples that moved with the figure are re-traced after MOVED_MAX_AGE frames"
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// Pure ray-traced path on node animation (BoxAnimated) and the skinned figure: with every
@@ -171,7 +171,7 @@ fn hybrid_reprojection_follows_a_skinned_figure() {
 /// FLIP bound of full renders.
 #[test]
 fn rt_reprojection_follows_moving_objects() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let full = (RenderPath::RayTraced, RtVisibility::Full);
     for rel in ["BoxAnimated/BoxAnimated.glb", "CesiumMan/CesiumMan.glb"] {
         let tracked = run(&ctx, rel, full, 10, true, false);
@@ -188,5 +188,5 @@ fn rt_reprojection_follows_moving_objects() {
     let edges = (RenderPath::RayTraced, RtVisibility::Edges);
     let frames = run(&ctx, "CesiumMan/CesiumMan.glb", edges, 16, true, true);
     assert_close_to_full_renders("CesiumMan rt", &frames, 1.0);
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
