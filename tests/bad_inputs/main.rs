@@ -2,6 +2,10 @@
 //! library and through the real binary: every case fails with a one-line error naming the
 //! file and the element (exit code 1), or loads with the documented warning and then renders
 //! with every backend; never a panic, a hang or a validation error.
+//!
+//! Beside the corpus: the loader's `SceneError`s on crafted broken files (`scene_errors`), bad
+//! command lines, resolutions beyond the device and GPU timeouts through the binary
+//! (`cli_errors`), and error messages that never repeat their cause (`error_chains`).
 
 #[path = "../support/mod.rs"]
 mod support;
