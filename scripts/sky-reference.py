@@ -5,7 +5,7 @@ as shipped in pbrt-v4's src/ext/skymodel/), for cross-checking `rqr::environment
 
 Usage: sky-reference.py PATH/TO/ArHosekSkyModelData_RGB.h
 Prints `(turbidity, sun elevation°, zenith angle θ°, azimuth from the sun°, [R, G, B])` rows,
-the table of tests/environment_sky.rs (ground albedo 0.3, the model's own units).
+the table of tests/render/environment_sky.rs (ground albedo 0.3, the model's own units).
 """
 import math
 import re

@@ -18,7 +18,7 @@
 //! name in the shader (`layout(set = 0, binding = BINDING_X)`) and in the pass
 //! ([`bindings`] and `DescriptorSet::buffer(BINDING_X, ..)`). A name missing on either side
 //! fails to compile; two names on one number fail [`bindings`]' check. Structs (push constants,
-//! uniforms) are `repr(C)` here and become GLSL structs field by field; `tests/layout.rs` reads
+//! uniforms) are `repr(C)` here and become GLSL structs field by field; `tests/gpu/layout.rs` reads
 //! them back on the GPU. Only constants and structs belong in these files: the generator
 //! rejects anything else with the file and line.
 

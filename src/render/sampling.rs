@@ -1,5 +1,5 @@
 //! Sub-pixel sample sequences and filter weights: the host mirror of
-//! `shaders/common/sampling.glsl` (unit-tested here; `tests/shader_math.rs` checks the shader).
+//! `shaders/common/sampling.glsl` (unit-tested here; `tests/gpu/shader_math.rs` checks the shader).
 
 /// lowbias32 integer hash (Chris Wellons).
 pub fn hash_u32(mut x: u32) -> u32 {

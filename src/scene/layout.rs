@@ -1,6 +1,6 @@
 //! GPU-side records of a scene, shared with `shaders/common/scene.glsl` (scalar block layout).
 //! Every struct here is `#[repr(C)]` with explicit padding so its byte layout equals the GLSL
-//! struct of the same name; `tests/layout.rs` checks each field on the GPU.
+//! struct of the same name; `tests/gpu/layout.rs` checks each field on the GPU.
 
 use bytemuck::{Pod, Zeroable};
 

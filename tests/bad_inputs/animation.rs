@@ -6,7 +6,7 @@
 use serde_json::{json, Value};
 
 use super::corpus::{Case, Expect};
-use crate::scene_util::{bytes, quad_doc, Builder};
+use crate::support::scene_files::{bytes, quad_doc, Builder};
 
 /// What to break in the skinned, animated quad.
 #[derive(Clone, Copy, Default)]

@@ -4,7 +4,9 @@
 
 use serde_json::{json, Value};
 
-use crate::scene_util::{base64, bytes, glb, png, png_header, quad_doc, unbase64, Builder};
+use crate::support::scene_files::{
+    base64, bytes, glb, png, png_header, quad_doc, unbase64, Builder,
+};
 
 /// What loading a case must do.
 #[derive(Clone, Debug)]

@@ -4,7 +4,7 @@
 use serde_json::json;
 
 use super::corpus::{Case, Expect};
-use crate::scene_util::{asset, bytes, glb, quad_doc, Builder};
+use crate::support::scene_files::{asset, bytes, glb, quad_doc, Builder};
 
 fn material_case(name: &str, material: serde_json::Value, needles: &[&'static str]) -> Case {
     let mut b = Builder::default();

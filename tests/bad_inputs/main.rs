@@ -2,17 +2,22 @@
 //! library and through the real binary: every case fails with a one-line error naming the
 //! file and the element (exit code 1), or loads with the documented warning and then renders
 //! with every backend; never a panic, a hang or a validation error.
+//!
+//! Beside the corpus: the loader's `SceneError`s on crafted broken files (`scene_errors`), bad
+//! command lines, resolutions beyond the device and GPU timeouts through the binary
+//! (`cli_errors`), and error messages that never repeat their cause (`error_chains`).
 
-#[path = "../common/mod.rs"]
-mod common;
-#[path = "../scene_util/mod.rs"]
-mod scene_util;
+#[path = "../support/mod.rs"]
+mod support;
 
 mod animation;
+mod cli_errors;
 mod corpus;
 mod environment;
+mod error_chains;
 mod extensions;
 mod manifest;
+mod scene_errors;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -47,7 +52,7 @@ fn write_case(dir: &Path, case: &Case) -> PathBuf {
 
 /// Runs `rqr args` with validation on, killing it after `limit`.
 fn rqr(args: &[&str], limit: Duration) -> (Output, Duration) {
-    common::run_rqr(args, &[("RQR_VALIDATION", "1")], limit)
+    support::run_rqr(args, &[("RQR_VALIDATION", "1")], limit)
 }
 
 /// Loads in a thread with a deadline: `Ok(scene stats)` or `Err(message)`, the message with

@@ -1,6 +1,6 @@
 //! GPU records of the compute BVH, shared with `shaders/common/bvh_layout.glsl` (scalar block
 //! layout). Every struct is `#[repr(C)]` with explicit padding so its bytes equal the GLSL struct
-//! of the same name; `tests/bvh_gpu.rs` reads each field back on the GPU.
+//! of the same name; `tests/gpu/bvh_gpu.rs` reads each field back on the GPU.
 //!
 //! # Node layout (64 bytes, 4 children, 8-bit boxes)
 //!

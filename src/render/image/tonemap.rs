@@ -1,6 +1,6 @@
 //! The tonemapping of `shaders/common/tonemap.glsl` on the host, for images assembled from
 //! several GPU renders (a reference accumulated over batches of samples). Tested against the
-//! GPU's output (`tests/distributed.rs`).
+//! GPU's output (`tests/render/distributed.rs`).
 
 use crate::render::Tonemap;
 

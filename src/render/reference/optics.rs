@@ -1,5 +1,5 @@
 //! Reflection, refraction and Fresnel: the host mirror of `shaders/common/brdf.glsl`
-//! (unit-tested here, and checked against the shader by `tests/shader_math.rs`).
+//! (unit-tested here, and checked against the shader by `tests/gpu/shader_math.rs`).
 
 use glam::Vec3;
 

@@ -1,0 +1,13 @@
+//! Frame after frame: the frame loop (bursts, statistics, no allocation after the first
+//! frame), temporal reprojection, frameless rendering and adaptive sub-sampling, and animated
+//! scenes updated on the device (skinning, refits, rebuilds) and reprojected.
+//!
+//! One module per subject: `cargo test --test temporal reproject::` runs one.
+
+#[path = "../support/mod.rs"]
+mod support;
+
+mod animation_update;
+mod frame_loop;
+mod reproject;
+mod reproject_animated;
