@@ -1,4 +1,4 @@
-//! Frame after frame: the frame loop (bursts, statistics, no allocation after the first
+//! Frame after frame: the denoiser (its history, cuts, disocclusion and converged references), the frame loop (bursts, statistics, no allocation after the first
 //! frame), temporal reprojection, frameless rendering and adaptive sub-sampling, and animated
 //! scenes updated on the device (skinning, refits, rebuilds) and reprojected.
 //!
@@ -8,6 +8,7 @@
 mod support;
 
 mod animation_update;
+mod denoise;
 mod frame_loop;
 mod reproject;
 mod reproject_animated;

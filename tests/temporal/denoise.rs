@@ -5,7 +5,7 @@
 //! frame by frame), a camera cut drops the history and a disoccluded pixel starts again within
 //! one frame.
 
-mod common;
+use crate::support;
 
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
@@ -127,7 +127,7 @@ fn reference(ctx: &Context, renderer: &Renderer, camera: &Camera, spp: u32) -> R
 
 #[test]
 fn without_history_temporal_mode_returns_the_frame_as_shaded() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell();
     let camera = scene.cameras[0];
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
@@ -175,12 +175,12 @@ fn without_history_temporal_mode_returns_the_frame_as_shaded() {
             "{path:?}: no diffuse light in the split"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn the_spatial_filter_lowers_the_error_of_one_frame() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell();
     let camera = scene.cameras[0];
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
@@ -254,12 +254,12 @@ fn the_spatial_filter_lowers_the_error_of_one_frame() {
             );
         }
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn thirty_accumulated_frames_beat_sixteen_samples_per_pixel() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell();
     let camera = scene.cameras[0];
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
@@ -307,7 +307,7 @@ fn thirty_accumulated_frames_beat_sixteen_samples_per_pixel() {
         .unwrap();
     let max = lengths.iter().cloned().fold(0.0, f32::max);
     assert_eq!(max, 30.0, "a static pixel's history is every frame so far");
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 /// A white floor (y = 0) and, over x < 0, a white plane one unit above it, seen from straight
@@ -357,7 +357,7 @@ fn step_scene() -> (Scene, Camera) {
 
 #[test]
 fn the_spatial_filter_keeps_a_depth_edge() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let (scene, camera) = step_scene();
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let truth = reference(&ctx, &renderer, &camera, 1024);
@@ -402,12 +402,12 @@ fn the_spatial_filter_keeps_a_depth_edge() {
             "{name} side of the edge: denoised {got}, reference {want}"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn hybrid_and_both_backends_denoise_alike() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell();
     let camera = scene.cameras[0];
     let s = settings(DenoiseMode::Svgf, 1);
@@ -430,7 +430,7 @@ fn hybrid_and_both_backends_denoise_alike() {
             d.flip_mean
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 fn orbit_sequence(ctx: &Context, renderer: &Renderer, scene: &Scene, path: RenderPath) -> Sequence {
@@ -455,7 +455,7 @@ fn orbit_sequence(ctx: &Context, renderer: &Renderer, scene: &Scene, path: Rende
 
 #[test]
 fn denoised_frames_repeat_bit_for_bit_in_bursts_and_one_by_one() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell();
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
@@ -494,12 +494,12 @@ fn denoised_frames_repeat_bit_for_bit_in_bursts_and_one_by_one() {
             "{path:?}: history made no difference"
         );
     }
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn a_camera_cut_drops_the_history() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell();
     let a = scene.cameras[0];
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
@@ -538,12 +538,12 @@ fn a_camera_cut_drops_the_history() {
         after_cut.rgba8, fresh.rgba8,
         "the frame after a cut is not a fresh one"
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
 fn a_disoccluded_pixel_starts_again_within_one_frame() {
-    let ctx = common::gpu();
+    let ctx = support::gpu();
     let scene = soft_cornell();
     let a = scene.cameras[0];
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
@@ -600,7 +600,7 @@ fn a_disoccluded_pixel_starts_again_within_one_frame() {
         continued * 10 >= kept * 8,
         "{continued} of {kept} visible pixels kept their history"
     );
-    common::assert_validation_clean(&ctx);
+    support::assert_validation_clean(&ctx);
 }
 
 #[test]
@@ -625,7 +625,7 @@ fn denoise_settings_are_checked() {
         let e = s.validate(1 << 14).unwrap_err().to_string();
         assert!(e.contains(want), "{e}");
     }
-    let (out, _) = common::run_rqr(
+    let (out, _) = support::run_rqr(
         &[
             "render",
             "--denoise",
@@ -642,7 +642,7 @@ fn denoise_settings_are_checked() {
     );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--shading distributed"));
-    let (out, _) = common::run_rqr(
+    let (out, _) = support::run_rqr(
         &[
             "render",
             "--shading",
