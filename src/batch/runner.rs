@@ -5,6 +5,8 @@
 //!
 //! CPU work overlaps GPU work: a loader thread reads and decodes the next job's scene while
 //! the current one renders, and an encoder thread writes view k while view k + 1 renders.
+//! The environment of the last job is kept for the next one naming the same (see
+//! `EnvironmentCache`).
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
