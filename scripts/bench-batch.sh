@@ -109,6 +109,13 @@ if light:
     lb = sum(r["times"]["total_ms"] for r in light) / 1e3
     lp = sum(per_job[r["id"]] for r in light)
     print(f"without render-bound jobs ({len(light)} of {len(per_job)} models, {lv} views): batch jobs {lb:.1f} s vs per-view processes {lp:.1f} s: {lp / lb:.1f}x")
+# What bounds the ratio: the render-bound jobs' GPU time, which a process per view pays too.
+heavy = [json.loads(l) for l in open(os.path.join(out, "results_warm.jsonl"))]
+heavy = [r for r in heavy if r["status"] == "ok" and r["times"]["render_gpu_ms"] >= 1000 * r["views"]]
+if heavy:
+    hg = sum(r["times"]["render_gpu_ms"] for r in heavy) / 1e3
+    print(f"render-bound jobs ({', '.join(r['id'] for r in heavy)}): {hg:.1f} s of GPU time in the warm batch's {warm:.1f} s; "
+          f"with nothing else, batch could reach at most {per / hg:.1f}x")
 stages = ["load_ms", "texture_decode_ms", "upload_ms", "accel_build_ms", "render_gpu_ms", "render_wall_ms", "readback_ms", "encode_ms", "total_ms"]
 rows = [json.loads(l) for l in open(os.path.join(out, "results_warm.jsonl"))]
 rows = [r for r in rows if r["status"] == "ok"]

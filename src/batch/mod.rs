@@ -271,6 +271,26 @@ impl LoadedScene {
         Ok(Some(timing))
     }
 
+    /// Lights the scene with an environment prepared earlier (for another scene of the same
+    /// device, handed back by [`Self::take_environment`]): no map to load, no preparation.
+    pub fn set_prepared_environment(
+        &mut self,
+        device: &BatchDevice,
+        environment: crate::environment::GpuEnvironment,
+    ) -> crate::Result<()> {
+        self.renderer
+            .set_environment(&device.ctx, Some(environment))
+    }
+
+    /// Removes the scene's environment and hands it back, to light the next scene of the same
+    /// device with it ([`Self::set_prepared_environment`]).
+    pub fn take_environment(
+        &mut self,
+        device: &BatchDevice,
+    ) -> crate::Result<Option<crate::environment::GpuEnvironment>> {
+        self.renderer.take_environment(&device.ctx)
+    }
+
     /// `n` orbit cameras around the scene (see [`cameras::Orbit`]).
     pub fn orbit(
         &self,

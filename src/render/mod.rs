@@ -154,12 +154,38 @@ pub struct PassContext<'a> {
     pub backend: &'a RayBackend,
     /// Bindless textures in texture-index order.
     pub textures: &'a [(vk::ImageView, vk::Sampler)],
+    /// The device's largest sampled-image array (`DeviceInfo::max_sampled_image_array`).
+    pub texture_limit: u32,
+}
+
+/// The least bindless texture array a pass layout gets: 16 combined image samplers in one
+/// stage is what every Vulkan device allows.
+const MIN_TEXTURE_CAPACITY: u32 = 16;
+
+/// Size of the bindless texture array of `count` textures on a device allowing `limit` in
+/// one binding (0: unknown): `count` rounded up to a power of two, at least 16, so that
+/// scenes with similar texture counts get the same pipeline layouts and so share compiled
+/// pipelines (the context's cache is keyed by layout: a process rendering many scenes would
+/// otherwise compile every pass again for each new texture count, seconds each on a CPU
+/// device). The binding is partially bound, so the unused tail costs only descriptor memory.
+/// Exactly `count` where the rounded size is over the limit.
+pub fn texture_capacity(count: usize, limit: u32) -> u32 {
+    let count = u32::try_from(count).unwrap_or(u32::MAX).max(1);
+    let rounded = count
+        .checked_next_power_of_two()
+        .unwrap_or(count)
+        .max(MIN_TEXTURE_CAPACITY);
+    if limit == 0 || rounded > limit {
+        count
+    } else {
+        rounded
+    }
 }
 
 impl PassContext<'_> {
-    /// Size of the bindless texture array binding.
+    /// Size of the bindless texture array binding ([`texture_capacity`]).
     pub fn texture_capacity(&self) -> u32 {
-        (self.textures.len() as u32).max(1)
+        texture_capacity(self.textures.len(), self.texture_limit)
     }
 
     /// Writes the set-0 bindings of the scene, the textures and the ray backend.
@@ -223,6 +249,8 @@ pub struct Renderer {
     scene_texture_count: usize,
     environment: Option<crate::environment::GpuEnvironment>,
     scene_scale: f32,
+    /// The device's largest sampled-image array (sizes [`PassContext::texture_capacity`]).
+    texture_limit: u32,
 }
 
 impl Renderer {
@@ -261,13 +289,14 @@ impl Renderer {
             upload_ms: (uploaded - start).as_secs_f64() * 1e3,
             accel_build_ms: uploaded.elapsed().as_secs_f64() * 1e3,
         };
-        let renderer = Self::from_parts(gpu, backend, gpu_textures, textures);
+        let renderer = Self::from_parts(ctx, gpu, backend, gpu_textures, textures);
         Ok((renderer, times))
     }
 
     /// A renderer of an uploaded scene, its backend and textures (`textures` are
     /// `gpu_textures`' descriptors), without an environment.
     pub(crate) fn from_parts(
+        ctx: &Context,
         gpu: GpuScene,
         backend: RayBackend,
         gpu_textures: crate::scene::textures::GpuTextures,
@@ -281,6 +310,7 @@ impl Renderer {
             scene_texture_count: textures.len(),
             textures,
             environment: None,
+            texture_limit: ctx.info().max_sampled_image_array,
         }
     }
 
@@ -327,6 +357,7 @@ impl Renderer {
             scene: &self.gpu,
             backend: &self.backend,
             textures: &self.textures,
+            texture_limit: self.texture_limit,
         }
     }
 
@@ -384,4 +415,26 @@ pub fn merge_scopes(scopes: Vec<(String, f64)>) -> Vec<(String, f64)> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::texture_capacity;
+
+    #[test]
+    fn texture_capacity_buckets_counts_within_the_device_limit() {
+        // Every count up to 16 shares one layout; above, powers of two.
+        for count in 0..=16 {
+            assert_eq!(texture_capacity(count, 1 << 20), 16, "{count} textures");
+        }
+        assert_eq!(texture_capacity(17, 1 << 20), 32);
+        assert_eq!(texture_capacity(33, 1 << 20), 64);
+        assert_eq!(texture_capacity(64, 1 << 20), 64);
+        // Never over the limit: the exact count where the rounded one would not fit.
+        assert_eq!(texture_capacity(600, 1000), 600);
+        assert_eq!(texture_capacity(3, 8), 3);
+        // An unknown limit (0) keeps the exact count, at least one.
+        assert_eq!(texture_capacity(0, 0), 1);
+        assert_eq!(texture_capacity(5, 0), 5);
+    }
 }

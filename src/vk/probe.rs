@@ -140,6 +140,9 @@ pub struct DeviceInfo {
     /// `maxMemoryAllocationSize` (Vulkan 1.1): the largest single allocation, so the largest
     /// buffer a shader reaches through a buffer reference rather than a descriptor.
     pub max_memory_allocation_size: u64,
+    /// The most combined image samplers one binding may hold in a compute or fragment stage
+    /// (the least of the per-stage and per-set sampler and sampled-image limits); 0: unknown.
+    pub max_sampled_image_array: u32,
     /// Required features the device lacks (empty: rqr can run on it).
     pub missing_features: Vec<String>,
     /// Ray backend rqr would use (`hw` or `bvh`); `null` when the requested one is unavailable.
@@ -397,6 +400,15 @@ pub(crate) fn describe_device(
         max_push_constants_size: props.limits.max_push_constants_size,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         max_memory_allocation_size: maintenance3.max_memory_allocation_size,
+        max_sampled_image_array: [
+            props.limits.max_per_stage_descriptor_samplers,
+            props.limits.max_per_stage_descriptor_sampled_images,
+            props.limits.max_descriptor_set_samplers,
+            props.limits.max_descriptor_set_sampled_images,
+        ]
+        .into_iter()
+        .min()
+        .unwrap_or(0),
         missing_features: missing,
         backend: None,
         backend_reason: String::new(),

@@ -395,3 +395,52 @@ fn jobs_render_under_their_environment_and_a_missing_map_fails_alone() {
     let plain = std::fs::read(out.join("plain/000.png")).unwrap();
     assert_ne!(lit, plain, "the environment changes the image");
 }
+
+#[test]
+fn a_kept_environment_renders_the_same_bytes_as_a_fresh_one() {
+    let dir = work_dir("kept-environment");
+    std::fs::copy(assets().join("Box/Box.glb"), dir.join("Box.glb")).unwrap();
+    let map = rqr::environment::EnvironmentMap::from_fn(32, |d| [0.2 + d.y.max(0.0), 0.3, 0.5]);
+    std::fs::write(dir.join("sky.hdr"), rqr::environment::map::encode_hdr(&map)).unwrap();
+    let defaults = r#"{"defaults": {"width": 16, "height": 16, "cameras": {"orbit": {"n": 1}}}}"#;
+    // The built-in sky twice (the second job reuses it), a file, a job without any (which
+    // leaves the file's kept), the file again, the sky again (prepared anew).
+    let jobs = [
+        r#"{"id": "sky1", "scene": "Box.glb"}"#,
+        r#"{"id": "sky2", "scene": "Box.glb"}"#,
+        r#"{"id": "file1", "scene": "Box.glb", "environment": "sky.hdr"}"#,
+        r#"{"id": "none", "scene": "Box.glb", "environment": "none"}"#,
+        r#"{"id": "file2", "scene": "Box.glb", "environment": "sky.hdr"}"#,
+        r#"{"id": "sky3", "scene": "Box.glb"}"#,
+    ];
+    let cache = dir.join("cache");
+    let run = |lines: &[&str], out: &Path| {
+        let manifest = out.with_extension("jsonl");
+        std::fs::write(&manifest, lines.join("\n") + "\n").unwrap();
+        let args = [
+            "batch",
+            manifest.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let run = common::run_rqr(&args, &[("RQR_CACHE_DIR", cache.to_str().unwrap())], LIMIT).0;
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+    };
+    let together = dir.join("together");
+    run(&[&[defaults][..], &jobs[..]].concat(), &together);
+    let png = |out: &Path, id: &str| std::fs::read(out.join(id).join("000.png")).unwrap();
+    for (k, job) in jobs.iter().enumerate() {
+        let alone = dir.join(format!("alone{k}"));
+        run(&[defaults, job], &alone);
+        let id = serde_json::from_str::<Value>(job).unwrap()["id"].to_string();
+        let id = id.trim_matches('"');
+        assert!(png(&together, id) == png(&alone, id), "job {id} differs");
+    }
+    assert_ne!(png(&together, "sky1"), png(&together, "file1"));
+    assert_ne!(png(&together, "sky1"), png(&together, "none"));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -249,7 +249,7 @@ impl AnimatedFrames {
             }
             _ => (0, 0),
         };
-        let renderer = Renderer::from_parts(gpu, ray_backend, gpu_textures, textures);
+        let renderer = Renderer::from_parts(ctx, gpu, ray_backend, gpu_textures, textures);
         log::info!(
             "animated frames: {} deformed instance(s) skinned on the GPU, {} backend updated per frame",
             deformers.len(),
