@@ -46,7 +46,12 @@ pub enum Error {
     /// An environment map could not be loaded.
     #[error(transparent)]
     Environment(#[from] environment::EnvironmentError),
+    /// A setting that cannot work (a usage mistake, named by its flag).
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
 }
+
+pub use render::settings::SettingsError;
 
 /// `error` and its [`source`](std::error::Error::source)s joined with `": "`, outermost first:
 /// the one-line message `rqr: error:` prints (anyhow's `{:#}`). rqr's errors leave their

@@ -378,7 +378,7 @@ impl GpuBvh {
         // The shader reads every record as 64-bit words.
         for b in [&nodes, &triangles, &instances] {
             if b.address() % 8 != 0 {
-                return Err(BvhError::Vk(VkError::Limit(format!(
+                return Err(BvhError::Vk(VkError::Invalid(format!(
                     "BVH buffer at {:#x} is not 8-byte aligned",
                     b.address()
                 ))));

@@ -306,9 +306,7 @@ impl LoadedScene {
             raster: device.raster,
             ..options.settings()
         };
-        settings
-            .validate(ctx.info().max_image_dimension_2d)
-            .map_err(|e| VkError::Limit(e.to_string()))?;
+        settings.validate(ctx.info().max_image_dimension_2d)?;
         let mut targets = FrameTargets::new(
             ctx,
             &self.renderer,

@@ -16,6 +16,8 @@ use rqr::render::{FilterKind, RenderSettings, SamplerKind, Shading, Tonemap};
 use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene, TextureFormat};
 use rqr::vk::{Context, ContextOptions, DeviceSelector};
 
+use super::usage;
+
 /// Largest image side accepted before a device is opened (the device limit is checked after).
 pub const MAX_SIDE: u32 = 16384;
 
@@ -63,7 +65,7 @@ impl SceneArgs {
     pub fn load_rest(&self) -> Result<(Scene, Vec<usize>)> {
         if let Some(t) = self.time {
             if !t.is_finite() {
-                bail!("--time {t} must be a finite number of seconds");
+                usage!("--time", "--time {t} must be a finite number of seconds");
             }
         }
         let scene = self.load_file()?;
@@ -75,10 +77,13 @@ impl SceneArgs {
         match &self.scene {
             None => {
                 if self.scene_index.is_some_and(|i| i > 0) {
-                    bail!("the built-in scene has only scene 0");
+                    usage!("--scene", "--scene: the built-in scene has only scene 0");
                 }
                 if let Some(v) = &self.variant {
-                    bail!("--variant {v}: the built-in scene has no material variants");
+                    usage!(
+                        "--variant",
+                        "--variant {v}: the built-in scene has no material variants"
+                    );
                 }
                 Ok(rqr::scene::load_default()?)
             }
@@ -232,12 +237,14 @@ impl CameraArgs {
     /// The camera for an image of `aspect`.
     pub fn resolve(&self, scene: &Scene, aspect: f32) -> Result<Camera> {
         let base = match self.camera {
-            Some(i) => *scene.cameras.get(i).with_context(|| {
-                format!(
+            Some(i) => match scene.cameras.get(i) {
+                Some(c) => *c,
+                None => usage!(
+                    "--camera",
                     "--camera {i}: the scene has {} camera(s)",
                     scene.cameras.len()
-                )
-            })?,
+                ),
+            },
             None => scene
                 .cameras
                 .first()
@@ -246,7 +253,7 @@ impl CameraArgs {
         };
         if let Some(fov) = self.fov {
             if !(fov > 0.0 && fov < 180.0) {
-                bail!("--fov {fov} must be in (0, 180) degrees");
+                usage!("--fov", "--fov {fov} must be in (0, 180) degrees");
             }
         }
         if self.look_from.is_none() && self.look_at.is_none() && self.fov.is_none() {
@@ -258,7 +265,10 @@ impl CameraArgs {
         let forward = -base.camera_to_world.z_axis.truncate();
         let at = self.look_at.unwrap_or(from + forward);
         if (at - from).length() < 1e-6 {
-            bail!("--look-from and --look-at are the same point");
+            usage!(
+                "--look-from",
+                "--look-from and --look-at are the same point"
+            );
         }
         let yfov = match (self.fov, base.projection) {
             (Some(f), _) => f.to_radians(),

@@ -25,6 +25,10 @@ mod report_html;
 /// Exit code for "no Vulkan loader or no device".
 const EXIT_NO_VULKAN: u8 = 2;
 
+/// Exit code for a usage mistake: a flag value or combination that cannot work
+/// ([`rqr::SettingsError`]), the code clap exits with on the errors it finds itself.
+const EXIT_USAGE: u8 = 2;
+
 /// Exit code when stdout's reader went away: 128 + SIGPIPE, what a shell reports for a
 /// command killed by a closed pipe (`yes | head -1`), since the command did not finish.
 const EXIT_STDOUT_CLOSED: u8 = 141;
@@ -77,7 +81,15 @@ macro_rules! out {
         $crate::cli::write_stdout(format_args!($($arg)*), false)
     };
 }
-pub(crate) use {out, outln};
+/// Returns a usage mistake from the enclosing function: a [`rqr::SettingsError`] naming the
+/// flag `field` (the command exits with code 2, like on clap's own errors), the message
+/// formatted like `format!`.
+macro_rules! usage {
+    ($field:expr, $($arg:tt)*) => {
+        return Err(rqr::SettingsError::new($field, format!($($arg)*)).into())
+    };
+}
+pub(crate) use {out, outln, usage};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -138,7 +150,20 @@ pub fn main() -> ExitCode {
                 });
                 vk.is_some_and(|v| matches!(v, VkError::Loader(_) | VkError::NoDevice))
             });
-            ExitCode::from(if no_vulkan { EXIT_NO_VULKAN } else { 1 })
+            let usage = e.chain().any(|cause| {
+                cause.downcast_ref::<rqr::SettingsError>().is_some()
+                    || matches!(
+                        cause.downcast_ref::<rqr::Error>(),
+                        Some(rqr::Error::Settings(_))
+                    )
+            });
+            ExitCode::from(if no_vulkan {
+                EXIT_NO_VULKAN
+            } else if usage {
+                EXIT_USAGE
+            } else {
+                1
+            })
         }
     }
 }

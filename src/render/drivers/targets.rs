@@ -17,9 +17,10 @@ use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRIT
 use crate::render::passes::raytraced::{ray_counts, RaytracedPass, COUNTER_WORDS};
 use crate::render::passes::tonemap::TonemapPass;
 use crate::render::readback::{FrameRing, RingContents, RingSources};
+use crate::render::settings::SettingsError;
 use crate::render::{merge_scopes, sampling, Aov, RenderOutput, Renderer};
 use crate::scene::Camera;
-use crate::vk::{memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkError, VkResult};
+use crate::vk::{memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkResult};
 
 /// Timestamp scopes one frame of either path records per sample (raster, shading), plus
 /// tonemap and the frame itself.
@@ -77,9 +78,7 @@ impl FrameTargets {
         draws: &[Draw],
         write_aov: bool,
     ) -> crate::Result<Self> {
-        settings
-            .check_device(ctx.info(), path, write_aov, ctx.allocated_bytes())
-            .map_err(|e| VkError::Limit(e.to_string()))?;
+        settings.check_device(ctx.info(), path, write_aov, ctx.allocated_bytes())?;
         let pass = renderer.pass_context();
         let pixels = settings.pixels();
         let none = vk::BufferUsageFlags::empty();
@@ -461,7 +460,8 @@ fn hybrid_sample_positions(settings: &RenderSettings) -> crate::Result<Vec<[f32;
         })
         .collect::<Option<_>>()
         .ok_or_else(|| {
-            VkError::Limit(
+            SettingsError::new(
+                "--sampler",
                 format!(
                     "--sampler {:?} varies per pixel (or is adaptive); the hybrid path rasterizes one jittered pass per sample and supports center, grid, halton and sobol",
                     settings.sampler

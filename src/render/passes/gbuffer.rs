@@ -9,11 +9,12 @@ use ash::vk;
 
 use super::raster_compute::{ComputeRaster, DepthAtomics, RasterMode};
 use crate::interface::{self as io, bindings, push_bytes, DrawPush};
+use crate::render::settings::SettingsError;
 use crate::render::PassContext;
 use crate::scene::Scene;
 use crate::vk::{
     Binding, Buffer, Context, DescriptorSet, GpuProfiler, GraphicsPipeline, GraphicsTargets, Image,
-    VkError, VkResult,
+    VkResult,
 };
 
 /// What the hybrid path's raster pass writes.
@@ -124,7 +125,7 @@ impl GbufferPass {
         extent: vk::Extent2D,
         layout: GbufferLayout,
     ) -> VkResult<Self> {
-        Self::with_raster(ctx, pass, frame, extent, layout, RasterMode::Graphics, &[])
+        Self::create(ctx, pass, frame, extent, layout, RasterMode::Graphics, &[])
     }
 
     /// Like [`Self::new`], with the visibility pass run by `raster`. The compute rasterizer
@@ -137,13 +138,29 @@ impl GbufferPass {
         layout: GbufferLayout,
         raster: RasterMode,
         draws: &[Draw],
-    ) -> VkResult<Self> {
+    ) -> crate::Result<Self> {
         if raster != RasterMode::Graphics && layout != GbufferLayout::Visibility {
-            return Err(VkError::Limit(
-                "--raster compute writes the visibility buffer only; use --gbuffer visibility"
-                    .into(),
-            ));
+            return Err(SettingsError::new(
+                "--raster",
+                "--raster compute writes the visibility buffer only; use --gbuffer visibility",
+            )
+            .into());
         }
+        Ok(Self::create(
+            ctx, pass, frame, extent, layout, raster, draws,
+        )?)
+    }
+
+    /// [`Self::with_raster`] once the layout and the rasterizer are known to go together.
+    fn create(
+        ctx: &Context,
+        pass: &PassContext<'_>,
+        frame: &Buffer,
+        extent: vk::Extent2D,
+        layout: GbufferLayout,
+        raster: RasterMode,
+        draws: &[Draw],
+    ) -> VkResult<Self> {
         let set_layout = bindings(&[
             (io::BINDING_SCENE, Binding::UniformBuffer),
             (

@@ -250,7 +250,7 @@ impl Reprojector {
         let readback = self
             .readback
             .take()
-            .ok_or_else(|| VkError::Limit("reprojection readback in use".into()))?;
+            .ok_or_else(|| VkError::Invalid("reprojection readback in use".into()))?;
         let recorded = ctx.run("reprojected frame", |cmd| {
             if let Some(p) = profiler.as_mut() {
                 p.reset(cmd);

@@ -24,6 +24,7 @@ use crate::render::drivers::targets::FrameTargets;
 use crate::render::image::compare;
 use crate::render::passes::gbuffer::{self, Draw};
 use crate::render::readback::{FrameRing, RingContents};
+use crate::render::settings::SettingsError;
 use crate::render::temporal::{PixelSource, ReprojectedFrame, Reprojector, ReuseStats};
 use crate::render::{merge_scopes, RenderOutput, RenderSettings, Renderer};
 use crate::scene::{Camera, Scene};
@@ -139,8 +140,7 @@ impl Sequence {
             )
         } else {
             settings.check_device(ctx.info(), options.path, false, in_use)
-        }
-        .map_err(|e| VkError::Limit(e.to_string()))?;
+        }?;
         let reprojector = if options.reuse.any() {
             Some(Reprojector::new(
                 ctx,
@@ -293,7 +293,7 @@ impl Sequence {
         let mut frames = self.render_burst(ctx, index..index.saturating_add(1))?;
         frames
             .pop()
-            .ok_or_else(|| VkError::Limit("empty frame range".into()).into())
+            .ok_or_else(|| VkError::Invalid("a one-frame burst rendered no frame".into()).into())
     }
 
     /// Renders frames `frames` back to back in one submission, no host work between them
@@ -307,10 +307,13 @@ impl Sequence {
     ) -> crate::Result<Vec<SequenceFrame>> {
         let count = frames.end.saturating_sub(frames.start);
         if count == 0 || count > self.burst_capacity() {
-            return Err(VkError::Limit(format!(
-                "a burst of {count} frames does not fit the prepared {} (Sequence::prepare_bursts)",
-                self.burst_capacity()
-            ))
+            return Err(SettingsError::new(
+                "--burst",
+                format!(
+                    "a burst of {count} frames does not fit the prepared {} (Sequence::prepare_bursts)",
+                    self.burst_capacity()
+                ),
+            )
             .into());
         }
         if self.next != Some(frames.start) {
