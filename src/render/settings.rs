@@ -391,3 +391,95 @@ impl RenderPath {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every mistake [`RenderSettings::validate`] finds names the flag it reports in its
+    /// message, and the flag is the one at fault.
+    #[test]
+    fn settings_errors_name_their_flag() {
+        let base = RenderSettings::default();
+        let cases: Vec<(RenderSettings, &str)> = vec![
+            (
+                RenderSettings {
+                    width: 0,
+                    ..base.clone()
+                },
+                "--width",
+            ),
+            (
+                RenderSettings {
+                    height: 0,
+                    ..base.clone()
+                },
+                "--height",
+            ),
+            (
+                RenderSettings {
+                    height: 20_000,
+                    ..base.clone()
+                },
+                "--height",
+            ),
+            (
+                RenderSettings {
+                    spp: 0,
+                    ..base.clone()
+                },
+                "--spp",
+            ),
+            (
+                RenderSettings {
+                    sampler: SamplerKind::Grid,
+                    spp: 3,
+                    ..base.clone()
+                },
+                "--sampler",
+            ),
+            (
+                RenderSettings {
+                    max_depth: 99,
+                    ..base.clone()
+                },
+                "--max-depth",
+            ),
+            (
+                RenderSettings {
+                    min_weight: 1.5,
+                    ..base.clone()
+                },
+                "--min-weight",
+            ),
+            (
+                RenderSettings {
+                    exposure: f32::NAN,
+                    ..base.clone()
+                },
+                "--exposure",
+            ),
+            (
+                RenderSettings {
+                    diffuse_bounces: 1,
+                    ..base.clone()
+                },
+                "--diffuse-bounces",
+            ),
+            (
+                RenderSettings {
+                    epsilon: Some(-1.0),
+                    ..base.clone()
+                },
+                "--epsilon",
+            ),
+        ];
+        for (settings, flag) in cases {
+            let e = settings.validate(16384).expect_err(flag);
+            assert_eq!(e.field, flag, "{e}");
+            assert!(e.reason.contains(flag), "{e}");
+            assert!(e.to_string().starts_with("invalid settings: "), "{e}");
+        }
+        assert!(base.validate(16384).is_ok());
+    }
+}
