@@ -167,7 +167,7 @@ fn open(
     })
     .map_err(|e| e.to_string())?;
     // The measured choice (cached per device) decides what `auto` means, as in the CLI.
-    let decision = rqr::autotune::decision_with_cache(&ctx, cache);
+    let decision = rqr::device_select::autotune::decision_with_cache(&ctx, cache);
     let (backend, backend_reason) = match choice {
         BackendChoice::Auto => (decision.backend, decision.backend_reason.clone()),
         forced => forced.resolve(ctx.info()).map_err(|e| e.to_string())?,
@@ -230,7 +230,7 @@ impl Renderer {
                 }
                 Some(dir.join("autotune.json"))
             }
-            None => rqr::autotune::cache_path(),
+            None => rqr::device_select::autotune::cache_path(),
         };
         let selector = selector(&device)?;
         let opened = py

@@ -157,7 +157,7 @@ impl BvhBuild {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhBuildChoice {
-    /// Decided by measurement where the CLI resolves it ([`crate::autotune`]: the faster of
+    /// Decided by measurement where the CLI resolves it ([`crate::device_select::autotune`]: the faster of
     /// both builds on a fixed mesh, ties to the host). Without a measurement
     /// ([`BvhBuildChoice::resolve`], `RQR_NO_AUTOTUNE=1`): the GPU build on discrete and
     /// integrated GPUs, the host build elsewhere (CPU devices such as lavapipe).

@@ -48,7 +48,7 @@ pub struct DeviceOptions {
     pub pipeline_cache_dir: Option<std::path::PathBuf>,
     /// Khronos validation layer; `None`: on when `RQR_VALIDATION=1`.
     pub validation: Option<bool>,
-    /// Resolve `auto` choices by measurement on first use of a device ([`crate::autotune`],
+    /// Resolve `auto` choices by measurement on first use of a device ([`crate::device_select::autotune`],
     /// cached on disk); `false`: by the feature rules, measuring nothing.
     pub autotune: bool,
 }
@@ -157,8 +157,8 @@ impl BatchDevice {
             }
         }
         let decision = match options.autotune {
-            true => crate::autotune::decision(&ctx),
-            false => crate::autotune::rule(ctx.info(), "autotune off"),
+            true => crate::device_select::autotune::decision(&ctx),
+            false => crate::device_select::autotune::rule(ctx.info(), "autotune off"),
         };
         let backend = match options.backend {
             BackendChoice::Auto => decision.backend,

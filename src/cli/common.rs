@@ -102,7 +102,7 @@ impl SceneArgs {
     /// Resolves `--texture-format` on the opened device and applies it to `scenes` (one
     /// file's scenes: its rest pose, posed copies): RGBA8 drops their KTX2 files, so the
     /// upload takes the RGBA8 levels decoded at load; the block format keeps them. `auto`
-    /// asks the autotune measurement ([`rqr::autotune`]) only where a scene has KTX2
+    /// asks the autotune measurement ([`rqr::device_select::autotune`]) only where a scene has KTX2
     /// images; `None` when there was nothing to decide. Returns the format and why.
     pub fn apply_texture_format(
         &self,
@@ -113,7 +113,7 @@ impl SceneArgs {
         let (format, reason) = match self.texture_format {
             TextureFormat::Auto if !ktx2 => return None,
             TextureFormat::Auto => {
-                let d = rqr::autotune::decision(ctx);
+                let d = rqr::device_select::autotune::decision(ctx);
                 (d.texture_format, d.texture_format_reason)
             }
             TextureFormat::Block => match rqr::scene::textures::block_format_name(ctx.info()) {
@@ -185,7 +185,7 @@ impl DeviceArgs {
     /// Resolves `--bvh-build` on the opened device: `auto` by measurement.
     pub fn bvh_build(&self, ctx: &Context) -> BvhBuild {
         let (build, reason) = if self.bvh_build == BvhBuildChoice::Auto {
-            let d = rqr::autotune::decision(ctx);
+            let d = rqr::device_select::autotune::decision(ctx);
             (d.bvh_build, d.bvh_build_reason)
         } else {
             self.bvh_build.resolve(ctx.info())
@@ -194,10 +194,10 @@ impl DeviceArgs {
         build
     }
 
-    /// Resolves `--backend` on the opened device: `auto` by measurement ([`rqr::autotune`]).
+    /// Resolves `--backend` on the opened device: `auto` by measurement ([`rqr::device_select::autotune`]).
     pub fn backend(&self, ctx: &Context) -> Result<(Backend, String)> {
         if self.backend == BackendChoice::Auto {
-            let d = rqr::autotune::decision(ctx);
+            let d = rqr::device_select::autotune::decision(ctx);
             return Ok((d.backend, d.backend_reason));
         }
         Ok(self.backend.resolve(ctx.info())?)
@@ -498,7 +498,7 @@ impl ImageArgs {
         match self.raster.forced() {
             Some(mode) => (mode, format!("forced by --raster {}", mode.as_str())),
             None => {
-                let d = rqr::autotune::decision(ctx);
+                let d = rqr::device_select::autotune::decision(ctx);
                 (d.raster, d.raster_reason)
             }
         }

@@ -9,7 +9,8 @@ use std::process::ExitCode;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use rqr::accel::BackendChoice;
-use rqr::vk::{probe_devices, DeviceSelector, ProbeReport, VkError};
+use rqr::device_select::report::{probe_devices, ProbeReport};
+use rqr::vk::{DeviceSelector, VkError};
 
 mod batch;
 mod bench;
@@ -183,7 +184,7 @@ pub(crate) fn probe_report(
     let mut report = probe_devices(&device, backend)?;
     // `auto` as the autotune cache decided it (probe opens no device, so it never measures).
     for d in &mut report.devices {
-        let decision = rqr::autotune::cached_decision(d);
+        let decision = rqr::device_select::autotune::cached_decision(d);
         if backend == BackendChoice::Auto {
             d.backend = Some(decision.backend.as_str().to_string());
             d.backend_reason = decision.backend_reason;

@@ -18,7 +18,7 @@ use crate::vk::{Buffer, Context, Image, MemoryLocation, Sampler, VkError, VkResu
 #[serde(rename_all = "lowercase")]
 pub enum TextureFormat {
     /// The faster of [`Self::Block`] and [`Self::Rgba8`] on the device, as measured once per
-    /// device and driver (`rqr::autotune`). The loader keeps the KTX2 files, so that the
+    /// device and driver (`rqr::device_select::autotune`). The loader keeps the KTX2 files, so that the
     /// choice can be made once the device is open ([`Scene::drop_ktx2_files`] applies
     /// RGBA8); uploaded as is, such a scene's KTX2 textures go up as [`Self::Block`].
     #[default]

@@ -23,8 +23,8 @@ pub use pipeline::{
     GraphicsPipeline, GraphicsTargets,
 };
 pub use probe::{
-    largest_device_heap, probe_devices, AsProperties, AutotuneMeasurement, BackendPolicy,
-    DeviceInfo, MemoryHeapInfo, ProbeReport, TimestampInfo,
+    describe_devices, largest_device_heap, AsProperties, DeviceInfo, DeviceList, MemoryHeapInfo,
+    TimestampInfo,
 };
 pub use profiler::{FrameTiming, GpuProfiler};
 pub use sampler::Sampler;

@@ -62,7 +62,7 @@ impl RasterMode {
 #[serde(rename_all = "lowercase")]
 pub enum RasterChoice {
     /// The faster of the two on this device, measured once per device and driver
-    /// ([`crate::autotune`]); graphics under `RQR_NO_AUTOTUNE=1`.
+    /// ([`crate::device_select::autotune`]); graphics under `RQR_NO_AUTOTUNE=1`.
     #[default]
     Auto,
     /// The graphics pipeline.

@@ -51,9 +51,28 @@ pub const MEASURE_FRAMES: u32 = 5;
 /// Environment variable that turns measurement off (`1`).
 pub const NO_AUTOTUNE_ENV: &str = "RQR_NO_AUTOTUNE";
 
-/// What the micro-benchmark measured on one device (declared with the probe's device report,
-/// which carries it).
-pub use crate::vk::AutotuneMeasurement as Measurement;
+/// What the micro-benchmark measured on one device (GPU milliseconds, median of
+/// [`MEASURE_FRAMES`] frames).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Measurement {
+    /// Ray-traced frame (default depth) on `hw`; `None` without ray queries.
+    pub rt_hw_ms: Option<f64>,
+    /// The same frame on `bvh`.
+    pub rt_bvh_ms: f64,
+    /// Hybrid visibility pass on the graphics pipeline.
+    pub visibility_graphics_ms: f64,
+    /// Hybrid visibility pass on the compute rasterizer.
+    pub visibility_compute_ms: f64,
+    /// Whole host build of the fixed mesh's BVH (wall milliseconds, upload included).
+    pub bvh_host_build_ms: f64,
+    /// Whole GPU build of the same BVH (wall milliseconds).
+    pub bvh_gpu_build_ms: f64,
+    /// Trilinear sampling of a small texture in one short dispatch, the texture in the
+    /// device's block format (BC7, else ASTC 4x4); `None` where the device samples neither.
+    pub texture_block_ms: Option<f64>,
+    /// The same dispatch over the same texture as RGBA8.
+    pub texture_rgba8_ms: f64,
+}
 
 /// The choices `auto` resolves to, with reasons.
 #[derive(Clone, Debug, PartialEq, Serialize)]
