@@ -25,6 +25,7 @@ pub mod locality;
 pub mod refit;
 mod relink;
 pub mod sah;
+#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 #[cfg(test)]
 mod tests;

@@ -41,8 +41,8 @@ pub const CACHE_FORMAT: u32 = 3;
 /// and a dispatch of well under a millisecond on a GPU varies by more than a few percent
 /// between runs. (lavapipe decodes BC7 in software: RGBA8 measures about 4x faster there.)
 pub const TEXTURE_RGBA8_MARGIN: f64 = 1.25;
-/// Stacks (and slices) of the sphere whose BVH builds are timed (2 · 128 · 127 = 32 512
-/// triangles).
+/// Segments (and rings) of the sphere ([`crate::scene::procedural::sphere`]) whose BVH builds
+/// are timed (128 · (2 · 128 − 2) = 32 512 triangles).
 pub const BUILD_MESH_STACKS: u32 = 128;
 /// Image side of the measured frames.
 pub const MEASURE_SIZE: u32 = 256;
@@ -538,9 +538,12 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
 /// Wall milliseconds of the whole host and GPU builds of the fixed sphere's BVH (minimum of
 /// [`MEASURE_FRAMES`] builds each, after one warm-up build that also compiles the pipelines).
 fn measure_builds(ctx: &Context) -> crate::Result<(f64, f64)> {
-    use crate::accel::bvh::{testing, BvhBuildOptions, GpuBvh};
-    let sphere = testing::uv_sphere(BUILD_MESH_STACKS, BUILD_MESH_STACKS, 1.0);
-    let scene = testing::scene_of(vec![sphere], Vec::new());
+    use crate::accel::bvh::{BvhBuildOptions, GpuBvh};
+    let scene = crate::scene::procedural::single_mesh(crate::scene::procedural::sphere(
+        0,
+        BUILD_MESH_STACKS,
+        BUILD_MESH_STACKS,
+    ));
     let opts = BvhBuildOptions::default();
     let mut best = [f64::INFINITY; 2];
     for (slot, build) in [BvhBuild::Host, BvhBuild::Gpu].into_iter().enumerate() {
