@@ -7,7 +7,7 @@ mod common;
 use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::render::image::compare;
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::procedural::{assemble, cornell, look_at, quad};
@@ -39,7 +39,7 @@ fn diff(a: &RenderOutput, b: &RenderOutput) -> compare::ImageDiff {
 /// with both G-buffer layouts.
 fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
     let ctx = common::gpu();
-    let draws = gbuffer::draws(scene);
+    let draws = draw_list::draws(scene);
     let camera = scene
         .cameras
         .first()
@@ -166,7 +166,7 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
         let out = renderer
             .render_hybrid(
                 &ctx,
-                &gbuffer::draws(&scene),
+                &draw_list::draws(&scene),
                 &RenderSettings {
                     gbuffer,
                     ..settings(n)

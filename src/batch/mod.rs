@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 
 use crate::accel::bvh::BvhBuild;
 use crate::accel::{Backend, BackendChoice};
-use crate::render::passes::gbuffer::{self, Draw};
+use crate::render::passes::draw_list::{self, Draw};
 use crate::render::passes::raster_compute::RasterMode;
 use crate::render::{
     BuildTimes, FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind,
@@ -222,7 +222,7 @@ impl BatchDevice {
         let (renderer, build) =
             Renderer::with_build_times(&self.ctx, &scene, self.backend, self.bvh_build)?;
         Ok(LoadedScene {
-            draws: gbuffer::draws(&scene),
+            draws: draw_list::draws(&scene),
             scene,
             renderer,
             times: SceneTimes {

@@ -11,7 +11,7 @@ use rqr::accel::Backend;
 use rqr::environment::EnvironmentMap;
 use rqr::render::image::tonemap::tonemap_rgba8;
 use rqr::render::image::{compare, output};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::{RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading};
 use rqr::scene::{Camera, Scene};
 use rqr::vk::Context;
@@ -43,7 +43,7 @@ const LADDER_SPP: [u32; 3] = [1, 4, 16];
 fn render_path(
     ctx: &Context,
     renderer: &mut Renderer,
-    draws: &[gbuffer::Draw],
+    draws: &[draw_list::Draw],
     settings: &RenderSettings,
     camera: &Camera,
     path: RenderPath,
@@ -131,7 +131,7 @@ pub fn error_against_time(
 ) -> Result<String> {
     let mut renderer = Renderer::new(ctx, scene, backend)?;
     super::common::light_with(ctx, &mut renderer, environment)?;
-    let draws = gbuffer::draws(scene);
+    let draws = draw_list::draws(scene);
     let distributed = |spp: u32, seed: u32| RenderSettings {
         spp,
         sampler: SamplerKind::Sobol,

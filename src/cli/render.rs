@@ -14,7 +14,7 @@ use rqr::render::drivers::sequence::{
     SequenceSummary,
 };
 use rqr::render::image::output;
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::readback::RingContents;
 use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD};
 use rqr::render::RenderPath;
@@ -270,9 +270,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
         RenderPath::RayTraced => renderer.render_rt(&ctx, &settings, &camera, write_aov)?,
-        RenderPath::Hybrid => {
-            renderer.render_hybrid(&ctx, &gbuffer::draws(&scene), &settings, &camera, write_aov)?
-        }
+        RenderPath::Hybrid => renderer.render_hybrid(
+            &ctx,
+            &draw_list::draws(&scene),
+            &settings,
+            &camera,
+            write_aov,
+        )?,
     };
     match ext.as_str() {
         "exr" => output::write_exr(&args.output, &out)?,

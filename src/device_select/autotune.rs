@@ -448,7 +448,7 @@ pub fn decision_with_cache(ctx: &Context, path: Option<PathBuf>) -> Decision {
 
 /// Times the fixed workload on `ctx` (see the module docs).
 pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
-    use crate::render::passes::gbuffer;
+    use crate::render::passes::draw_list;
     use crate::render::{RenderSettings, Renderer};
     let scene = crate::scene::load_default()?;
     let camera = scene
@@ -456,7 +456,7 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
         .first()
         .copied()
         .unwrap_or_else(|| crate::scene::auto_camera(&scene.bounds, 1.0));
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let settings = RenderSettings {
         width: MEASURE_SIZE,
         height: MEASURE_SIZE,

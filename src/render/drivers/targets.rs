@@ -12,7 +12,8 @@
 use ash::vk;
 
 use crate::render::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
-use crate::render::passes::gbuffer::{Draw, GbufferPass};
+use crate::render::passes::draw_list::Draw;
+use crate::render::passes::gbuffer::GbufferPass;
 use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
 use crate::render::passes::raytraced::{ray_counts, RaytracedPass, COUNTER_WORDS};
 use crate::render::passes::tonemap::TonemapPass;

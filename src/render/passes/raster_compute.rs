@@ -23,7 +23,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::gbuffer::Draw;
+use super::draw_list::Draw;
 use crate::render::PassContext;
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, Image,

@@ -22,7 +22,8 @@ use serde::Serialize;
 
 use crate::render::drivers::targets::FrameTargets;
 use crate::render::image::compare;
-use crate::render::passes::gbuffer::{self, Draw};
+use crate::render::passes::draw_list::{self, Draw};
+use crate::render::passes::gbuffer;
 use crate::render::readback::{FrameRing, RingContents};
 use crate::render::settings::SettingsError;
 use crate::render::temporal::{PixelSource, ReprojectedFrame, Reprojector, ReuseStats};
@@ -159,7 +160,7 @@ impl Sequence {
         if options.reuse.any() {
             settings.gbuffer = gbuffer::GbufferLayout::Full;
         }
-        let draws = gbuffer::draws(scene);
+        let draws = draw_list::draws(scene);
         let full = FrameTargets::new(ctx, renderer, options.path, &settings, &draws, false)?;
         let burst = BurstResources::new(
             ctx,
@@ -252,7 +253,7 @@ impl Sequence {
         scene: &Scene,
         base: Camera,
     ) -> crate::Result<()> {
-        self.draws = gbuffer::draws(scene);
+        self.draws = draw_list::draws(scene);
         self.full = FrameTargets::new(
             ctx,
             renderer,
