@@ -123,7 +123,7 @@ fn by_uuid(uuid: &str) -> PyResult<DeviceSelector> {
             "device='uuid:{uuid}': a device UUID has 32 hex digits (see `rqr probe`)"
         )));
     }
-    let report = rqr::vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto)
+    let report = rqr::vk::describe_devices(&DeviceSelector::Auto)
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     report
         .devices
