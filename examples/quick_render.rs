@@ -1,7 +1,7 @@
 //! Development helper: renders the procedural Cornell scene with both paths to `out/`.
 use rqr::accel::Backend;
 use rqr::render::image::output;
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::vk::{Context, ContextOptions};
 
@@ -26,7 +26,7 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all("out")?;
     let rt = renderer.render_rt(&ctx, &settings, &scene.cameras[0], true)?;
     output::write_png(std::path::Path::new("out/quick_rt.png"), &rt)?;
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let t0 = std::time::Instant::now();
     let hy = renderer.render_hybrid(&ctx, &draws, &settings, &scene.cameras[0], true)?;
     println!("hybrid wall {:?}", t0.elapsed());

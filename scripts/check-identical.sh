@@ -6,6 +6,13 @@
 #
 #   scripts/check-identical.sh BEFORE AFTER
 #   scripts/check-identical.sh --render BIN DIR     # only render BIN's outputs into DIR
+#   scripts/check-identical.sh --models MODELS BEFORE AFTER
+#   scripts/check-identical.sh --models MODELS --render BIN DIR
+#
+# With --models, the cases are instead every model listed in MODELS/INDEX.tsv (a tab-separated
+# table whose first two columns are a name and the model file relative to MODELS, with a header
+# line), each rendered once at 64x64 on both ray backends (`--backend hw` and `--backend bvh`),
+# with `RQR_NO_AUTOTUNE=1` so that no measurement decides anything.
 #
 # BEFORE and AFTER are each an rqr binary (its outputs are rendered into a temporary folder) or
 # a folder written earlier by `--render`. Images (PNG, EXR) must be byte-identical; JSON lines
@@ -41,6 +48,22 @@ cases=(
   "single_avocado|ONE SCENE=gltf/Avocado/Avocado.gltf --mode hybrid"
 )
 
+models=""
+if [ "${1:-}" = "--models" ]; then
+  [ $# -ge 2 ] || { echo "usage: $0 --models MODELS BEFORE AFTER" >&2; exit 2; }
+  models="$(realpath "$2")"
+  shift 2
+  [ -f "$models/INDEX.tsv" ] || { echo "$models/INDEX.tsv: no such file" >&2; exit 2; }
+  cases=()
+  while IFS=$'\t' read -r name file _; do
+    case "$file" in *" "*) echo "$file: paths with spaces are not supported" >&2; exit 2 ;; esac
+    for backend in hw bvh; do
+      cases+=("model_${name}_$backend|ONE MODEL=$file --backend $backend")
+    done
+  done < <(tail -n +2 "$models/INDEX.tsv")
+  export RQR_NO_AUTOTUNE=1
+fi
+
 render() {
   local bin dir
   bin="$(realpath "$1")"
@@ -51,6 +74,7 @@ render() {
     for w in ${case#*|}; do
       case "$w" in
         SCENE=*) scene=("$assets/${w#SCENE=}") ;;
+        MODEL=*) scene=("$models/${w#MODEL=}") ;;
         EXR) ext=exr ;;
         ONE) single=1 ;;
         *) words+=("$w") ;;
@@ -117,11 +141,11 @@ outputs_of() {
 }
 
 if [ "${1:-}" = "--render" ]; then
-  [ $# = 3 ] || { echo "usage: $0 --render BIN DIR" >&2; exit 2; }
+  [ $# = 3 ] || { echo "usage: $0 [--models MODELS] --render BIN DIR" >&2; exit 2; }
   render "$2" "$3"
   exit 0
 fi
-[ $# = 2 ] || { echo "usage: $0 BEFORE AFTER (each an rqr binary or a --render folder)" >&2; exit 2; }
+[ $# = 2 ] || { echo "usage: $0 [--models MODELS] BEFORE AFTER (each an rqr binary or a --render folder)" >&2; exit 2; }
 before="$(outputs_of "$1")"
 after="$(outputs_of "$2")"
 compare "$before" "$after"

@@ -1,5 +1,5 @@
 //! Where rqr keeps what it learns about a device between runs: the autotune measurements
-//! ([`crate::autotune`]) and the pipeline cache ([`crate::vk::pipeline_cache`]).
+//! ([`crate::device_select::autotune`]) and the pipeline cache ([`crate::vk::pipeline_cache`]).
 //!
 //! `RQR_CACHE_DIR` names the directory (a fleet can point every node at one shared
 //! directory: the files are keyed by device and driver, and written atomically); otherwise

@@ -5,11 +5,10 @@
 //!
 //! Modules: [`vk`] (Vulkan plumbing), [`interface`] (the host/shader interface, one source for
 //! Rust and GLSL), [`accel`] (ray backends), [`scene`] (glTF loading and texture upload),
-//! [`render`] (passes and drivers), [`shaders`] (embedded SPIR-V), [`autotune`] (what `auto`
+//! [`render`] (passes and drivers), [`shaders`] (embedded SPIR-V), [`device_select`] (which device, and what `auto`
 //! picks, measured), [`batch`] (many assets in one process: `rqr batch` and its library API).
 
 pub mod accel;
-pub mod autotune;
 pub mod batch;
 pub mod cache;
 pub mod device_select;
@@ -46,7 +45,12 @@ pub enum Error {
     /// An environment map could not be loaded.
     #[error(transparent)]
     Environment(#[from] environment::EnvironmentError),
+    /// A setting that cannot work (a usage mistake, named by its flag).
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
 }
+
+pub use render::settings::SettingsError;
 
 /// `error` and its [`source`](std::error::Error::source)s joined with `": "`, outermost first:
 /// the one-line message `rqr: error:` prints (anyhow's `{:#}`). rqr's errors leave their

@@ -123,7 +123,7 @@ fn by_uuid(uuid: &str) -> PyResult<DeviceSelector> {
             "device='uuid:{uuid}': a device UUID has 32 hex digits (see `rqr probe`)"
         )));
     }
-    let report = rqr::vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto)
+    let report = rqr::vk::describe_devices(&DeviceSelector::Auto)
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     report
         .devices
@@ -167,7 +167,7 @@ fn open(
     })
     .map_err(|e| e.to_string())?;
     // The measured choice (cached per device) decides what `auto` means, as in the CLI.
-    let decision = rqr::autotune::decision_with_cache(&ctx, cache);
+    let decision = rqr::device_select::autotune::decision_with_cache(&ctx, cache);
     let (backend, backend_reason) = match choice {
         BackendChoice::Auto => (decision.backend, decision.backend_reason.clone()),
         forced => forced.resolve(ctx.info()).map_err(|e| e.to_string())?,
@@ -230,7 +230,7 @@ impl Renderer {
                 }
                 Some(dir.join("autotune.json"))
             }
-            None => rqr::autotune::cache_path(),
+            None => rqr::device_select::autotune::cache_path(),
         };
         let selector = selector(&device)?;
         let opened = py

@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use rqr::render::passes::gbuffer::{self, Draw};
+use rqr::render::passes::draw_list::{self, Draw};
 use rqr::scene::{AnimationSelection, LoadOptions};
 
 use crate::device::{ProcessBound, SharedDevice};
@@ -157,7 +157,7 @@ impl Scene {
                     plain,
                     under_environment: None,
                     environment: None,
-                    draws: gbuffer::draws(&scene),
+                    draws: draw_list::draws(&scene),
                 },
                 t.elapsed().as_secs_f64() * 1e3,
             ))

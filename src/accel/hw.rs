@@ -191,11 +191,15 @@ impl HwAccel {
         let (api, props) = accel_api(ctx)?;
         let scratch_align = u64::from(props.min_scratch_offset_alignment.max(1));
         if scene.instances.len() as u64 > props.max_instance_count {
-            return Err(VkError::Limit(format!(
-                "scene has {} instances, the device's TLAS holds at most {}",
-                scene.instances.len(),
-                props.max_instance_count
-            )));
+            return Err(VkError::Limit {
+                what: format!(
+                    "scene has {} instances, the device's TLAS holds at most {}",
+                    scene.instances.len(),
+                    props.max_instance_count
+                ),
+                needed: scene.instances.len() as u64,
+                available: props.max_instance_count,
+            });
         }
         let BlasInputs {
             inputs,
@@ -289,10 +293,14 @@ fn blas_inputs(scene: &Scene, gpu: &GpuScene, max_primitive_count: u64) -> VkRes
             continue;
         }
         if u64::from(g.triangle_count) > max_primitive_count {
-            return Err(VkError::Limit(format!(
-                "geometry {gi} has {} triangles, the device's BLAS holds at most {} (maxPrimitiveCount)",
-                g.triangle_count, max_primitive_count
-            )));
+            return Err(VkError::Limit {
+                what: format!(
+                    "geometry {gi} has {} triangles, the device's BLAS holds at most {} (maxPrimitiveCount)",
+                    g.triangle_count, max_primitive_count
+                ),
+                needed: g.triangle_count.into(),
+                available: max_primitive_count,
+            });
         }
         let opaque = scene
             .materials
@@ -372,11 +380,15 @@ fn build_sizes(
 fn check_memory(ctx: &Context, estimate: u64) -> VkResult<()> {
     let heap = ctx.info().largest_device_heap();
     if estimate > heap / 10 * 9 {
-        return Err(VkError::Limit(format!(
-            "acceleration structures need about {} MiB, more than 90 % of the largest device heap ({} MiB)",
-            estimate >> 20,
-            heap >> 20
-        )));
+        return Err(VkError::Limit {
+            what: format!(
+                "acceleration structures need about {} MiB, more than 90 % of the largest device heap ({} MiB)",
+                estimate >> 20,
+                heap >> 20
+            ),
+            needed: estimate,
+            available: heap / 10 * 9,
+        });
     }
     Ok(())
 }

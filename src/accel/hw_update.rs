@@ -136,10 +136,14 @@ impl HwAnimatedAccel {
                 continue;
             }
             if u64::from(g.triangle_count) > props.max_primitive_count {
-                return Err(VkError::Limit(format!(
-                    "geometry {gi} has {} triangles, the device's BLAS holds at most {} (maxPrimitiveCount)",
-                    g.triangle_count, props.max_primitive_count
-                )));
+                return Err(VkError::Limit {
+                    what: format!(
+                        "geometry {gi} has {} triangles, the device's BLAS holds at most {} (maxPrimitiveCount)",
+                        g.triangle_count, props.max_primitive_count
+                    ),
+                    needed: g.triangle_count.into(),
+                    available: props.max_primitive_count,
+                });
             }
             let opaque = scene
                 .materials
@@ -266,7 +270,7 @@ impl HwAnimatedAccel {
             map.get(g).copied().flatten().map(|b| blas[b].accel.address)
         });
         if records.len() as u32 != self.instance_count {
-            return Err(VkError::Limit(format!(
+            return Err(VkError::Invalid(format!(
                 "animated frame has {} ray-traced instances, the TLAS was built for {}",
                 records.len(),
                 self.instance_count

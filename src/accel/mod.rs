@@ -49,15 +49,6 @@ pub struct BackendUnavailable {
     pub device: String,
 }
 
-/// `rqr probe` reports what the choice resolves to on each device.
-impl crate::vk::BackendPolicy for BackendChoice {
-    fn decide(&self, device: &DeviceInfo) -> Result<(String, String), String> {
-        self.resolve(device)
-            .map(|(backend, reason)| (backend.as_str().to_string(), reason))
-            .map_err(|e| e.to_string())
-    }
-}
-
 impl BackendChoice {
     /// Resolves the choice for a device, with a human-readable reason.
     pub fn resolve(self, device: &DeviceInfo) -> Result<(Backend, String), BackendUnavailable> {

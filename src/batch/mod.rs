@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 
 use crate::accel::bvh::BvhBuild;
 use crate::accel::{Backend, BackendChoice};
-use crate::render::passes::gbuffer::{self, Draw};
+use crate::render::passes::draw_list::{self, Draw};
 use crate::render::passes::raster_compute::RasterMode;
 use crate::render::{
     BuildTimes, FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind,
@@ -48,7 +48,7 @@ pub struct DeviceOptions {
     pub pipeline_cache_dir: Option<std::path::PathBuf>,
     /// Khronos validation layer; `None`: on when `RQR_VALIDATION=1`.
     pub validation: Option<bool>,
-    /// Resolve `auto` choices by measurement on first use of a device ([`crate::autotune`],
+    /// Resolve `auto` choices by measurement on first use of a device ([`crate::device_select::autotune`],
     /// cached on disk); `false`: by the feature rules, measuring nothing.
     pub autotune: bool,
 }
@@ -157,8 +157,8 @@ impl BatchDevice {
             }
         }
         let decision = match options.autotune {
-            true => crate::autotune::decision(&ctx),
-            false => crate::autotune::rule(ctx.info(), "autotune off"),
+            true => crate::device_select::autotune::decision(&ctx),
+            false => crate::device_select::autotune::rule(ctx.info(), "autotune off"),
         };
         let backend = match options.backend {
             BackendChoice::Auto => decision.backend,
@@ -222,7 +222,7 @@ impl BatchDevice {
         let (renderer, build) =
             Renderer::with_build_times(&self.ctx, &scene, self.backend, self.bvh_build)?;
         Ok(LoadedScene {
-            draws: gbuffer::draws(&scene),
+            draws: draw_list::draws(&scene),
             scene,
             renderer,
             times: SceneTimes {
@@ -326,9 +326,7 @@ impl LoadedScene {
             raster: device.raster,
             ..options.settings()
         };
-        settings
-            .validate(ctx.info().max_image_dimension_2d)
-            .map_err(|e| VkError::Limit(e.to_string()))?;
+        settings.validate(ctx.info().max_image_dimension_2d)?;
         let mut targets = FrameTargets::new(
             ctx,
             &self.renderer,

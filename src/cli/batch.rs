@@ -14,7 +14,7 @@ use rqr::batch::shard::{self, ShardSpec};
 use rqr::batch::{BatchDevice, DeviceOptions};
 use rqr::vk::DeviceSelector;
 
-use super::outln;
+use super::{outln, usage};
 
 /// `rqr batch` arguments.
 #[derive(Args, Debug)]
@@ -91,7 +91,10 @@ pub fn run(args: &BatchArgs) -> Result<()> {
     log::info!("shard {shard} ({source})");
     let job_timeout = match args.job_timeout {
         Some(s) if !(s.is_finite() && s > 0.0) => {
-            bail!("--job-timeout {s} must be a positive number of seconds")
+            usage!(
+                "--job-timeout",
+                "--job-timeout {s} must be a positive number of seconds"
+            )
         }
         Some(s) => Some(Duration::from_secs_f64(s)),
         None => None,

@@ -5,10 +5,11 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rqr::accel::bvh::{locality, sah, testing, BvhBuild, BvhBuildOptions, GpuBvh};
+use rqr::accel::bvh::{locality, sah, BvhBuild, BvhBuildOptions, GpuBvh};
 use rqr::accel::{Backend, RayBackend};
 use rqr::render::passes::raybench::{RayBatch, RayBench};
 use rqr::render::{CameraSetup, GpuFrame, RenderSettings, Renderer};
+use rqr::scene::procedural::{single_mesh, sphere};
 use serde_json::json;
 
 use super::common::{CameraArgs, DeviceArgs, SceneArgs, MAX_SIDE};
@@ -151,11 +152,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if runs.contains(&(Backend::Bvh, BvhBuild::Gpu)) {
         // lavapipe JIT-compiles each pipeline inside its first dispatch: build a small
         // scene once so the timed build measures the build, not the compiler.
-        let mut rng = testing::Rng::new(1);
-        let warm = testing::scene_of(
-            vec![testing::random_triangles(&mut rng, 4096, 1.0, 0.1)],
-            vec![],
-        );
+        let warm = single_mesh(sphere(0, 64, 33));
         GpuBvh::build_with(&ctx, &warm, &BvhBuildOptions::default(), BvhBuild::Gpu)?;
     }
     // Every configuration is built first; then the timed batches run round-robin over them,

@@ -17,6 +17,8 @@ use rqr::render::{FilterKind, RenderSettings, SamplerKind, Shading, Tonemap};
 use rqr::scene::{AnimationSelection, Camera, LoadOptions, Scene, TextureFormat};
 use rqr::vk::{Context, ContextOptions, DeviceSelector};
 
+use super::usage;
+
 /// Largest image side accepted before a device is opened (the device limit is checked after).
 pub const MAX_SIDE: u32 = 16384;
 
@@ -64,7 +66,7 @@ impl SceneArgs {
     pub fn load_rest(&self) -> Result<(Scene, Vec<usize>)> {
         if let Some(t) = self.time {
             if !t.is_finite() {
-                bail!("--time {t} must be a finite number of seconds");
+                usage!("--time", "--time {t} must be a finite number of seconds");
             }
         }
         let scene = self.load_file()?;
@@ -76,10 +78,13 @@ impl SceneArgs {
         match &self.scene {
             None => {
                 if self.scene_index.is_some_and(|i| i > 0) {
-                    bail!("the built-in scene has only scene 0");
+                    usage!("--scene", "--scene: the built-in scene has only scene 0");
                 }
                 if let Some(v) = &self.variant {
-                    bail!("--variant {v}: the built-in scene has no material variants");
+                    usage!(
+                        "--variant",
+                        "--variant {v}: the built-in scene has no material variants"
+                    );
                 }
                 Ok(rqr::scene::load_default()?)
             }
@@ -98,7 +103,7 @@ impl SceneArgs {
     /// Resolves `--texture-format` on the opened device and applies it to `scenes` (one
     /// file's scenes: its rest pose, posed copies): RGBA8 drops their KTX2 files, so the
     /// upload takes the RGBA8 levels decoded at load; the block format keeps them. `auto`
-    /// asks the autotune measurement ([`rqr::autotune`]) only where a scene has KTX2
+    /// asks the autotune measurement ([`rqr::device_select::autotune`]) only where a scene has KTX2
     /// images; `None` when there was nothing to decide. Returns the format and why.
     pub fn apply_texture_format(
         &self,
@@ -109,7 +114,7 @@ impl SceneArgs {
         let (format, reason) = match self.texture_format {
             TextureFormat::Auto if !ktx2 => return None,
             TextureFormat::Auto => {
-                let d = rqr::autotune::decision(ctx);
+                let d = rqr::device_select::autotune::decision(ctx);
                 (d.texture_format, d.texture_format_reason)
             }
             TextureFormat::Block => match rqr::scene::textures::block_format_name(ctx.info()) {
@@ -181,7 +186,7 @@ impl DeviceArgs {
     /// Resolves `--bvh-build` on the opened device: `auto` by measurement.
     pub fn bvh_build(&self, ctx: &Context) -> BvhBuild {
         let (build, reason) = if self.bvh_build == BvhBuildChoice::Auto {
-            let d = rqr::autotune::decision(ctx);
+            let d = rqr::device_select::autotune::decision(ctx);
             (d.bvh_build, d.bvh_build_reason)
         } else {
             self.bvh_build.resolve(ctx.info())
@@ -190,10 +195,10 @@ impl DeviceArgs {
         build
     }
 
-    /// Resolves `--backend` on the opened device: `auto` by measurement ([`rqr::autotune`]).
+    /// Resolves `--backend` on the opened device: `auto` by measurement ([`rqr::device_select::autotune`]).
     pub fn backend(&self, ctx: &Context) -> Result<(Backend, String)> {
         if self.backend == BackendChoice::Auto {
-            let d = rqr::autotune::decision(ctx);
+            let d = rqr::device_select::autotune::decision(ctx);
             return Ok((d.backend, d.backend_reason));
         }
         Ok(self.backend.resolve(ctx.info())?)
@@ -233,12 +238,14 @@ impl CameraArgs {
     /// The camera for an image of `aspect`.
     pub fn resolve(&self, scene: &Scene, aspect: f32) -> Result<Camera> {
         let base = match self.camera {
-            Some(i) => *scene.cameras.get(i).with_context(|| {
-                format!(
+            Some(i) => match scene.cameras.get(i) {
+                Some(c) => *c,
+                None => usage!(
+                    "--camera",
                     "--camera {i}: the scene has {} camera(s)",
                     scene.cameras.len()
-                )
-            })?,
+                ),
+            },
             None => scene
                 .cameras
                 .first()
@@ -247,7 +254,7 @@ impl CameraArgs {
         };
         if let Some(fov) = self.fov {
             if !(fov > 0.0 && fov < 180.0) {
-                bail!("--fov {fov} must be in (0, 180) degrees");
+                usage!("--fov", "--fov {fov} must be in (0, 180) degrees");
             }
         }
         if self.look_from.is_none() && self.look_at.is_none() && self.fov.is_none() {
@@ -259,7 +266,10 @@ impl CameraArgs {
         let forward = -base.camera_to_world.z_axis.truncate();
         let at = self.look_at.unwrap_or(from + forward);
         if (at - from).length() < 1e-6 {
-            bail!("--look-from and --look-at are the same point");
+            usage!(
+                "--look-from",
+                "--look-from and --look-at are the same point"
+            );
         }
         let yfov = match (self.fov, base.projection) {
             (Some(f), _) => f.to_radians(),
@@ -498,7 +508,7 @@ impl ImageArgs {
         match self.raster.forced() {
             Some(mode) => (mode, format!("forced by --raster {}", mode.as_str())),
             None => {
-                let d = rqr::autotune::decision(ctx);
+                let d = rqr::device_select::autotune::decision(ctx);
                 (d.raster, d.raster_reason)
             }
         }

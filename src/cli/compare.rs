@@ -12,7 +12,7 @@ use rqr::accel::Backend;
 use rqr::render::drivers::burst::{self, BurstReport};
 use rqr::render::drivers::sequence::{pass_spreads, Spread};
 use rqr::render::image::{compare, label, output};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::{
     merge_scopes, FrameTargets, PassScope, RenderOutput, RenderPath, RenderSettings, Renderer,
 };
@@ -189,7 +189,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             }
         }
     }
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let bar = ProgressBar::new(backends.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} backends {msg}")
@@ -244,7 +244,7 @@ fn time_backend(
     args: &CompareArgs,
     ctx: &rqr::vk::Context,
     scene: &rqr::scene::Scene,
-    draws: &[gbuffer::Draw],
+    draws: &[draw_list::Draw],
     settings: &RenderSettings,
     camera: &rqr::scene::Camera,
     backend: Backend,

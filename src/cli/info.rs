@@ -39,10 +39,13 @@ pub(crate) fn load_scene(
             },
         )?,
         None if variant.is_some() => {
-            anyhow::bail!("--variant: the built-in scene has no material variants")
+            super::usage!(
+                "--variant",
+                "--variant: the built-in scene has no material variants"
+            )
         }
         None if scene_index.unwrap_or(0) == 0 => scene::load_default()?,
-        None => anyhow::bail!("the built-in scene has only scene 0"),
+        None => super::usage!("--scene", "--scene: the built-in scene has only scene 0"),
     })
 }
 

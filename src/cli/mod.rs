@@ -9,7 +9,8 @@ use std::process::ExitCode;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use rqr::accel::BackendChoice;
-use rqr::vk::{probe_devices, DeviceSelector, ProbeReport, VkError};
+use rqr::device_select::report::{probe_devices, ProbeReport};
+use rqr::vk::{DeviceSelector, VkError};
 
 mod batch;
 mod bench;
@@ -24,6 +25,10 @@ mod report_html;
 
 /// Exit code for "no Vulkan loader or no device".
 const EXIT_NO_VULKAN: u8 = 2;
+
+/// Exit code for a usage mistake: a flag value or combination that cannot work
+/// ([`rqr::SettingsError`]), the code clap exits with on the errors it finds itself.
+const EXIT_USAGE: u8 = 2;
 
 /// Exit code when stdout's reader went away: 128 + SIGPIPE, what a shell reports for a
 /// command killed by a closed pipe (`yes | head -1`), since the command did not finish.
@@ -77,7 +82,15 @@ macro_rules! out {
         $crate::cli::write_stdout(format_args!($($arg)*), false)
     };
 }
-pub(crate) use {out, outln};
+/// Returns a usage mistake from the enclosing function: a [`rqr::SettingsError`] naming the
+/// flag `field` (the command exits with code 2, like on clap's own errors), the message
+/// formatted like `format!`.
+macro_rules! usage {
+    ($field:expr, $($arg:tt)*) => {
+        return Err(rqr::SettingsError::new($field, format!($($arg)*)).into())
+    };
+}
+pub(crate) use {out, outln, usage};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -138,7 +151,20 @@ pub fn main() -> ExitCode {
                 });
                 vk.is_some_and(|v| matches!(v, VkError::Loader(_) | VkError::NoDevice))
             });
-            ExitCode::from(if no_vulkan { EXIT_NO_VULKAN } else { 1 })
+            let usage = e.chain().any(|cause| {
+                cause.downcast_ref::<rqr::SettingsError>().is_some()
+                    || matches!(
+                        cause.downcast_ref::<rqr::Error>(),
+                        Some(rqr::Error::Settings(_))
+                    )
+            });
+            ExitCode::from(if no_vulkan {
+                EXIT_NO_VULKAN
+            } else if usage {
+                EXIT_USAGE
+            } else {
+                1
+            })
         }
     }
 }
@@ -158,7 +184,7 @@ pub(crate) fn probe_report(
     let mut report = probe_devices(&device, backend)?;
     // `auto` as the autotune cache decided it (probe opens no device, so it never measures).
     for d in &mut report.devices {
-        let decision = rqr::autotune::cached_decision(d);
+        let decision = rqr::device_select::autotune::cached_decision(d);
         if backend == BackendChoice::Auto {
             d.backend = Some(decision.backend.as_str().to_string());
             d.backend_reason = decision.backend_reason;

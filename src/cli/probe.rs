@@ -1,7 +1,8 @@
 use anyhow::Result;
 use clap::Args;
 use rqr::accel::BackendChoice;
-use rqr::vk::{DeviceInfo, DeviceSelector};
+use rqr::device_select::report::DeviceReport;
+use rqr::vk::DeviceSelector;
 
 use super::{outln, StdoutError};
 
@@ -33,7 +34,7 @@ fn yes(b: bool) -> &'static str {
     }
 }
 
-fn print_device(d: &DeviceInfo, selected: bool) -> Result<(), StdoutError> {
+fn print_device(d: &DeviceReport, selected: bool) -> Result<(), StdoutError> {
     outln!(
         "{} [{}] {} ({}, vendor 0x{:04x})",
         if selected { "*" } else { " " },

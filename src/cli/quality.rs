@@ -15,7 +15,7 @@ use rqr::render::denoise::DenoiseMode;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
 use rqr::render::image::tonemap::tonemap_rgba8;
 use rqr::render::image::{compare, output};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::{RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading};
 use rqr::scene::{Camera, Scene};
 use rqr::vk::Context;
@@ -50,7 +50,7 @@ pub const DENOISED_FRAMES: u32 = 30;
 fn render_path(
     ctx: &Context,
     renderer: &mut Renderer,
-    draws: &[gbuffer::Draw],
+    draws: &[draw_list::Draw],
     settings: &RenderSettings,
     camera: &Camera,
     path: RenderPath,
@@ -138,7 +138,7 @@ pub fn error_against_time(
 ) -> Result<String> {
     let mut renderer = Renderer::new(ctx, scene, backend)?;
     super::common::light_with(ctx, &mut renderer, environment)?;
-    let draws = gbuffer::draws(scene);
+    let draws = draw_list::draws(scene);
     let distributed = |spp: u32, seed: u32| RenderSettings {
         spp,
         sampler: SamplerKind::Sobol,

@@ -14,7 +14,7 @@ use rqr::render::drivers::sequence::{
     SequenceSummary,
 };
 use rqr::render::image::output;
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::readback::RingContents;
 use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD};
 use rqr::render::RenderPath;
@@ -22,7 +22,7 @@ use rqr::render::{PassScope, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
 
 use super::common::{check_output_file, CameraArgs, DeviceArgs, ImageArgs, SceneArgs};
-use super::{out, outln};
+use super::{out, outln, usage};
 
 /// `rqr render` arguments.
 #[derive(Args, Debug)]
@@ -144,9 +144,10 @@ impl SequenceArgs {
 
     fn range(&self) -> Result<Range<u32>> {
         match (self.frames, &self.frame_range) {
-            (Some(0), _) => bail!("--frames must be at least 1"),
+            (Some(0), _) => usage!("--frames", "--frames must be at least 1"),
             (Some(n), Some(r)) if r.end > n => {
-                bail!(
+                usage!(
+                    "--frame-range",
                     "--frame-range {}..{} goes past --frames {n}",
                     r.start,
                     r.end
@@ -154,7 +155,10 @@ impl SequenceArgs {
             }
             (_, Some(r)) => Ok(r.clone()),
             (Some(n), None) => Ok(0..n),
-            (None, None) => bail!("a sequence needs --frames N or --frame-range A..B"),
+            (None, None) => usage!(
+                "--frames",
+                "a sequence needs --frames N or --frame-range A..B"
+            ),
         }
     }
 
@@ -218,8 +222,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut settings = args.image.settings()?;
     for name in &args.aov {
         if !output::AOV_NAMES.contains(&name.as_str()) {
-            bail!(
-                "unknown AOV '{name}' (known: {})",
+            usage!(
+                "--aov",
+                "--aov: unknown AOV '{name}' (known: {})",
                 output::AOV_NAMES.join(", ")
             );
         }
@@ -231,7 +236,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .unwrap_or("")
         .to_lowercase();
     if !["png", "exr", "pfm"].contains(&ext.as_str()) {
-        bail!(
+        usage!(
+            "--output",
             "output '{}' must end in .png (tonemapped sRGB), .exr or .pfm (linear HDR)",
             args.output.display()
         );
@@ -264,9 +270,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let write_aov = !args.aov.is_empty();
     let out = match args.mode {
         RenderPath::RayTraced => renderer.render_rt(&ctx, &settings, &camera, write_aov)?,
-        RenderPath::Hybrid => {
-            renderer.render_hybrid(&ctx, &gbuffer::draws(&scene), &settings, &camera, write_aov)?
-        }
+        RenderPath::Hybrid => renderer.render_hybrid(
+            &ctx,
+            &draw_list::draws(&scene),
+            &settings,
+            &camera,
+            write_aov,
+        )?,
     };
     match ext.as_str() {
         "exr" => output::write_exr(&args.output, &out)?,
@@ -336,12 +346,15 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     let mut reuse = seq.reuse();
     // Only float (EXR, PFM) frames read the linear colour.
     reuse.linear_color = ext != "png";
-    reuse.validate().map_err(anyhow::Error::msg)?;
+    reuse.validate()?;
     if !args.aov.is_empty() {
-        bail!("--aov is for single images; sequences write colour only");
+        usage!(
+            "--aov",
+            "--aov is for single images; sequences write colour only"
+        );
     }
     if reuse.any() {
-        rqr::render::temporal::check_sampling(&settings).map_err(anyhow::Error::msg)?;
+        rqr::render::temporal::check_sampling(&settings)?;
     }
     for p in [&seq.report, &seq.plot].into_iter().flatten() {
         check_output_file(p)?;
@@ -349,7 +362,11 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
     if let Some(p) = &seq.report {
         let e = p.extension().and_then(|e| e.to_str()).unwrap_or("");
         if e != "json" && e != "md" {
-            bail!("--report '{}' must end in .json or .md", p.display());
+            usage!(
+                "--report",
+                "--report '{}' must end in .json or .md",
+                p.display()
+            );
         }
     }
     check_output_file(&frame_path(&args.output, range.start))?;
@@ -386,15 +403,22 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
         },
         CameraPathSpec::Gltf => {
             let Some(file) = &args.scene.scene else {
-                bail!("--camera-path gltf: the built-in scene has no camera animation");
+                usage!(
+                    "--camera-path",
+                    "--camera-path gltf: the built-in scene has no camera animation"
+                );
             };
             if args.camera.look_from.is_some() || args.camera.look_at.is_some() {
-                bail!(
+                usage!(
+                    "--camera-path",
                     "--camera-path gltf takes the camera from the file: drop --look-from/--look-at"
                 );
             }
             if scene.cameras.is_empty() {
-                bail!("--camera-path gltf: scene has no camera animation (it has no camera)");
+                usage!(
+                    "--camera-path",
+                    "--camera-path gltf: scene has no camera animation (it has no camera)"
+                );
             }
             CameraPath::Animation(Box::new(CameraAnimation::load(
                 file,
@@ -599,16 +623,16 @@ fn run_sequence(args: &RenderArgs, ext: &str) -> Result<()> {
 fn check_animated_sequence(args: &RenderArgs, reuse: &ReuseOptions) -> Result<()> {
     let seq = &args.sequence;
     if reuse.any() && seq.animation_update == AnimationUpdate::Rebuild {
-        bail!("--reproject, --frameless and --adaptive-subsample keep their sample cache bound to one renderer updated in place, which --animation-update rebuild replaces every frame: use --animation-update refit");
+        usage!("--animation-update", "--reproject, --frameless and --adaptive-subsample keep their sample cache bound to one renderer updated in place, which --animation-update rebuild replaces every frame: use --animation-update refit");
     }
     if seq.benchmark {
-        bail!("--benchmark does not support animated scenes: it records frames back to back in one submission, but every animated frame updates its scene (skinning, acceleration structures) in a submission of its own before it is rendered; time them without --benchmark (per-frame GPU timestamps)");
+        usage!("--benchmark", "--benchmark does not support animated scenes: it records frames back to back in one submission, but every animated frame updates its scene (skinning, acceleration structures) in a submission of its own before it is rendered; time them without --benchmark (per-frame GPU timestamps)");
     }
     if args.scene.time.is_some() {
-        bail!("--time is for single images: frame k of a sequence shows the animation at k/--fps seconds");
+        usage!("--time", "--time is for single images: frame k of a sequence shows the animation at k/--fps seconds");
     }
     if !(seq.fps.is_finite() && seq.fps > 0.0) {
-        bail!("--fps {} must be a positive number", seq.fps);
+        usage!("--fps", "--fps {} must be a positive number", seq.fps);
     }
     Ok(())
 }

@@ -622,7 +622,7 @@ impl GpuEnvironment {
             Ok(())
         })?;
         let texels = staging.mapped_read(0, count).ok_or_else(|| {
-            crate::vk::VkError::Limit("readback buffer is not host-visible".into())
+            crate::vk::VkError::Invalid("readback buffer is not host-visible".into())
         })?;
         Ok((w, h, texels))
     }
@@ -649,5 +649,5 @@ fn read_buffer(ctx: &Context, buffer: &Buffer, texels: u64) -> VkResult<Vec<[f32
     })?;
     staging
         .mapped_read(0, texels as usize)
-        .ok_or_else(|| VkError::Limit("readback buffer is not host-visible".into()))
+        .ok_or_else(|| VkError::Invalid("readback buffer is not host-visible".into()))
 }

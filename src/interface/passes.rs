@@ -203,7 +203,7 @@ pub struct RaybenchPush {
     pub mode: u32,
 }
 
-/// texture_sampling.comp (the texture-format measurement of `rqr::autotune`): the texture
+/// texture_sampling.comp (the texture-format measurement of `rqr::device_select::autotune`): the texture
 /// it samples.
 pub const BINDING_TEXTURE_SAMPLING_IMAGE: u32 = 0;
 /// texture_sampling.comp: one `vec4` sum of samples per invocation (keeps the samples live).

@@ -1,6 +1,7 @@
 //! Device-memory estimates of a render, checked against the device before allocating.
 
-use super::settings::{RenderPath, RenderSettings, SettingsError};
+use super::settings::{RenderPath, RenderSettings};
+use crate::vk::VkError;
 
 /// Bytes per texel of the formats the passes allocate.
 fn format_bytes(format: ash::vk::Format) -> u64 {
@@ -95,7 +96,7 @@ impl RenderSettings {
         path: RenderPath,
         aov: bool,
         in_use: u64,
-    ) -> Result<(), SettingsError> {
+    ) -> crate::Result<()> {
         self.validate(info.max_image_dimension_2d)?;
         let mib = |b: u64| b.div_ceil(1 << 20);
         let range = u64::from(info.max_storage_buffer_range);
@@ -110,19 +111,25 @@ impl RenderSettings {
             } else {
                 ("", "lower the resolution")
             };
-            return Err(SettingsError(format!(
+            return Err(VkError::Limit {
+                what: format!(
                 "resolution {}x{}{what} needs a {} MiB per-pixel buffer, but '{}' binds at most {} MiB per storage buffer (maxStorageBufferRange); {hint}",
                 self.width,
                 self.height,
                 mib(largest),
                 info.name,
                 mib(range)
-            )));
+            ),
+                needed: largest,
+                available: range,
+            }
+            .into());
         }
         let heap = info.largest_device_heap();
         let needed = self.estimate_bytes(path, aov);
         if needed.saturating_add(in_use) > heap {
-            return Err(SettingsError(format!(
+            return Err(VkError::Limit {
+                what: format!(
                 "{}x{} at {} spp ({}{}) needs about {} MiB of device memory on top of {} MiB in use, more than the {} MiB device heap of '{}'; lower the resolution{}",
                 self.width,
                 self.height,
@@ -140,7 +147,11 @@ impl RenderSettings {
                     RenderPath::RayTraced => "",
                     RenderPath::Hybrid => " or --spp (the hybrid path keeps one G-buffer per sample)",
                 }
-            )));
+            ),
+                needed: needed.saturating_add(in_use),
+                available: heap,
+            }
+            .into());
         }
         Ok(())
     }

@@ -388,7 +388,7 @@ impl Renderer {
     pub fn render_hybrid(
         &self,
         ctx: &Context,
-        scene_draws: &[passes::gbuffer::Draw],
+        scene_draws: &[passes::draw_list::Draw],
         settings: &RenderSettings,
         camera: &Camera,
         write_aov: bool,

@@ -150,7 +150,7 @@ impl FrameRing {
     fn read<T: bytemuck::Pod>(&self, offset: u64, count: usize) -> VkResult<Vec<T>> {
         self.buffer
             .mapped_read(offset, count)
-            .ok_or_else(|| VkError::Limit("frame ring is not host-visible".into()))
+            .ok_or_else(|| VkError::Invalid("frame ring is not host-visible".into()))
     }
 
     /// The counters of slot `slot` ([`RING_COUNTERS`] words).

@@ -208,117 +208,182 @@ pub const MAX_SPP: u32 = 4096;
 /// Largest `--adaptive-depth`.
 pub const MAX_ADAPTIVE_DEPTH: u32 = 4;
 
-/// Invalid settings, found before any GPU work.
-#[derive(Debug, thiserror::Error)]
-#[error("invalid render settings: {0}")]
-pub struct SettingsError(pub String);
+/// A setting the user (or a library caller) chose that cannot work, named by the flag that
+/// holds it; found before any GPU work. A usage mistake, not a device failure: the command line
+/// exits with code 2 on it, like on the errors its parser reports. A setting the device cannot
+/// serve (too large for its memory, say) is a [`crate::vk::VkError::Limit`] instead.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("invalid settings: {reason}")]
+pub struct SettingsError {
+    /// The flag at fault as the command line spells it (`--spp`), the first of them when a
+    /// combination is wrong; the field's name for settings no flag sets.
+    pub field: &'static str,
+    /// What is wrong, naming the flag and its value, and what would work.
+    pub reason: String,
+}
+
+impl SettingsError {
+    /// A [`SettingsError`] for `field`.
+    pub fn new(field: &'static str, reason: impl Into<String>) -> Self {
+        Self {
+            field,
+            reason: reason.into(),
+        }
+    }
+}
 
 impl RenderSettings {
     /// Checks ranges; `max_dimension` is the largest image side allowed (rqr's own limit
     /// before a device is open, the device's `maxImageDimension2D` after).
     pub fn validate(&self, max_dimension: u32) -> Result<(), SettingsError> {
-        let bad = |m: String| Err(SettingsError(m));
+        let bad = |field: &'static str, m: String| Err(SettingsError::new(field, m));
         if self.width == 0 || self.height == 0 {
-            return bad(format!(
-                "resolution {}x{} must be at least 1x1",
-                self.width, self.height
-            ));
+            let (flag, value) = if self.width == 0 {
+                ("--width", self.width)
+            } else {
+                ("--height", self.height)
+            };
+            return bad(
+                flag,
+                format!(
+                    "{flag} {value}: resolution {}x{} must be at least 1x1",
+                    self.width, self.height
+                ),
+            );
         }
         if self.width > max_dimension || self.height > max_dimension {
-            return bad(format!(
-                "resolution {}x{} exceeds the limit of {max_dimension} pixels per side",
-                self.width, self.height
-            ));
+            let (flag, value) = if self.width > max_dimension {
+                ("--width", self.width)
+            } else {
+                ("--height", self.height)
+            };
+            return bad(
+                flag,
+                format!(
+                    "{flag} {value}: resolution {}x{} exceeds the limit of {max_dimension} pixels per side",
+                    self.width, self.height
+                ),
+            );
         }
         if self.spp == 0 || self.spp > MAX_SPP {
-            return bad(format!("--spp {} must be in 1..={MAX_SPP}", self.spp));
+            return bad(
+                "--spp",
+                format!("--spp {} must be in 1..={MAX_SPP}", self.spp),
+            );
         }
         if matches!(self.sampler, SamplerKind::Grid | SamplerKind::Jitter) {
             let k = (self.spp as f64).sqrt().round() as u32;
             if k * k != self.spp {
-                return bad(format!(
-                    "--sampler {:?} needs a square --spp (1, 4, 9, 16, …), got {}",
-                    self.sampler, self.spp
-                )
-                .to_lowercase());
+                return bad(
+                    "--sampler",
+                    format!(
+                        "--sampler {:?} needs a square --spp (1, 4, 9, 16, …), got {}",
+                        self.sampler, self.spp
+                    )
+                    .to_lowercase(),
+                );
             }
         }
         if self.max_depth == 0 || self.max_depth > MAX_DEPTH {
-            return bad(format!(
-                "--max-depth {} must be in 1..={MAX_DEPTH}",
-                self.max_depth
-            ));
+            return bad(
+                "--max-depth",
+                format!("--max-depth {} must be in 1..={MAX_DEPTH}", self.max_depth),
+            );
         }
         if !(0.0..1.0).contains(&self.min_weight) {
-            return bad(format!(
-                "--min-weight {} must be in [0, 1)",
-                self.min_weight
-            ));
+            return bad(
+                "--min-weight",
+                format!("--min-weight {} must be in [0, 1)", self.min_weight),
+            );
         }
         if self.adaptive_depth > MAX_ADAPTIVE_DEPTH {
-            return bad(format!(
-                "--adaptive-depth {} must be at most {MAX_ADAPTIVE_DEPTH}",
-                self.adaptive_depth
-            ));
+            return bad(
+                "--adaptive-depth",
+                format!(
+                    "--adaptive-depth {} must be at most {MAX_ADAPTIVE_DEPTH}",
+                    self.adaptive_depth
+                ),
+            );
         }
         if !self.exposure.is_finite() {
-            return bad(format!("--exposure {} must be finite", self.exposure));
+            return bad(
+                "--exposure",
+                format!("--exposure {} must be finite", self.exposure),
+            );
         }
         if !self.environment_rotation.is_finite() {
-            return bad(format!(
-                "--environment-rotation {} must be finite",
-                self.environment_rotation
-            ));
+            return bad(
+                "--environment-rotation",
+                format!(
+                    "--environment-rotation {} must be finite",
+                    self.environment_rotation
+                ),
+            );
         }
         if !(self.environment_intensity.is_finite() && self.environment_intensity >= 0.0) {
-            return bad(format!(
-                "--environment-intensity {} must be a finite non-negative number",
-                self.environment_intensity
-            ));
+            return bad(
+                "--environment-intensity",
+                format!(
+                    "--environment-intensity {} must be a finite non-negative number",
+                    self.environment_intensity
+                ),
+            );
         }
         if !(self.adaptive_threshold.is_finite() && self.adaptive_threshold >= 0.0) {
-            return bad(format!(
-                "--adaptive-threshold {} must be a finite non-negative number",
-                self.adaptive_threshold
-            ));
+            return bad(
+                "--adaptive-threshold",
+                format!(
+                    "--adaptive-threshold {} must be a finite non-negative number",
+                    self.adaptive_threshold
+                ),
+            );
         }
         if self.shading == Shading::Distributed && self.sampler == SamplerKind::Adaptive {
             return bad(
+                "--sampler",
                 "--sampler adaptive subdivides where samples differ, and every sample of \
                  --shading distributed differs (noise): use sobol, halton or another sampler"
                     .into(),
             );
         }
         if self.diffuse_bounces > MAX_DIFFUSE_BOUNCES {
-            return bad(format!(
-                "--diffuse-bounces {} must be at most {MAX_DIFFUSE_BOUNCES}",
-                self.diffuse_bounces
-            ));
+            return bad(
+                "--diffuse-bounces",
+                format!(
+                    "--diffuse-bounces {} must be at most {MAX_DIFFUSE_BOUNCES}",
+                    self.diffuse_bounces
+                ),
+            );
         }
         if self.diffuse_bounces > 0 && self.shading != Shading::Distributed {
             return bad(
+"--diffuse-bounces",
                 "--diffuse-bounces needs --shading distributed (the Whitted model traces no diffuse rays)"
                     .into(),
             );
         }
         if self.denoise.enabled() && self.shading != Shading::Distributed {
-            return bad(format!(
+            return bad("--denoise", format!(
                 "--denoise {} needs --shading distributed (the Whitted model has no noise to filter)",
                 self.denoise.as_str()
             ));
         }
         if self.history_cap == 0 || self.history_cap > super::denoise::MAX_HISTORY_CAP {
-            return bad(format!(
-                "--history-cap {} must be in 1..={}",
-                self.history_cap,
-                super::denoise::MAX_HISTORY_CAP
-            ));
+            return bad(
+                "--history-cap",
+                format!(
+                    "--history-cap {} must be in 1..={}",
+                    self.history_cap,
+                    super::denoise::MAX_HISTORY_CAP
+                ),
+            );
         }
         if let Some(e) = self.epsilon {
             if !(e.is_finite() && e >= 0.0) {
-                return bad(format!(
-                    "--epsilon {e} must be a finite non-negative number"
-                ));
+                return bad(
+                    "--epsilon",
+                    format!("--epsilon {e} must be a finite non-negative number"),
+                );
             }
         }
         Ok(())
@@ -354,5 +419,97 @@ impl RenderPath {
             Self::RayTraced => "ray traced",
             Self::Hybrid => "hybrid",
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every mistake [`RenderSettings::validate`] finds names the flag it reports in its
+    /// message, and the flag is the one at fault.
+    #[test]
+    fn settings_errors_name_their_flag() {
+        let base = RenderSettings::default();
+        let cases: Vec<(RenderSettings, &str)> = vec![
+            (
+                RenderSettings {
+                    width: 0,
+                    ..base.clone()
+                },
+                "--width",
+            ),
+            (
+                RenderSettings {
+                    height: 0,
+                    ..base.clone()
+                },
+                "--height",
+            ),
+            (
+                RenderSettings {
+                    height: 20_000,
+                    ..base.clone()
+                },
+                "--height",
+            ),
+            (
+                RenderSettings {
+                    spp: 0,
+                    ..base.clone()
+                },
+                "--spp",
+            ),
+            (
+                RenderSettings {
+                    sampler: SamplerKind::Grid,
+                    spp: 3,
+                    ..base.clone()
+                },
+                "--sampler",
+            ),
+            (
+                RenderSettings {
+                    max_depth: 99,
+                    ..base.clone()
+                },
+                "--max-depth",
+            ),
+            (
+                RenderSettings {
+                    min_weight: 1.5,
+                    ..base.clone()
+                },
+                "--min-weight",
+            ),
+            (
+                RenderSettings {
+                    exposure: f32::NAN,
+                    ..base.clone()
+                },
+                "--exposure",
+            ),
+            (
+                RenderSettings {
+                    diffuse_bounces: 1,
+                    ..base.clone()
+                },
+                "--diffuse-bounces",
+            ),
+            (
+                RenderSettings {
+                    epsilon: Some(-1.0),
+                    ..base.clone()
+                },
+                "--epsilon",
+            ),
+        ];
+        for (settings, flag) in cases {
+            let e = settings.validate(16384).expect_err(flag);
+            assert_eq!(e.field, flag, "{e}");
+            assert!(e.reason.contains(flag), "{e}");
+            assert!(e.to_string().starts_with("invalid settings: "), "{e}");
+        }
+        assert!(base.validate(16384).is_ok());
     }
 }

@@ -1,8 +1,6 @@
 //! glTF extensions: which ones rqr implements, and how each extension a file names is
 //! treated (`rqr info --json` lists them).
 
-use super::error::SceneError;
-
 /// Extensions rqr implements. Others in `extensionsUsed` are ignored with a warning; others
 /// in `extensionsRequired` make loading fail.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
@@ -100,38 +98,6 @@ pub fn classify(used: &[String], required: &[String]) -> Vec<ExtensionStatus> {
         });
     }
     out
-}
-
-/// Fails with [`SceneError::UnsupportedExtensions`] when a required extension is not
-/// implemented; else warns once about the ignored ones and returns every extension's status.
-pub(crate) fn check(
-    file: &str,
-    used: &[String],
-    required: &[String],
-) -> Result<Vec<ExtensionStatus>, SceneError> {
-    let all = classify(used, required);
-    let names = |s: ExtensionSupport| -> Vec<String> {
-        all.iter()
-            .filter(|e| e.status == s)
-            .map(|e| e.name.clone())
-            .collect()
-    };
-    let refused = names(ExtensionSupport::UnsupportedRequired);
-    if !refused.is_empty() {
-        return Err(SceneError::UnsupportedExtensions {
-            file: file.to_string(),
-            extensions: refused,
-            all,
-        });
-    }
-    let ignored = names(ExtensionSupport::Ignored);
-    if !ignored.is_empty() {
-        log::warn!(
-            "{file}: ignoring unsupported glTF extension(s): {}",
-            ignored.join(", ")
-        );
-    }
-    Ok(all)
 }
 
 #[cfg(test)]

@@ -181,15 +181,15 @@ impl GpuScene {
         let mut indices: Vec<u32> = Vec::new();
         let mut geometries = Vec::with_capacity(scene.geometries.len());
         for (gi, g) in scene.geometries.iter().enumerate() {
-            let first_vertex = u32::try_from(positions.len()).map_err(|_| {
-                VkError::Limit(format!(
-                    "geometry {gi}: more than 2^32 vertices in the scene"
-                ))
+            let first_vertex = u32::try_from(positions.len()).map_err(|_| VkError::Limit {
+                what: format!("geometry {gi}: more than 2^32 vertices in the scene"),
+                needed: positions.len() as u64,
+                available: u32::MAX.into(),
             })?;
-            let first_index = u32::try_from(indices.len()).map_err(|_| {
-                VkError::Limit(format!(
-                    "geometry {gi}: more than 2^32 indices in the scene"
-                ))
+            let first_index = u32::try_from(indices.len()).map_err(|_| VkError::Limit {
+                what: format!("geometry {gi}: more than 2^32 indices in the scene"),
+                needed: indices.len() as u64,
+                available: u32::MAX.into(),
             })?;
             let mut flags = 0;
             if !g.tangents.is_empty() {
@@ -326,7 +326,7 @@ impl GpuScene {
         if instances.len() != self.refs_data.instance_count as usize
             || lights.len() != self.refs_data.light_count as usize
         {
-            return Err(VkError::Limit(format!(
+            return Err(VkError::Invalid(format!(
                 "{}: animated frame has {} instances and {} lights, the upload had {} and {}",
                 scene.source,
                 instances.len(),

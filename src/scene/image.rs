@@ -4,21 +4,10 @@ use std::io::Cursor;
 
 use image::{ImageFormat, ImageReader, Limits};
 
+use super::decoded::Decoded;
+
 /// Largest image side rqr accepts (before any device limit applies).
 pub const MAX_IMAGE_SIZE: u32 = 16384;
-
-/// A decoded image: RGBA8 texels with row 0 at the top.
-#[derive(Clone, Debug)]
-pub(crate) struct Decoded {
-    pub width: u32,
-    pub height: u32,
-    /// Level 0.
-    pub rgba8: Vec<u8>,
-    /// Levels 1.. as the file stores them (KTX2); empty: rqr generates the chain.
-    pub mips: Vec<Vec<u8>>,
-    /// The KTX2 file the levels were transcoded from (see [`super::ImageData::ktx2`]).
-    pub ktx2: Option<std::sync::Arc<[u8]>>,
-}
 
 /// Splits a `data:` URI into its media type and decoded payload. `None`: not a data URI.
 pub(crate) fn parse_data_uri(uri: &str) -> Option<Result<(String, Vec<u8>), String>> {

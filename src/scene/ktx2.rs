@@ -7,7 +7,7 @@
 //! then transcodes each level. [`transcode_blocks`] transcodes a file the loader accepted again,
 //! to BC7 or ASTC 4x4 blocks, when the device samples one of them (`textures.rs`).
 
-use super::image::Decoded;
+use super::decoded::Decoded;
 
 /// The 12-byte KTX2 file identifier.
 pub(crate) const KTX2_MAGIC: [u8; 12] = [

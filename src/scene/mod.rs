@@ -8,6 +8,7 @@ mod accessor;
 pub mod animation;
 pub mod camera;
 mod compression;
+mod decoded;
 mod default_scene;
 mod draco;
 mod error;

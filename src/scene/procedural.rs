@@ -124,6 +124,22 @@ pub fn assemble(
     }
 }
 
+/// A scene of one geometry drawn once, untransformed, with the default material: a fixed
+/// workload to time (the autotune's BVH builds, `rqr bench`'s warm-up).
+pub fn single_mesh(geometry: Geometry) -> Scene {
+    assemble(
+        vec![geometry],
+        vec![Instance {
+            geometry: 0,
+            transform: Mat4::IDENTITY,
+            node: 0,
+        }],
+        vec![Material::default()],
+        Vec::new(),
+        Vec::new(),
+    )
+}
+
 /// Camera-to-world of a camera at `from` looking at `at` (looks down its -Z, +Y up).
 pub fn camera_to_world(from: Vec3, at: Vec3, up: Vec3) -> Mat4 {
     let forward = (at - from).normalize();

@@ -8,6 +8,7 @@ use std::collections::HashMap;
 
 use ash::vk;
 
+use super::error::SceneError;
 use super::ktx2::{self, BlockTarget};
 use super::types::{ImageData, Sampler as SamplerState, Scene, Wrap};
 use crate::vk::{Buffer, Context, Image, MemoryLocation, Sampler, VkError, VkResult};
@@ -17,7 +18,7 @@ use crate::vk::{Buffer, Context, Image, MemoryLocation, Sampler, VkError, VkResu
 #[serde(rename_all = "lowercase")]
 pub enum TextureFormat {
     /// The faster of [`Self::Block`] and [`Self::Rgba8`] on the device, as measured once per
-    /// device and driver (`rqr::autotune`). The loader keeps the KTX2 files, so that the
+    /// device and driver (`rqr::device_select::autotune`). The loader keeps the KTX2 files, so that the
     /// choice can be made once the device is open ([`Scene::drop_ktx2_files`] applies
     /// RGBA8); uploaded as is, such a scene's KTX2 textures go up as [`Self::Block`].
     #[default]
@@ -117,7 +118,7 @@ fn uses_blocks(img: &ImageData, target: Option<BlockTarget>) -> bool {
 fn transcode_images(
     scene: &Scene,
     target: Option<BlockTarget>,
-) -> VkResult<Vec<Option<(vk::Format, BlockLevels)>>> {
+) -> Result<Vec<Option<(vk::Format, BlockLevels)>>, SceneError> {
     let Some(block) = target else {
         return Ok(scene.images.iter().map(|_| None).collect());
     };
@@ -169,15 +170,15 @@ fn transcode_images(
         }
     }
     match first_error {
-        Some((i, e)) => Err(VkError::Limit(format!(
-            "{}: image {}: {e} (`--texture-format rgba8` uploads the RGBA8 decoded at load)",
-            scene.source,
+        Some((i, e)) => Err(SceneError::element(
+            &scene.source,
             if i == usize::MAX {
-                "?".to_string()
+                "image ?".to_string()
             } else {
-                i.to_string()
-            }
-        ))),
+                format!("image {i}")
+            },
+            format!("{e} (`--texture-format rgba8` uploads the RGBA8 decoded at load)"),
+        )),
         None => Ok(out),
     }
 }
@@ -277,27 +278,37 @@ impl GpuTextures {
     /// full chain with linear blits (which filter sRGB images in linear space), leaves each in
     /// `SHADER_READ_ONLY_OPTIMAL`, and creates one sampler per distinct sampler state.
     /// Fails with [`VkError::Limit`] for an image larger than the device's
-    /// `maxImageDimension2D` or whose pixel data does not match its size.
-    pub fn upload(ctx: &Context, scene: &Scene) -> VkResult<Self> {
+    /// `maxImageDimension2D`, and with a [`SceneError`] for one whose pixel data does not match
+    /// its size, whose KTX2 levels do not transcode, or a texture naming a missing image.
+    pub fn upload(ctx: &Context, scene: &Scene) -> crate::Result<Self> {
         let limit = ctx.info().max_image_dimension_2d;
         for (i, img) in scene.images.iter().enumerate() {
             if img.width > limit || img.height > limit {
-                return Err(VkError::Limit(format!(
-                    "{}: image {i} is {}x{}, larger than this device's maxImageDimension2D ({limit})",
-                    scene.source, img.width, img.height
-                )));
+                return Err(VkError::Limit {
+                    what: format!(
+                        "{}: image {i} is {}x{}, larger than this device's maxImageDimension2D ({limit})",
+                        scene.source, img.width, img.height
+                    ),
+                    needed: img.width.max(img.height).into(),
+                    available: limit.into(),
+                }
+                .into());
             }
             if img.width == 0
                 || img.height == 0
                 || img.rgba8.len() as u64 != u64::from(img.width) * u64::from(img.height) * 4
             {
-                return Err(VkError::Limit(format!(
-                    "{}: image {i} has {} bytes of RGBA8 data for {}x{}",
-                    scene.source,
-                    img.rgba8.len(),
-                    img.width,
-                    img.height
-                )));
+                return Err(SceneError::element(
+                    &scene.source,
+                    format!("image {i}"),
+                    format!(
+                        "{} bytes of RGBA8 data for {}x{}",
+                        img.rgba8.len(),
+                        img.width,
+                        img.height
+                    ),
+                )
+                .into());
             }
             for (l, mip) in img.mips.iter().enumerate() {
                 let level = l as u32 + 1;
@@ -305,11 +316,12 @@ impl GpuTextures {
                 if level >= mip_levels(img.width, img.height)
                     || mip.len() as u64 != u64::from(w) * u64::from(h) * 4
                 {
-                    return Err(VkError::Limit(format!(
-                        "{}: image {i} mip level {level} has {} bytes of RGBA8 data for {w}x{h}",
-                        scene.source,
-                        mip.len()
-                    )));
+                    return Err(SceneError::element(
+                        &scene.source,
+                        format!("image {i} mip level {level}"),
+                        format!("{} bytes of RGBA8 data for {w}x{h}", mip.len()),
+                    )
+                    .into());
                 }
             }
         }
@@ -351,11 +363,12 @@ impl GpuTextures {
         for (t, tex) in scene.textures.iter().enumerate() {
             let image = tex.image as usize;
             if image >= images.len() {
-                return Err(VkError::Limit(format!(
-                    "{}: texture {t} refers to image {image} of {}",
-                    scene.source,
-                    images.len()
-                )));
+                return Err(SceneError::element(
+                    &scene.source,
+                    format!("texture {t}"),
+                    format!("refers to image {image} of {}", images.len()),
+                )
+                .into());
             }
             let sampler = match sampler_of.get(&tex.sampler) {
                 Some(&s) => s,

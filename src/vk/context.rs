@@ -305,7 +305,7 @@ impl Context {
             Err(e) => {
                 // SAFETY: the device has no child objects yet.
                 unsafe { device.destroy_device(None) };
-                return Err(VkError::Limit(format!(
+                return Err(VkError::Invalid(format!(
                     "cannot create the memory allocator: {e}"
                 )));
             }
@@ -604,13 +604,17 @@ impl Context {
         let in_use = self.allocated_bytes();
         if bytes.saturating_add(in_use) > heap {
             let mib = |b: u64| b.div_ceil(1 << 20);
-            return Err(VkError::Limit(format!(
-                "{what} need about {} MiB of device memory on top of {} MiB in use, more than the {} MiB device heap of '{}'",
-                mib(bytes),
-                mib(in_use),
-                mib(heap),
-                self.info.name
-            )));
+            return Err(VkError::Limit {
+                what: format!(
+                    "{what} need about {} MiB of device memory on top of {} MiB in use, more than the {} MiB device heap of '{}'",
+                    mib(bytes),
+                    mib(in_use),
+                    mib(heap),
+                    self.info.name
+                ),
+                needed: bytes.saturating_add(in_use),
+                available: heap,
+            });
         }
         Ok(())
     }

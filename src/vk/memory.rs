@@ -139,7 +139,7 @@ impl Buffer {
             return Ok(());
         }
         if bytes.len() as u64 > self.size {
-            return Err(VkError::Limit(format!(
+            return Err(VkError::Invalid(format!(
                 "upload of {} bytes into a {}-byte buffer",
                 bytes.len(),
                 self.size
@@ -171,9 +171,9 @@ impl Buffer {
             .allocation
             .as_mut()
             .and_then(|a| a.mapped_slice_mut())
-            .ok_or_else(|| VkError::Limit("write to a buffer that is not host-visible".into()))?;
+            .ok_or_else(|| VkError::Invalid("write to a buffer that is not host-visible".into()))?;
         if bytes.len() as u64 > size {
-            return Err(VkError::Limit(format!(
+            return Err(VkError::Invalid(format!(
                 "write of {} bytes into a {size}-byte buffer",
                 bytes.len()
             )));
@@ -209,7 +209,7 @@ impl Buffer {
             .allocation
             .as_ref()
             .and_then(|a| a.mapped_slice())
-            .ok_or_else(|| VkError::Limit("readback buffer is not host-visible".into()))?;
+            .ok_or_else(|| VkError::Invalid("readback buffer is not host-visible".into()))?;
         Ok(bytemuck::pod_collect_to_vec(&mapped[..bytes]))
     }
 
@@ -324,10 +324,20 @@ impl Image {
         let limit = ctx.info().max_image_dimension_2d;
         if extent.width == 0 || extent.height == 0 || extent.width > limit || extent.height > limit
         {
-            return Err(VkError::Limit(format!(
+            let what = format!(
                 "image '{name}' of {}x{} is outside the device's 1..={limit} range",
                 extent.width, extent.height
-            )));
+            );
+            let side = extent.width.max(extent.height);
+            return Err(if side > limit {
+                VkError::Limit {
+                    what,
+                    needed: side.into(),
+                    available: limit.into(),
+                }
+            } else {
+                VkError::Invalid(what)
+            });
         }
         let shared = ctx.shared.clone();
         let device = &shared.device;
@@ -419,7 +429,7 @@ impl Image {
     /// `layout` (which it stays in) and made with `TRANSFER_SRC`. Waits.
     pub fn read_rgba32f(&self, ctx: &Context, layout: vk::ImageLayout) -> VkResult<Vec<[f32; 4]>> {
         if self.format != vk::Format::R32G32B32A32_SFLOAT {
-            return Err(VkError::Limit(format!(
+            return Err(VkError::Invalid(format!(
                 "read_rgba32f of a {:?} image",
                 self.format
             )));
@@ -461,7 +471,7 @@ impl Image {
         })?;
         staging
             .mapped_read(0, texels)
-            .ok_or_else(|| VkError::Limit("image readback buffer is not host-visible".into()))
+            .ok_or_else(|| VkError::Invalid("image readback buffer is not host-visible".into()))
     }
 
     /// Records a full layout transition of every mip level, ordering all prior memory

@@ -23,8 +23,8 @@ pub use pipeline::{
     GraphicsPipeline, GraphicsTargets,
 };
 pub use probe::{
-    largest_device_heap, probe_devices, AsProperties, AutotuneMeasurement, BackendPolicy,
-    DeviceInfo, MemoryHeapInfo, ProbeReport, TimestampInfo,
+    describe_devices, largest_device_heap, AsProperties, DeviceInfo, DeviceList, MemoryHeapInfo,
+    TimestampInfo,
 };
 pub use profiler::{FrameTiming, GpuProfiler};
 pub use sampler::Sampler;
@@ -90,9 +90,33 @@ pub enum VkError {
         /// The allocator's explanation.
         reason: String,
     },
-    /// A request that can never succeed on this device (sizes, limits).
+    /// A request beyond a limit of the device (its heap, `maxStorageBufferRange`,
+    /// `maxPrimitiveCount`, ...) or of a fixed-width index in rqr's own layouts: it can never
+    /// succeed on this device with these inputs.
+    #[error("{what}")]
+    Limit {
+        /// The sentence people read: what asked for more than the limit allows, the limit's
+        /// name, both amounts with their units and, where there is one, the way out.
+        what: String,
+        /// The amount asked for (in the limit's own unit: bytes, triangles, instances, ...).
+        needed: u64,
+        /// The most the limit allows, in the same unit.
+        available: u64,
+    },
+    /// A request that is wrong whatever the device: sizes or data that do not match, a buffer
+    /// used in a way its creation did not allow, invalid SPIR-V. A bug in rqr or in a library
+    /// caller's data, never a user's setting.
     #[error("{0}")]
-    Limit(String),
+    Invalid(String),
+    /// The pipeline cache could not be written. The OS error is the source.
+    #[error("cannot write the pipeline cache '{path}'")]
+    PipelineCacheWrite {
+        /// The cache file.
+        path: String,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
 }
 
 /// Result alias for the Vulkan layer.

@@ -50,7 +50,7 @@ impl Binding {
 /// Converts SPIR-V bytes (as embedded with `include_bytes!`) to aligned words.
 pub fn spirv_words(bytes: &[u8]) -> VkResult<Vec<u32>> {
     ash::util::read_spv(&mut std::io::Cursor::new(bytes))
-        .map_err(|e| VkError::Limit(format!("invalid SPIR-V: {e}")))
+        .map_err(|e| VkError::Invalid(format!("invalid SPIR-V: {e}")))
 }
 
 /// Creates a descriptor set layout for `bindings` visible to `stages`.
@@ -147,9 +147,13 @@ impl ComputePipeline {
         let device = ctx.device();
         let limit = ctx.info().max_push_constants_size;
         if push_size > limit {
-            return Err(VkError::Limit(format!(
-                "pipeline '{name}' needs {push_size} bytes of push constants, the device allows {limit}"
-            )));
+            return Err(VkError::Limit {
+                what: format!(
+                    "pipeline '{name}' needs {push_size} bytes of push constants, the device allows {limit}"
+                ),
+                needed: push_size.into(),
+                available: limit.into(),
+            });
         }
         let words = spirv_words(spirv)?;
         let set_layout = create_set_layout(device, bindings, vk::ShaderStageFlags::COMPUTE)?;

@@ -162,11 +162,11 @@ pub(crate) fn save(
     if unchanged == Some(sum) {
         return Ok(sum);
     }
-    write_atomically(path, &encode(&data)).map_err(|e| {
-        super::VkError::Limit(format!(
-            "cannot write the pipeline cache '{}': {e}",
-            path.display()
-        ))
+    write_atomically(path, &encode(&data)).map_err(|source| {
+        super::VkError::PipelineCacheWrite {
+            path: path.display().to_string(),
+            source,
+        }
     })?;
     Ok(sum)
 }

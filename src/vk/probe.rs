@@ -1,7 +1,7 @@
-//! `rqr probe`: what every physical device offers, read without opening it ([`DeviceInfo`]),
-//! including what it lacks of [`super::requirements::REQUIREMENTS`]. The ray-backend fields are
-//! filled by a [`BackendPolicy`] the caller passes (`accel::BackendChoice`), so this module
-//! knows nothing of the layers above it.
+//! What every physical device offers, read without opening it ([`DeviceInfo`]), including
+//! what it lacks of [`super::requirements::REQUIREMENTS`]: the raw capabilities only. What rqr
+//! would choose on each device (ray backend, visibility pass, texture format) is decided above
+//! this layer, in `device_select`.
 
 use std::ffi::CStr;
 
@@ -13,36 +13,6 @@ use super::instance::{
 };
 use super::requirements::{self, DeviceSupport};
 use super::{CallExt, VkResult};
-
-/// Decides the ray backend a device would use; implemented above this module (by
-/// `accel::BackendChoice`), so that the probe can report the decision without depending on it.
-pub trait BackendPolicy {
-    /// The backend's name (`hw`, `bvh`) and why, or why none is available.
-    fn decide(&self, device: &DeviceInfo) -> Result<(String, String), String>;
-}
-
-/// What the micro-benchmark measured on one device (GPU milliseconds, median of
-/// `autotune::MEASURE_FRAMES` frames).
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-pub struct AutotuneMeasurement {
-    /// Ray-traced frame (default depth) on `hw`; `None` without ray queries.
-    pub rt_hw_ms: Option<f64>,
-    /// The same frame on `bvh`.
-    pub rt_bvh_ms: f64,
-    /// Hybrid visibility pass on the graphics pipeline.
-    pub visibility_graphics_ms: f64,
-    /// Hybrid visibility pass on the compute rasterizer.
-    pub visibility_compute_ms: f64,
-    /// Whole host build of the fixed mesh's BVH (wall milliseconds, upload included).
-    pub bvh_host_build_ms: f64,
-    /// Whole GPU build of the same BVH (wall milliseconds).
-    pub bvh_gpu_build_ms: f64,
-    /// Trilinear sampling of a small texture in one short dispatch, the texture in the
-    /// device's block format (BC7, else ASTC 4x4); `None` where the device samples neither.
-    pub texture_block_ms: Option<f64>,
-    /// The same dispatch over the same texture as RGBA8.
-    pub texture_rgba8_ms: f64,
-}
 
 /// Acceleration-structure limits (present when the extension is supported).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -145,21 +115,6 @@ pub struct DeviceInfo {
     pub max_sampled_image_array: u32,
     /// Required features the device lacks (empty: rqr can run on it).
     pub missing_features: Vec<String>,
-    /// Ray backend rqr would use (`hw` or `bvh`); `null` when the requested one is unavailable.
-    pub backend: Option<String>,
-    /// Why that backend.
-    pub backend_reason: String,
-    /// What runs the hybrid visibility pass (`graphics` or `compute`) under `--raster auto`.
-    pub raster: String,
-    /// Why that visibility pass.
-    pub raster_reason: String,
-    /// How KTX2 textures upload under `--texture-format auto` (`block` or `rgba8`).
-    pub texture_format: String,
-    /// Why that format.
-    pub texture_format_reason: String,
-    /// The autotune numbers behind `backend`/`raster`/`texture_format` (`null`: the feature
-    /// rule decided).
-    pub autotune: Option<AutotuneMeasurement>,
 }
 
 /// Size of the largest device-local heap (of the largest heap when none is device-local):
@@ -181,14 +136,12 @@ impl DeviceInfo {
     }
 }
 
-/// The `rqr probe --json` document.
-#[derive(Clone, Debug, Serialize)]
-pub struct ProbeReport {
-    /// Schema version of this document.
-    pub schema: u32,
-    /// Index of the device rqr would open with the given selector.
-    pub selected: Option<usize>,
-    /// Every physical device.
+/// Every physical device, described, and the one a selector picks.
+#[derive(Clone, Debug)]
+pub struct DeviceList {
+    /// Index of the device rqr would open with the selector.
+    pub selected: usize,
+    /// Every physical device, in enumeration order.
     pub devices: Vec<DeviceInfo>,
 }
 
@@ -410,38 +363,11 @@ pub(crate) fn describe_device(
         .min()
         .unwrap_or(0),
         missing_features: missing,
-        backend: None,
-        backend_reason: String::new(),
-        raster: "graphics".into(),
-        raster_reason: "auto (feature rule): graphics pipeline".into(),
-        texture_format: "block".into(),
-        texture_format_reason: "auto (feature rule): the device's block format".into(),
-        autotune: None,
     }
 }
 
-impl DeviceInfo {
-    /// Fills `backend`/`backend_reason` with what `policy` decides for this device.
-    pub fn set_backend(&mut self, policy: &impl BackendPolicy) {
-        match policy.decide(self) {
-            Ok((backend, reason)) => {
-                self.backend = Some(backend);
-                self.backend_reason = reason;
-            }
-            Err(why) => {
-                self.backend = None;
-                self.backend_reason = why;
-            }
-        }
-    }
-}
-
-/// Describes every physical device without opening any. `policy` fills each device's
-/// `backend` field; `selector` picks `selected`.
-pub fn probe_devices(
-    selector: &DeviceSelector,
-    policy: impl BackendPolicy,
-) -> VkResult<ProbeReport> {
+/// Describes every physical device without opening any; `selector` picks `selected`.
+pub fn describe_devices(selector: &DeviceSelector) -> VkResult<DeviceList> {
     let entry = load_entry()?;
     let (instance, _) = create_instance(&entry, false, false)?;
     // SAFETY: plain enumeration call on a live instance.
@@ -456,17 +382,9 @@ pub fn probe_devices(
         let devices = physicals
             .iter()
             .enumerate()
-            .map(|(i, &p)| {
-                let mut info = describe_device(&instance, p, i);
-                info.set_backend(&policy);
-                info
-            })
+            .map(|(i, &p)| describe_device(&instance, p, i))
             .collect();
-        Ok(ProbeReport {
-            schema: 1,
-            selected: Some(selected),
-            devices,
-        })
+        Ok(DeviceList { selected, devices })
     });
     // SAFETY: no device was created; nothing else uses the instance.
     unsafe { instance.destroy_instance(None) };

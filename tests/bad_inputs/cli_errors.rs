@@ -62,45 +62,45 @@ fn bad_settings_fail_before_any_gpu_work() {
     let cases: Vec<(Vec<&str>, i32, &str)> = vec![
         (
             vec!["--width", "0"],
-            1,
-            "resolution 0x512 must be at least 1x1",
+            2,
+            "--width 0: resolution 0x512 must be at least 1x1",
         ),
         (
             vec!["--width", "100000"],
-            1,
-            "resolution 100000x512 exceeds the limit of 16384 pixels per side",
+            2,
+            "--width 100000: resolution 100000x512 exceeds the limit of 16384 pixels per side",
         ),
-        (vec!["--spp", "0"], 1, "--spp 0 must be in 1..=4096"),
-        (vec!["--spp", "5000"], 1, "--spp 5000 must be in 1..=4096"),
+        (vec!["--spp", "0"], 2, "--spp 0 must be in 1..=4096"),
+        (vec!["--spp", "5000"], 2, "--spp 5000 must be in 1..=4096"),
         (
             vec!["--max-depth", "1000"],
-            1,
+            2,
             "--max-depth 1000 must be in 1..=16",
         ),
         (
             vec!["--sampler", "grid", "--spp", "3"],
-            1,
+            2,
             "needs a square --spp",
         ),
         (
             vec!["--exposure", "NaN"],
-            1,
+            2,
             "--exposure NaN must be finite",
         ),
         (
             vec!["--min-weight", "2"],
-            1,
+            2,
             "--min-weight 2 must be in [0, 1)",
         ),
-        (vec!["--fov", "0"], 1, "--fov 0 must be in (0, 180) degrees"),
+        (vec!["--fov", "0"], 2, "--fov 0 must be in (0, 180) degrees"),
         (
             vec!["--camera", "7"],
-            1,
+            2,
             "--camera 7: the scene has 1 camera(s)",
         ),
         (
             vec!["--aov", "albedo,emission"],
-            1,
+            2,
             "unknown AOV 'emission' (known: depth, normal, geometric_normal, albedo,",
         ),
         (
@@ -116,12 +116,12 @@ fn bad_settings_fail_before_any_gpu_work() {
         (vec!["-o", a_dir.to_str().unwrap()], 1, "is a directory"),
         (
             vec!["-o", "out.txt"],
-            1,
+            2,
             "output 'out.txt' must end in .png (tonemapped sRGB), .exr or .pfm (linear HDR)",
         ),
         (
             vec!["-o", "out.tiff", "--aov", "albedo"],
-            1,
+            2,
             "output 'out.tiff' must end in .png (tonemapped sRGB), .exr or .pfm",
         ),
         (
@@ -129,7 +129,7 @@ fn bad_settings_fail_before_any_gpu_work() {
             1,
             "missing.glb: cannot read",
         ),
-        // Usage errors come from clap (exit code 2, like "no Vulkan", but a different message).
+        // Usage errors found by clap exit with code 2 too (like "no Vulkan", with another message).
         (
             vec!["--backend", "warp"],
             2,
@@ -165,17 +165,17 @@ fn bad_settings_fail_before_any_gpu_work() {
         (vec!["--light-radius", "big"], 2, "'big' is not a number"),
         (
             vec!["--shading", "distributed", "--sampler", "adaptive"],
-            1,
+            2,
             "--sampler adaptive subdivides where samples differ",
         ),
         (
             vec!["--diffuse-bounces", "2"],
-            1,
+            2,
             "--diffuse-bounces needs --shading distributed",
         ),
         (
             vec!["--shading", "distributed", "--diffuse-bounces", "99"],
-            1,
+            2,
             "--diffuse-bounces 99 must be at most 16",
         ),
         (
@@ -184,6 +184,18 @@ fn bad_settings_fail_before_any_gpu_work() {
             "invalid value 'cook' for '--shading",
         ),
         (vec!["--ambient", "1,2"], 2, "expected x,y,z"),
+        // Sequence flags: reuse between frames caches one centred sample per pixel.
+        (
+            vec!["--frames", "4", "--reproject", "--spp", "4"],
+            2,
+            "--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1",
+        ),
+        (
+            vec!["--frames", "4", "--frameless", "200"],
+            2,
+            "--frameless 200 must be a percentage in (0, 100]",
+        ),
+        (vec!["--frames", "0"], 2, "--frames must be at least 1"),
     ];
     for (extra, code, needle) in cases {
         let mut args = vec!["render"];
@@ -199,9 +211,16 @@ fn bad_settings_fail_before_any_gpu_work() {
             "rqr {args:?} touched Vulkan first: {}",
             stderr(&out)
         );
-        if code == 1 {
+        // rqr's own errors (not clap's) are one line; a usage mistake says which settings.
+        if stderr(&out).contains("rqr: error: ") {
             assert_eq!(stderr(&out).lines().count(), 1, "{}", stderr(&out));
-            assert!(error_line(&out).starts_with("rqr: error: "));
+            let line = error_line(&out);
+            assert!(line.starts_with("rqr: error: "), "{line}");
+            assert_eq!(
+                code == 2,
+                line.starts_with("rqr: error: invalid settings: "),
+                "{line}"
+            );
         }
         assert!(took < Duration::from_secs(10), "rqr {args:?} took {took:?}");
         assert!(!Path::new(out_png).exists(), "rqr {args:?} wrote an image");
@@ -215,7 +234,7 @@ fn bad_settings_fail_before_any_gpu_work() {
         let mut args = vec!["compare", "-o", out_dir.to_str().unwrap()];
         args.extend(extra);
         let (out, _) = rqr(&args, NO_VULKAN, Duration::from_secs(30));
-        assert_clean_failure(&args, &out, 1, needle);
+        assert_clean_failure(&args, &out, 2, needle);
     }
     // The same environment does reach Vulkan when the settings are fine: the checks above
     // really ran first.
@@ -309,6 +328,32 @@ fn resolutions_beyond_the_device_fail_before_rendering() {
     assert_clean_failure(&args, &out, 1, "of device memory");
     assert!(error_line(&out).contains("--spp"), "{}", error_line(&out));
     assert!(took < Duration::from_secs(60), "took {took:?}");
+    assert!(!Path::new(out_png).exists());
+
+    // A flag combination found wrong only once the device is open is still a usage mistake
+    // (exit code 2), unlike the device limits above (1).
+    let args = [
+        "render",
+        "--mode",
+        "hybrid",
+        "--raster",
+        "compute",
+        "--gbuffer",
+        "full",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        out_png,
+    ];
+    let (out, _) = rqr(&args, VALIDATED, Duration::from_secs(120));
+    assert_clean_failure(
+        &args,
+        &out,
+        2,
+        "invalid settings: --raster compute writes the visibility buffer only",
+    );
     assert!(!Path::new(out_png).exists());
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -117,7 +117,7 @@ fn an_injected_permission_error_prints_once() {
     let line = rqr::error_chain(&e);
     assert_eq!(line, "lamp.glb: cannot read: permission denied");
     assert_no_repeated_clause(&chain(&e), &line);
-    let cache = rqr::autotune::CacheError::Io {
+    let cache = rqr::device_select::autotune::CacheError::Io {
         path: "autotune.json".into(),
         source: std::io::Error::from(ErrorKind::PermissionDenied),
     };

@@ -7,16 +7,15 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use rqr::accel::bvh::BvhBuild;
-use rqr::accel::{Backend, BackendChoice};
-use rqr::autotune::{self, CacheError, Measurement};
+use rqr::accel::Backend;
+use rqr::device_select::autotune::{self, CacheError, Measurement};
 use rqr::render::passes::raster_compute::RasterMode;
 use rqr::scene::TextureFormat;
 use rqr::vk::{DeviceInfo, DeviceSelector};
 
 fn lavapipe() -> DeviceInfo {
-    let report = rqr::vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto)
-        .expect(support::INSTALL_HINT);
-    report.devices[report.selected.unwrap()].clone()
+    let list = rqr::vk::describe_devices(&DeviceSelector::Auto).expect(support::INSTALL_HINT);
+    list.devices[list.selected].clone()
 }
 
 fn tmp_dir(name: &str) -> PathBuf {

@@ -423,7 +423,7 @@ fn a_kept_environment_renders_the_same_bytes_as_a_fresh_one() {
             "--out",
             out.to_str().unwrap(),
         ];
-        let run = common::run_rqr(&args, &[("RQR_CACHE_DIR", cache.to_str().unwrap())], LIMIT).0;
+        let run = support::run_rqr(&args, &[("RQR_CACHE_DIR", cache.to_str().unwrap())], LIMIT).0;
         assert!(
             run.status.success(),
             "{}",

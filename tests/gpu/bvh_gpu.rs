@@ -317,7 +317,10 @@ fn closed_meshes_are_watertight_at_shared_edges_and_vertices() {
             Vec3::new(0.5, -2.0, 3.0),
         ),
     ];
-    for (name, geom) in [("cube", grid_cube(8)), ("sphere", uv_sphere(24, 32, 1.0))] {
+    for (name, geom) in [
+        ("cube", grid_cube(8)),
+        ("sphere", scaled_sphere(32, 24, 1.0)),
+    ] {
         for (ti, transform) in transforms.iter().enumerate() {
             let scene = finish_scene(
                 vec![geom.clone()],

@@ -155,7 +155,7 @@ fn scene_rays(scene: &Scene, seed: u64, side: u32, incoherent: usize) -> Vec<Ray
 
 /// A sphere whose radius varies with two sine waves (like the benchmark's bumpy spheres).
 fn bumpy_sphere(stacks: u32, slices: u32) -> Scene {
-    let mut g = uv_sphere(stacks, slices, 1.0);
+    let mut g = scaled_sphere(slices, stacks, 1.0);
     for p in &mut g.positions {
         let theta = p.y.clamp(-1.0, 1.0).acos();
         let phi = p.z.atan2(p.x);
@@ -264,7 +264,10 @@ fn gpu_built_closed_meshes_are_watertight() {
         Quat::from_rotation_y(0.7) * Quat::from_rotation_x(-0.3),
         Vec3::new(0.5, -2.0, 3.0),
     );
-    for (name, geom) in [("cube", grid_cube(8)), ("sphere", uv_sphere(24, 32, 1.0))] {
+    for (name, geom) in [
+        ("cube", grid_cube(8)),
+        ("sphere", scaled_sphere(32, 24, 1.0)),
+    ] {
         for transform in [Mat4::IDENTITY, transform] {
             let scene = finish_scene(
                 vec![geom.clone()],

@@ -6,6 +6,7 @@ use std::process::Command;
 use std::time::Duration;
 
 use rqr::accel::{Backend, BackendChoice};
+use rqr::device_select::report::probe_devices;
 use rqr::shaders;
 use rqr::vk::{
     self, Binding, Buffer, ComputePipeline, DeviceSelector, GpuProfiler, MemoryLocation, VkError,
@@ -22,7 +23,7 @@ fn rqr_bin() -> Command {
 #[test]
 fn probe_finds_lavapipe_with_ray_query_and_picks_hw() {
     let report =
-        vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(support::INSTALL_HINT);
+        probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(support::INSTALL_HINT);
     let lvp = report
         .devices
         .iter()
@@ -94,7 +95,7 @@ fn probe_json_has_schema_and_honours_backend_bvh() {
 #[test]
 fn the_device_the_probe_approves_opens() {
     let report =
-        vk::probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(support::INSTALL_HINT);
+        probe_devices(&DeviceSelector::Auto, BackendChoice::Auto).expect(support::INSTALL_HINT);
     let probed = &report.devices[report.selected.expect("a selected device")];
     assert!(
         probed.missing_features.is_empty(),

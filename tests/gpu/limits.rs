@@ -9,7 +9,7 @@ use glam::Mat4;
 use rqr::accel::bvh::{BvhBuildOptions, BvhError, GpuBvh};
 use rqr::accel::{hw::HwAccel, Backend};
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::readback::readback_bytes;
 use rqr::render::temporal::{Reprojector, ReuseOptions};
@@ -161,7 +161,7 @@ fn memory_checks_refuse_work_before_allocating() {
             .err()
             .expect("~18 MB of BLAS in a 4 MiB heap");
         assert!(
-            matches!(&err, VkError::Limit(m) if m.contains("acceleration structures need about")),
+            matches!(&err, VkError::Limit { what, needed, available } if what.contains("acceleration structures need about") && needed > available),
             "{err}"
         );
     }
@@ -184,7 +184,7 @@ fn render_targets_are_checked_against_the_heap_and_the_storage_range() {
     let mut ctx = gpu();
     let scene = cornell();
     let camera = scene.cameras[0];
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
 
     // Leave 1 MiB of the heap beyond what is allocated now.
@@ -249,7 +249,7 @@ fn the_readback_slot_is_counted_before_allocating() {
         let mut ctx = gpu();
         let scene = cornell();
         let camera = scene.cameras[0];
-        let draws = gbuffer::draws(&scene);
+        let draws = draw_list::draws(&scene);
         let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
         let render = |ctx: &rqr::vk::Context| match path {
             RenderPath::RayTraced => renderer.render_rt(ctx, &s, &camera, false),
@@ -391,7 +391,7 @@ fn renders_without_aovs_bind_a_placeholder() {
     let ctx = gpu();
     let scene = cornell();
     let camera = scene.cameras[0];
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
     let s = settings(48, 32, 1);
     let rt = renderer.render_rt(&ctx, &s, &camera, false).unwrap();
@@ -619,7 +619,7 @@ fn frames_wider_than_one_row_of_workgroups_are_tonemapped_whole() {
         max_depth: 1,
         ..settings(2048, 2048, 1)
     };
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let mut targets =
         rqr::render::FrameTargets::new(&ctx, &renderer, RenderPath::RayTraced, &s, &draws, false)
             .unwrap();

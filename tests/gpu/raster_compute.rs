@@ -6,6 +6,7 @@ use crate::support::scene_files::load_asset;
 
 use rqr::accel::Backend;
 use rqr::render::image::compare;
+use rqr::render::passes::draw_list;
 use rqr::render::passes::gbuffer;
 use rqr::render::passes::raster_compute::RasterMode;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
@@ -35,7 +36,7 @@ fn assert_compute_matches_graphics(name: &str, scene: &Scene, camera: &Camera, s
         ctx.features().buffer_int64_atomics,
         "lavapipe exposes shaderBufferInt64Atomics; the 64-bit path must be tested"
     );
-    let draws = gbuffer::draws(scene);
+    let draws = draw_list::draws(scene);
     let renderer = Renderer::new(&ctx, scene, Backend::Bvh).unwrap();
     let render = |raster: RasterMode, spp: u32| {
         let s = RenderSettings {
@@ -146,7 +147,7 @@ fn compute_visibility_matches_graphics_on_gltf_samples() {
 fn hybrid_with_compute_visibility_matches_ray_traced() {
     let ctx = support::gpu();
     let scene = rqr::scene::load_default().unwrap();
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let camera = default_camera(&scene);
     let mut backends = vec![Backend::Bvh];
     if ctx.features().ray_query {
@@ -204,7 +205,7 @@ fn compute_raster_rejects_the_full_gbuffer() {
     let err = renderer
         .render_hybrid(
             &ctx,
-            &gbuffer::draws(&scene),
+            &draw_list::draws(&scene),
             &s,
             &default_camera(&scene),
             false,

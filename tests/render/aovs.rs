@@ -8,7 +8,7 @@ use crate::support::scene_files;
 use glam::{Vec2, Vec3};
 use rqr::accel::Backend;
 use rqr::interface::{Aov, AOV_NO_ID};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::procedural::{camera_to_world, cornell, look_at};
@@ -57,7 +57,7 @@ fn render_all_paths(
             ..settings(size)
         };
         let out = renderer
-            .render_hybrid(ctx, &gbuffer::draws(scene), &s, camera, true)
+            .render_hybrid(ctx, &draw_list::draws(scene), &s, camera, true)
             .unwrap();
         outs.push((format!("hybrid {layout:?}/{backend:?}"), out));
     }

@@ -10,7 +10,7 @@ use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
 use rqr::environment::{EnvironmentMap, GpuEnvironment};
 use rqr::render::image::compare;
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind, Shading};
 use rqr::scene::procedural::{assemble, cornell, look_at, quad, sphere};
 use rqr::scene::{Camera, Instance, Light, LightKind, Material, MaterialLayers, Scene};
@@ -41,7 +41,7 @@ fn render(
     }
     if hybrid {
         renderer
-            .render_hybrid(ctx, &gbuffer::draws(scene), settings, camera, true)
+            .render_hybrid(ctx, &draw_list::draws(scene), settings, camera, true)
             .unwrap()
     } else {
         renderer.render_rt(ctx, settings, camera, true).unwrap()

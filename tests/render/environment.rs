@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
 use rqr::environment::gpu::EnvTexture;
 use rqr::environment::{direction_to_uv, rotate_into_map, EnvironmentMap, GpuEnvironment};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::{RenderOutput, RenderSettings, Renderer};
 use rqr::scene::procedural::{assemble, look_at, sphere};
 use rqr::scene::{Instance, Material, MaterialLayers, Scene};
@@ -55,7 +55,7 @@ fn render(
     let camera = &scene.cameras[0];
     if hybrid {
         renderer
-            .render_hybrid(ctx, &gbuffer::draws(scene), settings, camera, true)
+            .render_hybrid(ctx, &draw_list::draws(scene), settings, camera, true)
             .unwrap()
     } else {
         renderer.render_rt(ctx, settings, camera, true).unwrap()

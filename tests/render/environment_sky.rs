@@ -11,7 +11,7 @@ use rqr::environment::sky::{
     SkyModel, SkySpec, SKY_MAP_WIDTH, SKY_RADIANCE_SCALE, SUN_ANGULAR_RADIUS_DEG,
 };
 use rqr::environment::{direction_to_uv, rotate_into_map, GpuEnvironment};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::{RenderOutput, RenderSettings, Renderer};
 use rqr::scene::procedural::{assemble, cube, look_at, quad, sphere};
 use rqr::scene::{Instance, LightKind, Material, MaterialLayers, Scene};
@@ -324,7 +324,7 @@ fn render(ctx: &rqr::vk::Context, scene: &Scene, model: &SkyModel, hybrid: bool)
     let camera = &scene.cameras[0];
     if hybrid {
         renderer
-            .render_hybrid(ctx, &gbuffer::draws(scene), &settings, camera, true)
+            .render_hybrid(ctx, &draw_list::draws(scene), &settings, camera, true)
             .unwrap()
     } else {
         renderer.render_rt(ctx, &settings, camera, true).unwrap()

@@ -8,7 +8,7 @@ use crate::support::scene_files::load_asset;
 use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::render::image::compare;
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
 use rqr::scene::procedural::{assemble, cornell, look_at, quad};
@@ -40,7 +40,7 @@ fn diff(a: &RenderOutput, b: &RenderOutput) -> compare::ImageDiff {
 /// with both G-buffer layouts.
 fn assert_hybrid_matches_rt(name: &str, scene: &Scene, size: u32) {
     let ctx = support::gpu();
-    let draws = gbuffer::draws(scene);
+    let draws = draw_list::draws(scene);
     let camera = scene
         .cameras
         .first()
@@ -164,7 +164,7 @@ fn gbuffer_reports_depth_and_normal_of_a_known_plane() {
         let out = renderer
             .render_hybrid(
                 &ctx,
-                &gbuffer::draws(&scene),
+                &draw_list::draws(&scene),
                 &RenderSettings {
                     gbuffer,
                     ..settings(n)

@@ -451,9 +451,9 @@ fn stained_glass_lamp_textures_render_alike_as_blocks_and_rgba8() {
 }
 
 /// lavapipe's measured sampling times with BC7 faster, or RGBA8 faster (its real ordering).
-fn sampling_times(bc7_faster: bool) -> rqr::autotune::Measurement {
+fn sampling_times(bc7_faster: bool) -> rqr::device_select::autotune::Measurement {
     let (block, rgba8) = if bc7_faster { (1.0, 2.0) } else { (86.5, 1.3) };
-    rqr::autotune::Measurement {
+    rqr::device_select::autotune::Measurement {
         rt_hw_ms: Some(2.0),
         rt_bvh_ms: 1.0,
         visibility_graphics_ms: 1.0,
@@ -473,16 +473,13 @@ fn texture_format_flag_chooses_the_upload() {
     std::fs::write(&gltf, lamp_textures_quad()).unwrap();
     // An isolated autotune cache, holding the outcome each `auto` run is to follow.
     let cache = dir.join("cache");
-    let report = rqr::vk::probe_devices(
-        &rqr::vk::DeviceSelector::Auto,
-        rqr::accel::BackendChoice::Auto,
-    )
-    .expect(support::INSTALL_HINT);
-    let device = report.devices[report.selected.unwrap()].clone();
+    let list =
+        rqr::vk::describe_devices(&rqr::vk::DeviceSelector::Auto).expect(support::INSTALL_HINT);
+    let device = list.devices[list.selected].clone();
     let inject = |bc7_faster: bool| {
-        rqr::autotune::store(
+        rqr::device_select::autotune::store(
             &cache.join("rqr").join("autotune.json"),
-            &rqr::autotune::cache_key(&device),
+            &rqr::device_select::autotune::cache_key(&device),
             &sampling_times(bc7_faster),
         )
         .unwrap()

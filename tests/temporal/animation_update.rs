@@ -11,7 +11,8 @@ use rqr::accel::bvh::BvhBuild;
 use rqr::accel::Backend;
 use rqr::interface::GBUFFER_BARY;
 use rqr::render::drivers::animated::{frame_renderer, AnimatedFrames};
-use rqr::render::passes::gbuffer::{self, GbufferLayout};
+use rqr::render::passes::draw_list;
+use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::{FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer};
 use rqr::scene::{Camera, Instance, Scene};
 
@@ -99,7 +100,7 @@ fn updated_frames_match_rebuilt_frames_on_both_backends() {
                     "{rel} {backend:?} t={t}: primary hits differ from the rebuilt frame"
                 );
                 // Raster (hybrid) reads the same updated vertex buffers.
-                let draws = gbuffer::draws(&posed);
+                let draws = draw_list::draws(&posed);
                 let h_updated = frames
                     .renderer()
                     .render_hybrid(&ctx, &draws, &settings(), &cam, false)
@@ -362,7 +363,7 @@ fn gbuffer_motion_vectors_follow_moving_objects() {
         both.bounds.grow(posed0.bounds.min);
         both.bounds.grow(posed0.bounds.max);
         let cam = camera(&both);
-        let draws = gbuffer::draws(&posed1);
+        let draws = draw_list::draws(&posed1);
         let mut targets = FrameTargets::new(
             &ctx,
             frames.renderer(),

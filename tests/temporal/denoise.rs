@@ -12,7 +12,7 @@ use rqr::accel::Backend;
 use rqr::render::denoise::DenoiseMode;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
 use rqr::render::image::compare;
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::readback::RingContents;
 use rqr::render::{
     CameraSetup, FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind,
@@ -72,7 +72,7 @@ fn targets(
     path: RenderPath,
     s: &RenderSettings,
 ) -> FrameTargets {
-    FrameTargets::new(ctx, renderer, path, s, &gbuffer::draws(scene), true).unwrap()
+    FrameTargets::new(ctx, renderer, path, s, &draw_list::draws(scene), true).unwrap()
 }
 
 /// Mean squared error of linear colours (clamped to [0, 1], as displayed), over pixels.

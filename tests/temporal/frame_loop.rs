@@ -7,7 +7,7 @@ use crate::support;
 use rqr::accel::Backend;
 use rqr::render::drivers::burst;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
-use rqr::render::passes::gbuffer;
+use rqr::render::passes::draw_list;
 use rqr::render::readback::RingContents;
 use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility};
 use rqr::render::RenderPath;
@@ -289,7 +289,7 @@ fn a_hundred_frames_allocate_no_memory_after_the_first() {
         );
     }
     // Single frames of both paths through reused targets, and timed bursts.
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let camera = scene.cameras[0];
     for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
         let s = RenderSettings {
@@ -321,7 +321,7 @@ fn time_alternating_times_every_frame_of_every_target() {
     let ctx = support::gpu();
     let scene = cornell();
     let r = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let s = settings(32);
     let rt = FrameTargets::new(&ctx, &r, RenderPath::RayTraced, &s, &draws, false).unwrap();
     let hybrid = FrameTargets::new(&ctx, &r, RenderPath::Hybrid, &s, &draws, false).unwrap();

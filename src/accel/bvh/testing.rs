@@ -1,5 +1,7 @@
 //! Deterministic scene and ray generators shared by the BVH's unit tests, GPU tests and
-//! benchmark. Not used by the renderer.
+//! benchmark: compiled for the unit tests and with the `testing` feature only (the
+//! integration tests and benchmarks enable it). Spheres come from the scene's own
+//! [`crate::scene::procedural::sphere`].
 
 use glam::{Mat4, Quat, Vec3, Vec4};
 
@@ -80,40 +82,14 @@ pub fn random_triangles(rng: &mut Rng, n: usize, extent: f32, size: f32) -> Geom
     geometry(positions, indices, 0)
 }
 
-/// A closed UV sphere (poles shared by their fan), outward winding, radius `r`.
-pub fn uv_sphere(stacks: u32, slices: u32, r: f32) -> Geometry {
-    let mut positions = vec![Vec3::new(0.0, r, 0.0)];
-    for i in 1..stacks {
-        let theta = std::f32::consts::PI * i as f32 / stacks as f32;
-        for j in 0..slices {
-            let phi = std::f32::consts::TAU * j as f32 / slices as f32;
-            positions.push(Vec3::new(
-                r * theta.sin() * phi.cos(),
-                r * theta.cos(),
-                r * theta.sin() * phi.sin(),
-            ));
-        }
+/// [`crate::scene::procedural::sphere`] (`segments` around, `rings` from pole to pole)
+/// scaled to radius `r`.
+pub fn scaled_sphere(segments: u32, rings: u32, r: f32) -> Geometry {
+    let mut g = crate::scene::procedural::sphere(0, segments, rings);
+    for p in &mut g.positions {
+        *p *= r;
     }
-    positions.push(Vec3::new(0.0, -r, 0.0));
-    let south = positions.len() as u32 - 1;
-    let ring = |i: u32, j: u32| 1 + (i - 1) * slices + j % slices;
-    let mut indices = Vec::new();
-    for j in 0..slices {
-        indices.extend([0, ring(1, j + 1), ring(1, j)]);
-        indices.extend([south, ring(stacks - 1, j), ring(stacks - 1, j + 1)]);
-    }
-    for i in 1..stacks - 1 {
-        for j in 0..slices {
-            let (a, b, c, d) = (
-                ring(i, j),
-                ring(i, j + 1),
-                ring(i + 1, j),
-                ring(i + 1, j + 1),
-            );
-            indices.extend([a, b, c, b, d, c]);
-        }
-    }
-    geometry(positions, indices, 0)
+    g
 }
 
 /// A closed axis-aligned cube `[-1, 1]^3` with every face split into `n x n` quads of two
@@ -201,7 +177,7 @@ pub fn finish_scene(
 /// rotated, non-uniformly scaled and mirrored transforms.
 pub fn instanced_grid(rng: &mut Rng, nx: u32, nz: u32) -> Scene {
     let geometries = vec![
-        uv_sphere(12, 16, 1.0),
+        crate::scene::procedural::sphere(0, 16, 12),
         grid_cube(2),
         random_triangles(rng, 200, 1.0, 0.4),
     ];

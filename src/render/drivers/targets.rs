@@ -13,14 +13,16 @@ use ash::vk;
 
 use crate::render::denoise::{self, Denoiser};
 use crate::render::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
-use crate::render::passes::gbuffer::{Draw, GbufferPass};
+use crate::render::passes::draw_list::Draw;
+use crate::render::passes::gbuffer::GbufferPass;
 use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
 use crate::render::passes::raytraced::{ray_counts, RaytracedPass, COUNTER_WORDS};
 use crate::render::passes::tonemap::TonemapPass;
 use crate::render::readback::{FrameRing, RingContents, RingSources};
+use crate::render::settings::SettingsError;
 use crate::render::{merge_scopes, sampling, Aov, RenderOutput, Renderer};
 use crate::scene::Camera;
-use crate::vk::{memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkError, VkResult};
+use crate::vk::{memory_barrier, Buffer, Context, GpuProfiler, MemoryLocation, VkResult};
 
 /// Timestamp scopes one frame of either path records per sample (raster, shading), plus
 /// tonemap and the frame itself.
@@ -118,9 +120,7 @@ impl FrameTargets {
         write_aov: bool,
         denoiser: Option<Denoiser>,
     ) -> crate::Result<Self> {
-        settings
-            .check_device(ctx.info(), path, write_aov, ctx.allocated_bytes())
-            .map_err(|e| VkError::Limit(e.to_string()))?;
+        settings.check_device(ctx.info(), path, write_aov, ctx.allocated_bytes())?;
         let pass = renderer.pass_context();
         let denoiser = match denoiser {
             Some(d) => Some(d),
@@ -587,7 +587,8 @@ fn hybrid_sample_positions(settings: &RenderSettings) -> crate::Result<Vec<[f32;
         })
         .collect::<Option<_>>()
         .ok_or_else(|| {
-            VkError::Limit(
+            SettingsError::new(
+                "--sampler",
                 format!(
                     "--sampler {:?} varies per pixel (or is adaptive); the hybrid path rasterizes one jittered pass per sample and supports center, grid, halton and sobol",
                     settings.sampler

@@ -7,13 +7,14 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::draw_list::Draw;
 use super::raster_compute::{ComputeRaster, DepthAtomics, RasterMode};
 use crate::interface::{self as io, bindings, push_bytes, DrawPush};
+use crate::render::settings::SettingsError;
 use crate::render::PassContext;
-use crate::scene::Scene;
 use crate::vk::{
     Binding, Buffer, Context, DescriptorSet, GpuProfiler, GraphicsPipeline, GraphicsTargets, Image,
-    VkError, VkResult,
+    VkResult,
 };
 
 /// What the hybrid path's raster pass writes.
@@ -55,49 +56,6 @@ pub const GBUFFER_FORMATS: [vk::Format; io::GBUFFER_IMAGES as usize] = [
     vk::Format::R32G32B32A32_SFLOAT, // barycentrics, motion vector
 ];
 
-/// One draw per scene instance.
-#[derive(Clone, Copy, Debug)]
-pub struct Draw {
-    /// Scene instance index (push constant).
-    pub instance: u32,
-    /// 3 × triangles.
-    pub vertex_count: u32,
-    /// Back-face culling (single-sided material).
-    pub cull_back: bool,
-    /// Mirrored transform: clockwise triangles are front-facing.
-    pub mirrored: bool,
-    /// Alpha-MASK material: drawn with the alpha-testing pipeline.
-    pub alpha_test: bool,
-    /// World-space centre of the instance's bounds (front-to-back ordering).
-    pub center: glam::Vec3,
-}
-
-/// Per-instance draws of a scene, in instance order.
-pub fn draws(scene: &Scene) -> Vec<Draw> {
-    scene
-        .instances
-        .iter()
-        .enumerate()
-        .filter_map(|(i, inst)| {
-            let g = scene.geometries.get(inst.geometry as usize)?;
-            let material = scene.materials.get(g.material as usize);
-            let double_sided = material.is_some_and(|m| m.double_sided);
-            let mut bounds = crate::scene::Aabb::EMPTY;
-            for p in &g.positions {
-                bounds.grow(inst.transform.transform_point3(*p));
-            }
-            (g.triangle_count() > 0).then(|| Draw {
-                instance: i as u32,
-                vertex_count: (g.triangle_count() * 3) as u32,
-                cull_back: !double_sided,
-                mirrored: inst.flips_winding(),
-                alpha_test: material.is_some_and(|m| m.alpha_mode == crate::scene::AlphaMode::Mask),
-                center: bounds.center(),
-            })
-        })
-        .collect()
-}
-
 /// The raster pass and its attachments.
 pub struct GbufferPass {
     pipeline: Arc<GraphicsPipeline>,
@@ -124,7 +82,7 @@ impl GbufferPass {
         extent: vk::Extent2D,
         layout: GbufferLayout,
     ) -> VkResult<Self> {
-        Self::with_raster(ctx, pass, frame, extent, layout, RasterMode::Graphics, &[])
+        Self::create(ctx, pass, frame, extent, layout, RasterMode::Graphics, &[])
     }
 
     /// Like [`Self::new`], with the visibility pass run by `raster`. The compute rasterizer
@@ -137,13 +95,29 @@ impl GbufferPass {
         layout: GbufferLayout,
         raster: RasterMode,
         draws: &[Draw],
-    ) -> VkResult<Self> {
+    ) -> crate::Result<Self> {
         if raster != RasterMode::Graphics && layout != GbufferLayout::Visibility {
-            return Err(VkError::Limit(
-                "--raster compute writes the visibility buffer only; use --gbuffer visibility"
-                    .into(),
-            ));
+            return Err(SettingsError::new(
+                "--raster",
+                "--raster compute writes the visibility buffer only; use --gbuffer visibility",
+            )
+            .into());
         }
+        Ok(Self::create(
+            ctx, pass, frame, extent, layout, raster, draws,
+        )?)
+    }
+
+    /// [`Self::with_raster`] once the layout and the rasterizer are known to go together.
+    fn create(
+        ctx: &Context,
+        pass: &PassContext<'_>,
+        frame: &Buffer,
+        extent: vk::Extent2D,
+        layout: GbufferLayout,
+        raster: RasterMode,
+        draws: &[Draw],
+    ) -> VkResult<Self> {
         let set_layout = bindings(&[
             (io::BINDING_SCENE, Binding::UniformBuffer),
             (

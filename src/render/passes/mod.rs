@@ -3,6 +3,7 @@
 //! ([`super::drivers`]) run them. Temporal reuse, a technique of several passes with a sample
 //! cache they share, lives beside them in [`super::temporal`].
 
+pub mod draw_list;
 pub mod gbuffer;
 pub mod hybrid;
 pub mod raster_compute;

@@ -23,7 +23,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::gbuffer::Draw;
+use super::draw_list::Draw;
 use crate::render::PassContext;
 use crate::vk::{
     memory_barrier, Binding, Buffer, ComputePipeline, Context, DescriptorSet, Image,
@@ -62,7 +62,7 @@ impl RasterMode {
 #[serde(rename_all = "lowercase")]
 pub enum RasterChoice {
     /// The faster of the two on this device, measured once per device and driver
-    /// ([`crate::autotune`]); graphics under `RQR_NO_AUTOTUNE=1`.
+    /// ([`crate::device_select::autotune`]); graphics under `RQR_NO_AUTOTUNE=1`.
     #[default]
     Auto,
     /// The graphics pipeline.
@@ -159,9 +159,10 @@ impl ComputeRaster {
         atomics: DepthAtomics,
     ) -> VkResult<Self> {
         if atomics == DepthAtomics::Int64 && !ctx.features().buffer_int64_atomics {
-            return Err(VkError::Limit(
-                "the 64-bit atomic compute rasterizer needs shaderBufferInt64Atomics".into(),
-            ));
+            return Err(VkError::MissingFeature {
+                device: ctx.info().name.clone(),
+                feature: "shaderBufferInt64Atomics (the 64-bit atomic compute rasterizer)".into(),
+            });
         }
         let mut table = Vec::with_capacity(draws.len());
         let mut triangles = 0u64;
@@ -188,9 +189,13 @@ impl ComputeRaster {
             .ok()
             .filter(|&n| n < u32::MAX)
             .ok_or_else(|| {
-                VkError::Limit(format!(
-                    "the compute rasterizer numbers triangles in 32 bits; the scene draws {triangles}"
-                ))
+                VkError::Limit {
+                    what: format!(
+                        "the compute rasterizer numbers triangles in 32 bits; the scene draws {triangles}"
+                    ),
+                    needed: triangles,
+                    available: u64::from(u32::MAX) - 1,
+                }
             })?;
         let pixels = u64::from(extent.width) * u64::from(extent.height);
         let depth_bytes = pixels * 8;

@@ -101,7 +101,7 @@ impl SkinningPass {
         )?;
         let n = g.positions.len();
         if g.normals.len() != n {
-            return Err(VkError::Limit(format!(
+            return Err(VkError::Invalid(format!(
                 "skinning: geometry has {} normals for {n} positions",
                 g.normals.len()
             )));

@@ -1,4 +1,4 @@
-//! The texture-format measurement behind `--texture-format auto` (`rqr::autotune`): the same
+//! The texture-format measurement behind `--texture-format auto` (`rqr::device_select::autotune`): the same
 //! small synthetic texture as the device's block format (BC7, else ASTC 4x4) and as RGBA8,
 //! each sampled by one short dispatch (`shaders/texture_sampling.comp`), timed with GPU
 //! timestamps, the two alternating.

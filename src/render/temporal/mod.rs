@@ -68,7 +68,7 @@ use resources::{Resources, Visibility};
 use crate::interface::push_bytes;
 use crate::interface::reproject::*;
 use crate::render::frame::{CameraSetup, GpuFrame};
-use crate::render::passes::gbuffer;
+use crate::render::passes::draw_list;
 use crate::render::readback::{FrameRing, RingContents, RingSources};
 use crate::render::settings::{RenderPath, RenderSettings};
 use crate::render::{merge_scopes, RenderOutput, Renderer};
@@ -243,14 +243,14 @@ impl Reprojector {
     pub fn render(
         &mut self,
         ctx: &Context,
-        draws: &[gbuffer::Draw],
+        draws: &[draw_list::Draw],
         camera: &Camera,
     ) -> crate::Result<ReprojectedFrame> {
         let mut profiler = self.profiler.take();
         let readback = self
             .readback
             .take()
-            .ok_or_else(|| VkError::Limit("reprojection readback in use".into()))?;
+            .ok_or_else(|| VkError::Invalid("reprojection readback in use".into()))?;
         let recorded = ctx.run("reprojected frame", |cmd| {
             if let Some(p) = profiler.as_mut() {
                 p.reset(cmd);

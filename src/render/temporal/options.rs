@@ -5,7 +5,7 @@ use serde::Serialize;
 
 use crate::interface::reproject::*;
 use crate::render::passes::raytraced::{ray_counts, striped_sum};
-use crate::render::settings::{RenderSettings, SamplerKind};
+use crate::render::settings::{RenderSettings, SamplerKind, SettingsError};
 use crate::render::{RayCounts, RenderOutput};
 
 /// Rejection: |dot(cached − new position, new normal)| / view depth above this (ReBLUR, Bevy
@@ -36,9 +36,12 @@ pub const DEFAULT_SUBSAMPLE_THRESHOLD: f32 = 0.05;
 /// Checks that `settings` sample the way reuse between frames caches samples: one sample per
 /// pixel, at its centre. The one statement of the rule: [`super::Reprojector::new`] and the
 /// command line both check it.
-pub fn check_sampling(settings: &RenderSettings) -> Result<(), String> {
+pub fn check_sampling(settings: &RenderSettings) -> Result<(), SettingsError> {
     if settings.spp != 1 || settings.sampler != SamplerKind::Center {
-        return Err("--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1 --sampler center".into());
+        return Err(SettingsError::new(
+            if settings.spp != 1 { "--spp" } else { "--sampler" },
+            "--reproject, --frameless and --adaptive-subsample cache one sample per pixel: use --spp 1 --sampler center",
+        ));
     }
     Ok(())
 }
@@ -112,23 +115,32 @@ impl ReuseOptions {
     }
 
     /// Checks ranges.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SettingsError> {
         if let Some(p) = self.frameless_percent {
             if !(p > 0.0 && p <= 100.0) {
-                return Err(format!("--frameless {p} must be a percentage in (0, 100]"));
+                return Err(SettingsError::new(
+                    "--frameless",
+                    format!("--frameless {p} must be a percentage in (0, 100]"),
+                ));
             }
         }
         if let Some(k) = self.max_age {
             if k > MAX_CACHE_AGE {
-                return Err(format!(
-                    "--max-age {k} must be at most {MAX_CACHE_AGE} (cached samples count their age in 10 bits)"
+                return Err(SettingsError::new(
+                    "--max-age",
+                    format!(
+                        "--max-age {k} must be at most {MAX_CACHE_AGE} (cached samples count their age in 10 bits)"
+                    ),
                 ));
             }
         }
         if !(self.subsample_threshold.is_finite() && self.subsample_threshold >= 0.0) {
-            return Err(format!(
-                "--subsample-threshold {} must be a finite non-negative number",
-                self.subsample_threshold
+            return Err(SettingsError::new(
+                "--subsample-threshold",
+                format!(
+                    "--subsample-threshold {} must be a finite non-negative number",
+                    self.subsample_threshold
+                ),
             ));
         }
         Ok(())

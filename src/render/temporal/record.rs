@@ -15,7 +15,7 @@ impl Reprojector {
         &mut self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
-        draws: &[gbuffer::Draw],
+        draws: &[draw_list::Draw],
         camera: &Camera,
         mut profiler: Option<&mut GpuProfiler>,
         out: Option<(&FrameRing, u32)>,

@@ -13,7 +13,7 @@ use crate::interface::reproject::{
 };
 use crate::render::frame::GpuFrame;
 use crate::render::passes::gbuffer::{self, GbufferPass, GBUFFER_FORMATS};
-use crate::render::settings::{RenderPath, RenderSettings, SettingsError};
+use crate::render::settings::{RenderPath, RenderSettings};
 use crate::render::{PassContext, Renderer};
 use crate::vk::{Buffer, Context, Image, MemoryLocation, VkError, VkResult};
 
@@ -198,24 +198,29 @@ impl Reprojector {
             path,
             options.moving_geometry,
             ctx.allocated_bytes(),
-        )
-        .map_err(|e| VkError::Limit(e.to_string()))?;
-        options.validate().map_err(VkError::Limit)?;
-        check_sampling(settings).map_err(VkError::Limit)?;
+        )?;
+        options.validate()?;
+        check_sampling(settings)?;
         let subgroup = ctx.info().subgroup_size;
         if options.frameless_percent.is_some() && subgroup % REFRESH_SEGMENT != 0 {
-            return Err(VkError::Limit(format!(
-                "--frameless counts candidates per {REFRESH_SEGMENT}-pixel row segment with one cluster of subgroup invocations, but '{}' has subgroups of {subgroup}",
-                ctx.info().name
-            ))
+            return Err(VkError::MissingFeature {
+                device: ctx.info().name.clone(),
+                feature: format!(
+                    "subgroups of a multiple of {REFRESH_SEGMENT} invocations (it has {subgroup}; --frameless counts candidates per {REFRESH_SEGMENT}-pixel row segment with one cluster of subgroup invocations)"
+                ),
+            }
             .into());
         }
         let materials = renderer.pass_context().scene.materials.size()
             / std::mem::size_of::<crate::scene::layout::GpuMaterial>() as u64;
         if options.reuses() && materials > u64::from(MAX_CACHE_MATERIALS) {
-            return Err(VkError::Limit(format!(
-                "reprojection caches a 16-bit material index per sample: the scene has {materials} materials (at most {MAX_CACHE_MATERIALS})"
-            ))
+            return Err(VkError::Limit {
+                what: format!(
+                    "reprojection caches a 16-bit material index per sample: the scene has {materials} materials (at most {MAX_CACHE_MATERIALS})"
+                ),
+                needed: materials,
+                available: MAX_CACHE_MATERIALS.into(),
+            }
             .into());
         }
         Ok(())
@@ -285,7 +290,7 @@ impl Reprojector {
         path: RenderPath,
         moving_geometry: bool,
         in_use: u64,
-    ) -> Result<(), SettingsError> {
+    ) -> crate::Result<()> {
         settings.check_device(info, path, false, in_use)?;
         let mib = |b: u64| b.div_ceil(1 << 20);
         let (w, h) = (settings.width, settings.height);
@@ -293,18 +298,24 @@ impl Reprojector {
         let largest = Self::largest_buffer_bytes(settings);
         let allocation = info.max_memory_allocation_size;
         if largest > allocation {
-            return Err(SettingsError(format!(
+            return Err(VkError::Limit {
+                what: format!(
                 "resolution {w}x{h} with reuse between frames needs a {} MiB sample cache ({CACHE_ENTRY_BYTES} bytes per pixel), but '{}' allocates at most {} MiB at once (maxMemoryAllocationSize); {fix}",
                 mib(largest),
                 info.name,
                 mib(allocation)
-            )));
+            ),
+                needed: largest,
+                available: allocation,
+            }
+            .into());
         }
         let cache = Self::estimate_bytes(settings, moving_geometry);
         let full = settings.estimate_bytes(path, false);
         let heap = info.largest_device_heap();
         if cache.saturating_add(full).saturating_add(in_use) > heap {
-            return Err(SettingsError(format!(
+            return Err(VkError::Limit {
+                what: format!(
                 "{w}x{h} with reuse between frames needs about {} MiB of device memory for the sample cache and its per-pixel buffers{} plus {} MiB for a full render, on top of {} MiB in use, more than the {} MiB device heap of '{}'; {fix}",
                 mib(cache),
                 if moving_geometry {
@@ -316,7 +327,11 @@ impl Reprojector {
                 mib(in_use),
                 mib(heap),
                 info.name
-            )));
+            ),
+                needed: cache.saturating_add(full).saturating_add(in_use),
+                available: heap,
+            }
+            .into());
         }
         Ok(())
     }

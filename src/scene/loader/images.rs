@@ -1,6 +1,7 @@
 //! Textures, samplers and images: where the encoded bytes come from, and decoding them.
 
 use super::*;
+use crate::scene::decoded::Decoded;
 
 /// Where an image's encoded bytes come from.
 pub(super) enum ImageBytes<'a> {
@@ -190,7 +191,7 @@ impl Loader<'_> {
         let next = std::sync::atomic::AtomicUsize::new(0);
         let jobs_ref = &jobs;
         let next_ref = &next;
-        let results: Vec<(usize, Result<img::Decoded, String>)> = std::thread::scope(|s| {
+        let results: Vec<(usize, Result<Decoded, String>)> = std::thread::scope(|s| {
             let handles: Vec<_> = (0..threads)
                 .map(|_| {
                     s.spawn(move || {
@@ -220,7 +221,7 @@ impl Loader<'_> {
                 .collect()
         });
         drop(jobs);
-        let mut decoded: HashMap<usize, img::Decoded> = HashMap::new();
+        let mut decoded: HashMap<usize, Decoded> = HashMap::new();
         let mut first_error: Option<(usize, String)> = None;
         for (i, r) in results {
             match r {

@@ -22,8 +22,10 @@ use serde::Serialize;
 
 use crate::render::drivers::targets::FrameTargets;
 use crate::render::image::compare;
-use crate::render::passes::gbuffer::{self, Draw};
+use crate::render::passes::draw_list::{self, Draw};
+use crate::render::passes::gbuffer;
 use crate::render::readback::{FrameRing, RingContents};
+use crate::render::settings::SettingsError;
 use crate::render::temporal::{PixelSource, ReprojectedFrame, Reprojector, ReuseStats};
 use crate::render::{merge_scopes, RenderOutput, RenderSettings, Renderer};
 use crate::scene::{Camera, Scene};
@@ -130,10 +132,13 @@ impl Sequence {
         options: SequenceOptions,
     ) -> crate::Result<Self> {
         if options.reuse.any() && settings.denoise.enabled() {
-            return Err(VkError::Limit(format!(
-                "--denoise {} filters full renders; it cannot be combined with temporal reuse (--reproject, --frameless, --subsample)",
-                settings.denoise.as_str()
-            ))
+            return Err(crate::SettingsError::new(
+                "--denoise",
+                format!(
+                    "--denoise {} filters full renders; it cannot be combined with temporal reuse (--reproject, --frameless, --subsample)",
+                    settings.denoise.as_str()
+                ),
+            )
             .into());
         }
         // Before anything is allocated: the frame's buffers, and with reuse the sample cache
@@ -149,8 +154,7 @@ impl Sequence {
             )
         } else {
             settings.check_device(ctx.info(), options.path, false, in_use)
-        }
-        .map_err(|e| VkError::Limit(e.to_string()))?;
+        }?;
         let reprojector = if options.reuse.any() {
             Some(Reprojector::new(
                 ctx,
@@ -169,7 +173,7 @@ impl Sequence {
         if options.reuse.any() {
             settings.gbuffer = gbuffer::GbufferLayout::Full;
         }
-        let draws = gbuffer::draws(scene);
+        let draws = draw_list::draws(scene);
         let full = FrameTargets::new(ctx, renderer, options.path, &settings, &draws, false)?;
         let burst = BurstResources::new(
             ctx,
@@ -262,7 +266,7 @@ impl Sequence {
         scene: &Scene,
         base: Camera,
     ) -> crate::Result<()> {
-        self.draws = gbuffer::draws(scene);
+        self.draws = draw_list::draws(scene);
         // The denoiser's history carries over, as the sample cache does.
         self.full.rebuild(ctx, renderer, &self.draws)?;
         if let Some(r) = self.reprojector.as_mut() {
@@ -304,7 +308,7 @@ impl Sequence {
         let mut frames = self.render_burst(ctx, index..index.saturating_add(1))?;
         frames
             .pop()
-            .ok_or_else(|| VkError::Limit("empty frame range".into()).into())
+            .ok_or_else(|| VkError::Invalid("a one-frame burst rendered no frame".into()).into())
     }
 
     /// Renders frames `frames` back to back in one submission, no host work between them
@@ -318,10 +322,13 @@ impl Sequence {
     ) -> crate::Result<Vec<SequenceFrame>> {
         let count = frames.end.saturating_sub(frames.start);
         if count == 0 || count > self.burst_capacity() {
-            return Err(VkError::Limit(format!(
-                "a burst of {count} frames does not fit the prepared {} (Sequence::prepare_bursts)",
-                self.burst_capacity()
-            ))
+            return Err(SettingsError::new(
+                "--burst",
+                format!(
+                    "a burst of {count} frames does not fit the prepared {} (Sequence::prepare_bursts)",
+                    self.burst_capacity()
+                ),
+            )
             .into());
         }
         if self.next != Some(frames.start) {

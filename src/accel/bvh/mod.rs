@@ -25,6 +25,7 @@ pub mod locality;
 pub mod refit;
 mod relink;
 pub mod sah;
+#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 #[cfg(test)]
 mod tests;
@@ -157,7 +158,7 @@ impl BvhBuild {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhBuildChoice {
-    /// Decided by measurement where the CLI resolves it ([`crate::autotune`]: the faster of
+    /// Decided by measurement where the CLI resolves it ([`crate::device_select::autotune`]: the faster of
     /// both builds on a fixed mesh, ties to the host). Without a measurement
     /// ([`BvhBuildChoice::resolve`], `RQR_NO_AUTOTUNE=1`): the GPU build on discrete and
     /// integrated GPUs, the host build elsewhere (CPU devices such as lavapipe).
@@ -378,7 +379,7 @@ impl GpuBvh {
         // The shader reads every record as 64-bit words.
         for b in [&nodes, &triangles, &instances] {
             if b.address() % 8 != 0 {
-                return Err(BvhError::Vk(VkError::Limit(format!(
+                return Err(BvhError::Vk(VkError::Invalid(format!(
                     "BVH buffer at {:#x} is not 8-byte aligned",
                     b.address()
                 ))));

@@ -41,8 +41,8 @@ pub const CACHE_FORMAT: u32 = 3;
 /// and a dispatch of well under a millisecond on a GPU varies by more than a few percent
 /// between runs. (lavapipe decodes BC7 in software: RGBA8 measures about 4x faster there.)
 pub const TEXTURE_RGBA8_MARGIN: f64 = 1.25;
-/// Stacks (and slices) of the sphere whose BVH builds are timed (2 · 128 · 127 = 32 512
-/// triangles).
+/// Segments (and rings) of the sphere ([`crate::scene::procedural::sphere`]) whose BVH builds
+/// are timed (128 · (2 · 128 − 2) = 32 512 triangles).
 pub const BUILD_MESH_STACKS: u32 = 128;
 /// Image side of the measured frames.
 pub const MEASURE_SIZE: u32 = 256;
@@ -51,9 +51,28 @@ pub const MEASURE_FRAMES: u32 = 5;
 /// Environment variable that turns measurement off (`1`).
 pub const NO_AUTOTUNE_ENV: &str = "RQR_NO_AUTOTUNE";
 
-/// What the micro-benchmark measured on one device (declared with the probe's device report,
-/// which carries it).
-pub use crate::vk::AutotuneMeasurement as Measurement;
+/// What the micro-benchmark measured on one device (GPU milliseconds, median of
+/// [`MEASURE_FRAMES`] frames).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Measurement {
+    /// Ray-traced frame (default depth) on `hw`; `None` without ray queries.
+    pub rt_hw_ms: Option<f64>,
+    /// The same frame on `bvh`.
+    pub rt_bvh_ms: f64,
+    /// Hybrid visibility pass on the graphics pipeline.
+    pub visibility_graphics_ms: f64,
+    /// Hybrid visibility pass on the compute rasterizer.
+    pub visibility_compute_ms: f64,
+    /// Whole host build of the fixed mesh's BVH (wall milliseconds, upload included).
+    pub bvh_host_build_ms: f64,
+    /// Whole GPU build of the same BVH (wall milliseconds).
+    pub bvh_gpu_build_ms: f64,
+    /// Trilinear sampling of a small texture in one short dispatch, the texture in the
+    /// device's block format (BC7, else ASTC 4x4); `None` where the device samples neither.
+    pub texture_block_ms: Option<f64>,
+    /// The same dispatch over the same texture as RGBA8.
+    pub texture_rgba8_ms: f64,
+}
 
 /// The choices `auto` resolves to, with reasons.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -429,7 +448,7 @@ pub fn decision_with_cache(ctx: &Context, path: Option<PathBuf>) -> Decision {
 
 /// Times the fixed workload on `ctx` (see the module docs).
 pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
-    use crate::render::passes::gbuffer;
+    use crate::render::passes::draw_list;
     use crate::render::{RenderSettings, Renderer};
     let scene = crate::scene::load_default()?;
     let camera = scene
@@ -437,7 +456,7 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
         .first()
         .copied()
         .unwrap_or_else(|| crate::scene::auto_camera(&scene.bounds, 1.0));
-    let draws = gbuffer::draws(&scene);
+    let draws = draw_list::draws(&scene);
     let settings = RenderSettings {
         width: MEASURE_SIZE,
         height: MEASURE_SIZE,
@@ -519,9 +538,12 @@ pub fn measure(ctx: &Context) -> crate::Result<Measurement> {
 /// Wall milliseconds of the whole host and GPU builds of the fixed sphere's BVH (minimum of
 /// [`MEASURE_FRAMES`] builds each, after one warm-up build that also compiles the pipelines).
 fn measure_builds(ctx: &Context) -> crate::Result<(f64, f64)> {
-    use crate::accel::bvh::{testing, BvhBuildOptions, GpuBvh};
-    let sphere = testing::uv_sphere(BUILD_MESH_STACKS, BUILD_MESH_STACKS, 1.0);
-    let scene = testing::scene_of(vec![sphere], Vec::new());
+    use crate::accel::bvh::{BvhBuildOptions, GpuBvh};
+    let scene = crate::scene::procedural::single_mesh(crate::scene::procedural::sphere(
+        0,
+        BUILD_MESH_STACKS,
+        BUILD_MESH_STACKS,
+    ));
     let opts = BvhBuildOptions::default();
     let mut best = [f64::INFINITY; 2];
     for (slot, build) in [BvhBuild::Host, BvhBuild::Gpu].into_iter().enumerate() {

@@ -1,4 +1,9 @@
-//! Which GPU a process renders on when a cluster scheduler assigned one.
+//! Which device a run uses and what `auto` picks on it, above the Vulkan layer (which only
+//! reports what devices offer): the GPU a cluster scheduler assigned (this module), the
+//! choices `auto` makes by measurement ([`autotune`]), and `rqr probe`'s report of both
+//! ([`report`]).
+//!
+//! ## The GPU a cluster scheduler assigned
 //!
 //! Vulkan ignores `CUDA_VISIBLE_DEVICES`, which is how Slurm (`--gres=gpu`), Ray, Dask and
 //! the NVIDIA container runtime (`NVIDIA_VISIBLE_DEVICES`) hand a GPU to a process; without
@@ -17,6 +22,9 @@
 //!
 //! An explicit `--device` always wins. The device list is passed in, so the rules are
 //! testable without GPUs.
+
+pub mod autotune;
+pub mod report;
 
 use crate::vk::{DeviceInfo, DeviceSelector};
 
@@ -160,9 +168,8 @@ pub fn resolve(
     if *requested != DeviceSelector::Auto || VISIBLE_DEVICES_VARS.iter().all(|v| env(v).is_none()) {
         return Ok(requested.clone());
     }
-    let report =
-        crate::vk::probe_devices(&DeviceSelector::Auto, crate::accel::BackendChoice::Auto)?;
-    let choice = choose(requested, &env, &report.devices)?;
+    let list = crate::vk::describe_devices(&DeviceSelector::Auto)?;
+    let choice = choose(requested, &env, &list.devices)?;
     if let Some(w) = &choice.warning {
         log::warn!("{w}");
     }

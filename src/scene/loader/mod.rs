@@ -17,7 +17,7 @@ use super::camera::{camera_pose, default_lights};
 use super::compression;
 use super::draco;
 use super::error::SceneError;
-use super::extensions::{self, ExtensionSupport};
+use super::extensions::{self, ExtensionStatus, ExtensionSupport};
 use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topology};
 use super::image::{self as img, MAX_IMAGE_SIZE};
 use super::pose::{self, Rig};
@@ -207,13 +207,45 @@ fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
     }
 }
 
+/// Fails with [`SceneError::UnsupportedExtensions`] when a required extension is not
+/// implemented; else warns once about the ignored ones and returns every extension's status.
+fn check_extensions_of(
+    file: &str,
+    used: &[String],
+    required: &[String],
+) -> Result<Vec<ExtensionStatus>, SceneError> {
+    let all = extensions::classify(used, required);
+    let names = |s: ExtensionSupport| -> Vec<String> {
+        all.iter()
+            .filter(|e| e.status == s)
+            .map(|e| e.name.clone())
+            .collect()
+    };
+    let refused = names(ExtensionSupport::UnsupportedRequired);
+    if !refused.is_empty() {
+        return Err(SceneError::UnsupportedExtensions {
+            file: file.to_string(),
+            extensions: refused,
+            all,
+        });
+    }
+    let ignored = names(ExtensionSupport::Ignored);
+    if !ignored.is_empty() {
+        log::warn!(
+            "{file}: ignoring unsupported glTF extension(s): {}",
+            ignored.join(", ")
+        );
+    }
+    Ok(all)
+}
+
 impl Loader<'_> {
     pub(super) fn err(&self, element: impl Into<String>, message: impl Into<String>) -> SceneError {
         SceneError::element(&self.file, element, message)
     }
 
     fn check_extensions(&mut self) -> Result<(), SceneError> {
-        let all = extensions::check(
+        let all = check_extensions_of(
             &self.file,
             &self.root.extensions_used,
             &self.root.extensions_required,
