@@ -164,11 +164,7 @@ fn main() -> Result<()> {
     let single = {
         let s = settings(DenoiseMode::Svgf, 1, side);
         let mut t = FrameTargets::new(&ctx, &renderer, RenderPath::RayTraced, &s, &[], true)?;
-        let mut out = None;
-        for k in [last as u32] {
-            out = Some(render_numbered(&ctx, &mut t, &camera, k)?);
-        }
-        out.unwrap()
+        render_numbered(&ctx, &mut t, &camera, last as u32)?
     };
     // Guides of frame 30 for OIDN: albedo and normal of the same samples.
     let guides = {
