@@ -264,13 +264,18 @@ mod tests {
             names,
             [
                 "interface_bvh.glsl",
+                "interface_denoise.glsl",
                 "interface_environment.glsl",
                 "interface_passes.glsl",
                 "interface_reproject.glsl",
                 "interface_shared.glsl"
             ]
         );
-        let shared = crate::shaders::INTERFACE_GLSL[4].1;
+        let shared = crate::shaders::INTERFACE_GLSL
+            .iter()
+            .find(|h| h.0 == "interface_shared.glsl")
+            .unwrap()
+            .1;
         assert!(shared.contains(&format!("#define BINDING_FRAME {BINDING_FRAME}u")));
         assert!(shared.contains("struct GpuFrame {"));
     }

@@ -102,18 +102,21 @@ fn info_fails_cleanly_on_bad_input() {
     std::fs::write(&broken, b"glTF\x02\0\0\0\xff\0\0\0JSON").unwrap();
     let missing = dir.join("missing.gltf");
     let sparse = scene_files::asset("SimpleSparseAccessor/SimpleSparseAccessor.gltf");
-    for (args, needle) in [
-        (vec!["info", missing.to_str().unwrap()], "missing.gltf"),
-        (vec!["info", broken.to_str().unwrap()], "truncated GLB"),
+    // Exit 1: the file is missing, broken or lacks the scene; exit 2: a usage mistake (the
+    // built-in scene has one scene whatever the file system holds).
+    for (args, needle, code) in [
+        (vec!["info", missing.to_str().unwrap()], "missing.gltf", 1),
+        (vec!["info", broken.to_str().unwrap()], "truncated GLB", 1),
         (
             vec!["info", sparse.to_str().unwrap(), "--scene", "3"],
             "scene 3",
+            1,
         ),
-        (vec!["info", "--scene", "1"], "built-in"),
+        (vec!["info", "--scene", "1"], "built-in", 2),
     ] {
         let out = rqr(&args);
         let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: '{needle}' not in {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
         assert!(out.stdout.is_empty());

@@ -382,8 +382,9 @@ fn cli_renders_animated_frames_on_both_backends() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert!(dir.join(format!("r_{backend}_0001.png")).exists());
     }
+    // A usage mistake (exit 2, as clap's), not a failed render.
     let o = run(&["--animation-update", "rebuild"], "rr.png");
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--animation-update refit"));
     std::fs::remove_dir_all(&dir).ok();
 }
