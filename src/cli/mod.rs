@@ -21,6 +21,7 @@ mod probe;
 mod progress;
 mod quality;
 mod render;
+mod report_charts;
 mod report_html;
 
 /// Exit code for "no Vulkan loader or no device".

@@ -259,7 +259,7 @@ pub fn error_against_time(
         .collect::<Result<_, _>>()?;
     std::fs::write(
         dir.join("quality.svg"),
-        super::report_html::quality_svg(&rows_json),
+        super::report_charts::quality_svg(&rows_json),
     )
     .with_context(|| format!("cannot write '{}'", dir.join("quality.svg").display()))?;
     // report.json and report.html (written before the ladder) gain its rows and chart.
