@@ -156,7 +156,7 @@ fn main() -> Result<()> {
         let pairs = &frames[20..];
         pairs
             .windows(2)
-            .map(|w| mean_abs_diff(&w[0].output.color, &w[1].output.color))
+            .map(|w| compare::display_mean_abs_diff(&w[0].output.color, &w[1].output.color))
             .sum::<f64>()
             / (pairs.len() - 1) as f64
     };
@@ -186,10 +186,10 @@ fn main() -> Result<()> {
         )?;
     }
     let static_report = json!({
-        "mse_raw_1spp": mse(&raw[last].output.color, &reference.color),
-        "mse_raw_16spp": mse(&sixteen.color, &reference.color),
-        "mse_denoised_single_frame": mse(&single.color, &reference.color),
-        "mse_denoised_frame_30": mse(&denoised[last].output.color, &reference.color),
+        "mse_raw_1spp": compare::display_mse(&raw[last].output.color, &reference.color),
+        "mse_raw_16spp": compare::display_mse(&sixteen.color, &reference.color),
+        "mse_denoised_single_frame": compare::display_mse(&single.color, &reference.color),
+        "mse_denoised_frame_30": compare::display_mse(&denoised[last].output.color, &reference.color),
         "stability_raw": stability(&raw),
         "stability_denoised": stability(&denoised),
     });
@@ -478,37 +478,6 @@ fn write(dir: &Path, name: &str, out: &RenderOutput) -> Result<()> {
     output::write_color_pfm(&dir.join(format!("{name}.pfm")), out)?;
     output::write_png(&dir.join(format!("{name}.png")), out)?;
     Ok(())
-}
-
-/// Mean squared error of linear colours clamped to [0, 1] (as displayed), as the tests compute it.
-fn mse(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    let sum: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| {
-            (0..3)
-                .map(|c| {
-                    (f64::from(x[c].clamp(0.0, 1.0)) - f64::from(y[c].clamp(0.0, 1.0))).powi(2)
-                })
-                .sum::<f64>()
-                / 3.0
-        })
-        .sum();
-    sum / a.len() as f64
-}
-
-fn mean_abs_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    let sum: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| {
-            (0..3)
-                .map(|c| (f64::from(x[c].clamp(0.0, 1.0)) - f64::from(y[c].clamp(0.0, 1.0))).abs())
-                .sum::<f64>()
-                / 3.0
-        })
-        .sum();
-    sum / a.len() as f64
 }
 
 /// Static camera on an animated scene: frame k shows the animation at k / 30 s. Pixels the

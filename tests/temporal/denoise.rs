@@ -75,24 +75,6 @@ fn targets(
     FrameTargets::new(ctx, renderer, path, s, &draw_list::draws(scene), true).unwrap()
 }
 
-/// Mean squared error of linear colours (clamped to [0, 1], as displayed), over pixels.
-fn mse(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    let sum: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| {
-            (0..3)
-                .map(|c| {
-                    let d = f64::from(x[c].clamp(0.0, 1.0)) - f64::from(y[c].clamp(0.0, 1.0));
-                    d * d
-                })
-                .sum::<f64>()
-                / 3.0
-        })
-        .sum();
-    sum / a.len() as f64
-}
-
 /// Writes `target/denoise-tests/<name>-actual.png` and `-diff.png` (FLIP heatmap against
 /// `reference`) for a failing comparison, and returns the folder.
 fn save_failure(name: &str, actual: &RenderOutput, reference: &RenderOutput) -> String {
@@ -217,8 +199,8 @@ fn the_spatial_filter_lowers_the_error_of_one_frame() {
         .render(&ctx, &camera)
         .unwrap();
         let (e_raw, e_svgf) = (
-            mse(&raw.color, &truth.color),
-            mse(&svgf.color, &truth.color),
+            compare::display_mse(&raw.color, &truth.color),
+            compare::display_mse(&svgf.color, &truth.color),
         );
         // On the room's diffuse walls (instances 0-4) the filter has the most to do; the
         // mirror and glass spheres' sharp reflections are left to accumulation over frames.
@@ -231,8 +213,8 @@ fn the_spatial_filter_lowers_the_error_of_one_frame() {
                 .collect()
         };
         let (w_raw, w_svgf) = (
-            mse(&walls(&raw), &walls(&truth)),
-            mse(&walls(&svgf), &walls(&truth)),
+            compare::display_mse(&walls(&raw), &walls(&truth)),
+            compare::display_mse(&walls(&svgf), &walls(&truth)),
         );
         if e_svgf >= 0.9 * e_raw || w_svgf >= 0.6 * w_raw {
             let dir = save_failure(&format!("one-frame-{}", path.as_str()), &svgf, &truth);
@@ -292,8 +274,8 @@ fn thirty_accumulated_frames_beat_sixteen_samples_per_pixel() {
     }
     let last = last.unwrap();
     let (e16, e30) = (
-        mse(&sixteen.color, &truth.color),
-        mse(&last.output.color, &truth.color),
+        compare::display_mse(&sixteen.color, &truth.color),
+        compare::display_mse(&last.output.color, &truth.color),
     );
     if e30 > e16 {
         let dir = save_failure("thirty-frames", &last.output, &truth);

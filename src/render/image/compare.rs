@@ -75,9 +75,47 @@ pub fn compare(width: u32, height: u32, reference_rgba: &[u8], test_rgba: &[u8])
     }
 }
 
+/// Mean over pixels of `f` applied to each channel pair of two linear images, clamped to
+/// [0, 1] (as a display shows them: an HDR difference is dominated by a few bright pixels).
+fn display_mean(a: &[[f32; 4]], b: &[[f32; 4]], f: impl Fn(f64) -> f64) -> f64 {
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| {
+            (0..3)
+                .map(|c| f(f64::from(x[c].clamp(0.0, 1.0)) - f64::from(y[c].clamp(0.0, 1.0))))
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum();
+    sum / a.len().max(1) as f64
+}
+
+/// Mean squared error of two linear colour images clamped to [0, 1] (denoiser benchmarks and
+/// tests).
+pub fn display_mse(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    display_mean(a, b, |d| d * d)
+}
+
+/// Mean absolute difference of two linear colour images clamped to [0, 1] (frame-to-frame
+/// stability).
+pub fn display_mean_abs_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    display_mean(a, b, f64::abs)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn display_errors_clamp_to_the_displayed_range() {
+        let a = [[0.5, 0.5, 0.5, 1.0], [2.0, 0.0, 1.0, 1.0]];
+        let b = [[1.5, 0.5, 0.0, 1.0], [1.0, 0.0, 1.0, 1.0]];
+        // Pixel 0: 1.5 clamps to 1 (d 0.5), 0 against 0.5 (d 0.5); pixel 1: 2 clamps to 1.
+        assert!((display_mse(&a, &b) - (0.25 + 0.25) / 3.0 / 2.0).abs() < 1e-12);
+        assert!((display_mean_abs_diff(&a, &b) - 1.0 / 3.0 / 2.0).abs() < 1e-12);
+        assert_eq!(display_mse(&[], &[]), 0.0);
+    }
 
     fn checker(w: u32, h: u32, invert_at: Option<(u32, u32)>) -> Vec<u8> {
         let mut v = Vec::new();
