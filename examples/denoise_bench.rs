@@ -310,56 +310,18 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// A rough metal sphere (roughness 0.35) on the floor of the scene's bounds, a fifth of their
-/// width across.
-fn add_rough_sphere(scene: &mut Scene) {
-    let material = scene.materials.len() as u32;
-    scene.materials.push(Material {
-        name: "rough metal".into(),
-        base_color: Vec4::new(0.9, 0.75, 0.55, 1.0),
-        metallic: 1.0,
-        roughness: 0.35,
-        ..Default::default()
-    });
-    let geometry = scene.geometries.len() as u32;
-    scene
-        .geometries
-        .push(rqr::scene::procedural::sphere(material, 64, 32));
-    let b = scene.bounds;
-    let size = b.max - b.min;
-    let radius = 0.1 * size.x.min(size.z);
-    let centre = Vec3::new(
-        b.min.x + 0.3 * size.x,
-        b.min.y + radius,
-        b.min.z + 0.6 * size.z,
-    );
-    scene.instances.push(Instance {
-        geometry,
-        transform: Mat4::from_translation(centre) * Mat4::from_scale(Vec3::splat(radius)),
-        node: 0,
-    });
-}
-
-/// A grey Lambert floor under the scene's bounds, ten times their width.
-fn add_floor(scene: &mut Scene) {
-    let material = scene.materials.len() as u32;
-    scene.materials.push(Material {
-        name: "floor".into(),
-        base_color: Vec4::new(0.6, 0.6, 0.6, 1.0),
-        metallic: 0.0,
-        roughness: 1.0,
-        ..Default::default()
-    });
-    let geometry = scene.geometries.len() as u32;
-    scene
-        .geometries
-        .push(rqr::scene::procedural::quad(material));
-    let b = scene.bounds;
-    let size = (b.max - b.min).max_element() * 10.0;
-    let centre = 0.5 * (b.min + b.max);
-    let transform = Mat4::from_translation(Vec3::new(centre.x, b.min.y, centre.z))
-        * Mat4::from_scale(Vec3::new(size, 1.0, size));
-    // A node of its own that no scene root reaches: posing leaves it at the identity.
+/// Adds `geometry` made of `material` to `scene` at `transform`, under a node of its own that
+/// no scene root reaches (posing an animated scene leaves it where it is).
+fn add_object(
+    scene: &mut Scene,
+    material: Material,
+    geometry: impl FnOnce(u32) -> rqr::scene::Geometry,
+    transform: Mat4,
+) {
+    let material_index = scene.materials.len() as u32;
+    scene.materials.push(material);
+    let geometry_index = scene.geometries.len() as u32;
+    scene.geometries.push(geometry(material_index));
     let node = scene.rig.nodes.len();
     scene.rig.nodes.push(rqr::scene::pose::RigNode {
         parent: None,
@@ -369,10 +331,54 @@ fn add_floor(scene: &mut Scene) {
     });
     scene.rig.instance_local.push(transform);
     scene.instances.push(Instance {
-        geometry,
+        geometry: geometry_index,
         transform,
         node,
     });
+}
+
+/// A rough metal sphere (roughness 0.35) on the floor of the scene's bounds, a fifth of their
+/// width across.
+fn add_rough_sphere(scene: &mut Scene) {
+    let b = scene.bounds;
+    let size = b.max - b.min;
+    let radius = 0.1 * size.x.min(size.z);
+    let centre = Vec3::new(
+        b.min.x + 0.3 * size.x,
+        b.min.y + radius,
+        b.min.z + 0.6 * size.z,
+    );
+    let metal = Material {
+        name: "rough metal".into(),
+        base_color: Vec4::new(0.9, 0.75, 0.55, 1.0),
+        metallic: 1.0,
+        roughness: 0.35,
+        ..Default::default()
+    };
+    let transform = Mat4::from_translation(centre) * Mat4::from_scale(Vec3::splat(radius));
+    add_object(
+        scene,
+        metal,
+        |m| rqr::scene::procedural::sphere(m, 64, 32),
+        transform,
+    );
+}
+
+/// A grey Lambert floor under the scene's bounds, ten times their width.
+fn add_floor(scene: &mut Scene) {
+    let b = scene.bounds;
+    let size = (b.max - b.min).max_element() * 10.0;
+    let centre = 0.5 * (b.min + b.max);
+    let floor = Material {
+        name: "floor".into(),
+        base_color: Vec4::new(0.6, 0.6, 0.6, 1.0),
+        metallic: 0.0,
+        roughness: 1.0,
+        ..Default::default()
+    };
+    let transform = Mat4::from_translation(Vec3::new(centre.x, b.min.y, centre.z))
+        * Mat4::from_scale(Vec3::new(size, 1.0, size));
+    add_object(scene, floor, rqr::scene::procedural::quad, transform);
 }
 
 /// `frames` frames of `path` (one by one).

@@ -267,7 +267,7 @@ pub fn error_against_time(
     if let Ok(text) = std::fs::read_to_string(&report_path) {
         let mut full: serde_json::Value = serde_json::from_str(&text)
             .with_context(|| format!("cannot parse '{}'", report_path.display()))?;
-        full["quality"] = json!({ "reference_spp": reference_spp, "rows": &rows });
+        full["quality"] = json!({ "reference_spp": reference_spp, "rows": &rows_json });
         std::fs::write(&report_path, serde_json::to_string_pretty(&full)?)
             .with_context(|| format!("cannot write '{}'", report_path.display()))?;
         super::report_html::write(dir, &full)?;

@@ -32,8 +32,6 @@ pub struct DenoiseGuide {
 pub const DN_WEIGHTED_COLOR: u32 = 1;
 /// The previous frame's history may be reprojected (else every pixel starts again).
 pub const DN_HISTORY: u32 = 2;
-/// Filter spatially (variance estimate and à-trous iterations); else temporal accumulation only.
-pub const DN_SPATIAL: u32 = 4;
 
 /// Per-pixel surface the denoiser keeps from frame to frame to test its history against.
 #[repr(C)]

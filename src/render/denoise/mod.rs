@@ -31,7 +31,7 @@ use glam::Mat4;
 
 use crate::interface::denoise::{
     DenoiseAtrousPush, DenoiseHistory, DenoiseMoments, DenoiseParams, DenoiseSurface,
-    BINDING_DENOISE_PARAMS, DN_HISTORY, DN_SPATIAL, DN_WEIGHTED_COLOR,
+    BINDING_DENOISE_PARAMS, DN_HISTORY, DN_WEIGHTED_COLOR,
 };
 use crate::interface::{self as io, bindings, push_bytes};
 use crate::render::{GpuFrame, PassContext, RenderSettings};
@@ -298,9 +298,6 @@ impl Denoiser {
         }
         if previous.is_some() {
             flags |= DN_HISTORY;
-        }
-        if spatial {
-            flags |= DN_SPATIAL;
         }
         let params = DenoiseParams {
             view_proj: view_proj.to_cols_array(),
