@@ -2,13 +2,14 @@
 //! converged reference rendered in batches of 16 samples, at `--size`² and 1 spp per frame,
 //! distributed shading, ray-traced path:
 //!
-//! - static camera, 30 frames: MSE of the denoised frame 30 against raw 16 spp;
+//! - static camera, 30 frames: MSE of the denoised frame 30 (and of the temporal accumulation
+//!   alone) against raw 16 spp;
 //! - temporal stability: mean absolute difference of consecutive output frames (20..30),
 //!   denoised against raw;
 //! - camera motion: 60 frames of `orbit:0.5`, mean FLIP against per-frame references (every
 //!   10th frame), denoised against raw;
-//! - cost: the denoiser's passes against the whole 1-spp frame at `--cost-size`², GPU
-//!   timestamps over a burst after a warm-up;
+//! - cost: the denoised 1-spp frame's GPU time over the raw one's at `--cost-size`², with a
+//!   still and an orbiting camera (bursts after a warm-up), and the denoiser's passes apart;
 //! - with `--ghosting` (an animated scene, static camera): mean FLIP, against per-frame
 //!   references, of the pixels the moving object left 4 frames earlier, and the lag.
 //!
@@ -71,6 +72,7 @@ const ORBIT_FRAMES: u32 = 60;
 const ORBIT_DEG: f32 = 0.5;
 const GHOST_FRAMES: u32 = 24;
 const GHOST_LAG: u32 = 4;
+const MAX_LAG: u32 = 8;
 
 fn main() -> Result<()> {
     env_logger::init();
@@ -142,6 +144,15 @@ fn main() -> Result<()> {
         CameraPath::Static,
         STATIC_FRAMES,
     )?;
+    let accumulated = sequence(
+        &ctx,
+        &renderer,
+        &scene,
+        &settings(DenoiseMode::Temporal, 1, side),
+        camera,
+        CameraPath::Static,
+        STATIC_FRAMES,
+    )?;
     let raw = sequence(
         &ctx,
         &renderer,
@@ -190,6 +201,7 @@ fn main() -> Result<()> {
         "mse_raw_16spp": compare::display_mse(&sixteen.color, &reference.color),
         "mse_denoised_single_frame": compare::display_mse(&single.color, &reference.color),
         "mse_denoised_frame_30": compare::display_mse(&denoised[last].output.color, &reference.color),
+        "mse_temporal_frame_30": compare::display_mse(&accumulated[last].output.color, &reference.color),
         "stability_raw": stability(&raw),
         "stability_denoised": stability(&denoised),
     });
@@ -242,60 +254,35 @@ fn main() -> Result<()> {
         "frames_compared": n,
     });
 
-    // Cost at --cost-size: a burst after a warm-up.
-    let cost = {
-        let s = settings(DenoiseMode::Svgf, 1, args.cost_size);
-        let mut seq = Sequence::new(
+    // Cost at --cost-size: bursts after a warm-up, denoised and not, still and orbiting. The
+    // denoiser's cost is the denoised frame's GPU time over the raw one's (that includes the
+    // pixel-centre ray the shading passes add for it), and its passes are listed apart.
+    let timed = |mode: DenoiseMode, path: CameraPath| -> Result<(f64, f64, serde_json::Value)> {
+        burst_cost(
             &ctx,
             &renderer,
             &scene,
-            &s,
+            &settings(mode, 1, args.cost_size),
             camera,
-            CameraPath::Static,
-            SequenceOptions {
-                path: RenderPath::RayTraced,
-                reuse: Default::default(),
-                reference: false,
-            },
-        )?;
-        let burst = seq.prepare_bursts(
-            &ctx,
-            8,
-            RingContents {
-                rgba8: true,
-                color: false,
-                aov: false,
-                states: false,
-            },
-            1 << 30,
-        )?;
-        seq.warm_up(&ctx, 0, burst.min(4))?;
-        // Timed: the second burst, whose pixels have history (the first frames' young pixels
-        // take the variance pass's 7x7 estimate).
-        seq.render_burst(&ctx, 0..burst)?;
-        let frames = seq.render_burst(&ctx, burst..2 * burst)?;
-        let (mut denoise_ms, mut frame_ms) = (0.0, 0.0);
-        for f in &frames {
-            frame_ms += f.frame_gpu_ms;
-            denoise_ms += f
-                .output
-                .gpu_ms
-                .iter()
-                .filter(|(name, _)| name.starts_with("denoise "))
-                .map(|p| p.1)
-                .sum::<f64>();
-        }
-        let per = |x: f64| x / frames.len() as f64;
-        let shaded = per(frame_ms) - per(denoise_ms);
-        json!({
-            "size": args.cost_size,
-            "frames": frames.len(),
-            "frame_ms": per(frame_ms),
-            "denoise_ms": per(denoise_ms),
-            "denoise_share_of_undenoised_frame": per(denoise_ms) / shaded.max(1e-9),
-            "passes": frames[0].output.gpu_ms,
-        })
+            path,
+        )
     };
+    let (raw_ms, _, _) = timed(DenoiseMode::None, CameraPath::Static)?;
+    let (still_ms, still_passes_ms, passes) = timed(DenoiseMode::Svgf, CameraPath::Static)?;
+    let (raw_orbit_ms, _, _) = timed(DenoiseMode::None, orbit.clone())?;
+    let (orbit_ms, orbit_passes_ms, _) = timed(DenoiseMode::Svgf, orbit.clone())?;
+    let cost = json!({
+        "size": args.cost_size,
+        "raw_frame_ms": raw_ms,
+        "denoised_frame_ms": still_ms,
+        "denoise_passes_ms": still_passes_ms,
+        "denoise_share_of_undenoised_frame": (still_ms - raw_ms) / raw_ms.max(1e-9),
+        "orbit_raw_frame_ms": raw_orbit_ms,
+        "orbit_denoised_frame_ms": orbit_ms,
+        "orbit_denoise_passes_ms": orbit_passes_ms,
+        "orbit_denoise_share_of_undenoised_frame": (orbit_ms - raw_orbit_ms) / raw_orbit_ms.max(1e-9),
+        "passes": passes,
+    });
     let report = json!({
         "device": ctx.info().name,
         "scene": args.scene.as_ref().map_or("built-in".into(), |p| p.display().to_string()),
@@ -379,6 +366,55 @@ fn add_floor(scene: &mut Scene) {
     let transform = Mat4::from_translation(Vec3::new(centre.x, b.min.y, centre.z))
         * Mat4::from_scale(Vec3::new(size, 1.0, size));
     add_object(scene, floor, rqr::scene::procedural::quad, transform);
+}
+
+/// GPU ms per frame over the second burst of 8 frames of `path` (after a warm-up and a first
+/// burst, so that still pixels have history), the denoiser passes' share of it, and the
+/// passes of its first frame.
+fn burst_cost(
+    ctx: &Context,
+    renderer: &Renderer,
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: Camera,
+    path: CameraPath,
+) -> Result<(f64, f64, serde_json::Value)> {
+    let mut seq = Sequence::new(
+        ctx,
+        renderer,
+        scene,
+        settings,
+        camera,
+        path,
+        SequenceOptions {
+            path: RenderPath::RayTraced,
+            reuse: Default::default(),
+            reference: false,
+        },
+    )?;
+    let contents = RingContents {
+        rgba8: true,
+        color: false,
+        aov: false,
+        states: false,
+    };
+    let burst = seq.prepare_bursts(ctx, 8, contents, 1 << 30)?;
+    seq.warm_up(ctx, 0, burst.min(4))?;
+    seq.render_burst(ctx, 0..burst)?;
+    let frames = seq.render_burst(ctx, burst..2 * burst)?;
+    let (mut denoise_ms, mut frame_ms) = (0.0, 0.0);
+    for f in &frames {
+        frame_ms += f.frame_gpu_ms;
+        denoise_ms += f
+            .output
+            .gpu_ms
+            .iter()
+            .filter(|(name, _)| name.starts_with("denoise "))
+            .map(|p| p.1)
+            .sum::<f64>();
+    }
+    let n = frames.len() as f64;
+    Ok((frame_ms / n, denoise_ms / n, json!(frames[0].output.gpu_ms)))
 }
 
 /// `frames` frames of `path` (one by one).
@@ -488,8 +524,9 @@ fn write(dir: &Path, name: &str, out: &RenderOutput) -> Result<()> {
 
 /// Static camera on an animated scene: frame k shows the animation at k / 30 s. Pixels the
 /// object covered GHOST_LAG frames earlier and no longer covers are compared with the
-/// frame's reference; the lag is how many frames after being uncovered such pixels take to
-/// come within mean FLIP 0.05.
+/// frame's reference. The lag, by frames since a pixel was uncovered (1..MAX_LAG): the mean
+/// FLIP of such pixels, and the fraction whose history reaches back past their uncovering
+/// (history kept from the figure: a ghost).
 fn ghosting(
     ctx: &Context,
     args: &Args,
@@ -531,17 +568,29 @@ fn ghosting(
         )?;
         let mut covered: Vec<Vec<bool>> = Vec::new();
         let mut flips: Vec<(u32, f64, usize)> = Vec::new();
+        // By frames since uncovered (1..=MAX_LAG): FLIP sum, pixels, pixels whose history
+        // reaches back past their uncovering (a ghost of the figure).
+        let mut by_age = vec![(0.0f64, 0usize, 0usize); MAX_LAG as usize + 1];
         for k in 0..GHOST_FRAMES {
             if k > 0 {
                 let (posed, _) = anim.update_with(ctx, k as f32 / fps, AnimationUpdate::Refit)?;
                 seq.update_scene(ctx, anim.renderer(), &posed, camera)?;
             }
             let frame = seq.render_frame(ctx, k)?;
+            let lengths = match seq.full_targets().denoiser() {
+                Some(d) => Some(d.history_lengths(ctx)?),
+                None => None,
+            };
+            // At pixel centres, where the denoiser tests its history.
+            let centres = RenderSettings {
+                sampler: SamplerKind::Center,
+                ..settings(DenoiseMode::None, 1, side)
+            };
             let mut t = FrameTargets::new(
                 ctx,
                 anim.renderer(),
                 RenderPath::RayTraced,
-                &settings(DenoiseMode::None, 1, side),
+                &centres,
                 &[],
                 true,
             )?;
@@ -555,34 +604,59 @@ fn ghosting(
                     .map(|a| a.hit() && a.instance() != floor)
                     .collect(),
             );
-            if k >= GHOST_LAG {
-                let before = &covered[(k - GHOST_LAG) as usize];
-                let now = &covered[k as usize];
-                let left: Vec<usize> = (0..now.len()).filter(|&i| before[i] && !now[i]).collect();
-                if left.is_empty() {
-                    continue;
-                }
-                let r = render_reference(
-                    ctx,
-                    anim.renderer(),
-                    &settings(DenoiseMode::None, 1, side),
-                    &camera,
-                    args.reference_spp / 4,
-                )?;
-                let d = compare::compare(side, side, &r.rgba8, &frame.output.rgba8);
-                let flip = left.iter().map(|&i| f64::from(d.error_map[i])).sum::<f64>()
-                    / left.len() as f64;
-                flips.push((k, flip, left.len()));
+            if k < GHOST_LAG {
+                continue;
             }
+            let r = render_reference(
+                ctx,
+                anim.renderer(),
+                &settings(DenoiseMode::None, 1, side),
+                &camera,
+                args.reference_spp / 4,
+            )?;
+            let d = compare::compare(side, side, &r.rgba8, &frame.output.rgba8);
+            let now = &covered[k as usize];
+            // Frames since each pixel was last covered (None: covered now, or never in view).
+            let age = |i: usize| -> Option<u32> {
+                (1..=k.min(MAX_LAG))
+                    .find(|&j| covered[(k - j) as usize][i])
+                    .filter(|_| !now[i])
+            };
+            let before = &covered[(k - GHOST_LAG) as usize];
+            let left: Vec<usize> = (0..now.len()).filter(|&i| before[i] && !now[i]).collect();
+            for i in 0..now.len() {
+                if let Some(j) = age(i) {
+                    let slot = &mut by_age[j as usize];
+                    slot.0 += f64::from(d.error_map[i]);
+                    slot.1 += 1;
+                    if lengths.as_ref().is_some_and(|l| l[i] > j as f32) {
+                        slot.2 += 1;
+                    }
+                }
+            }
+            if left.is_empty() {
+                continue;
+            }
+            let flip =
+                left.iter().map(|&i| f64::from(d.error_map[i])).sum::<f64>() / left.len() as f64;
+            flips.push((k, flip, left.len()));
         }
         let mean = flips.iter().map(|f| f.1).sum::<f64>() / flips.len().max(1) as f64;
+        let ages: Vec<_> = (1..=MAX_LAG as usize)
+            .filter(|&j| by_age[j].1 > 0)
+            .map(|j| {
+                let (f, n, stale) = by_age[j];
+                json!({ "frames_since_uncovered": j, "pixels": n, "mean_flip": f / n as f64,
+                        "stale_history_fraction": stale as f64 / n as f64 })
+            })
+            .collect();
         results.push(json!({
             "denoise": mode.as_str(),
             "mean_flip_left_pixels": mean,
+            "by_frames_since_uncovered": ages,
             "per_frame": flips,
         }));
     }
-    // Lag: the smallest j such that pixels uncovered j frames earlier are within FLIP 0.05.
     Ok(
         json!({ "device": ctx.info().name, "size": side, "lag_frames_compared": GHOST_LAG, "results": results }),
     )

@@ -19,4 +19,23 @@ Aov primary_aov(PrimaryInfo info, uint samples) {
     a.primitive = info.hit ? uint(info.primitive) : AOV_NO_ID;
     return a;
 }
+
+#ifdef SHADING_DISTRIBUTED
+// The primary hit at the pixel's centre, found by a ray of its own, for the AOVs of a denoised
+// sequence. Its camera samples are jittered (so that accumulated frames anti-alias), and the
+// denoiser tests each pixel's history against the pixel's surface: a jittered sample lands on
+// another surface at every silhouette and on geometry finer than a pixel, which would reset the
+// history there about every other frame. The centre's surface only changes when the view does.
+PrimaryInfo pixel_centre_info(uvec2 pix) {
+    Ray r = camera_ray(vec2(pix) + 0.5);
+    Hit h = trace_closest(r.origin, r.dir, 0.0, BIG_FLOAT);
+    rays_by_kind[RAY_PRIMARY] += 1u;
+    PrimaryInfo info = primary_miss();
+    if (hit_found(h)) {
+        record_primary_hit(info, h);
+        record_primary_surface(info, surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, r.dir, frame.pixel_spread * h.t));
+    }
+    return info;
+}
+#endif
 #endif

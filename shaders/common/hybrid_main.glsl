@@ -113,6 +113,11 @@ void main() {
     vec4 contribution = vec4(c * pc.weight, pc.weight);
     accum[index] = (pc.flags & HYBRID_FIRST_SAMPLE) != 0u ? contribution : accum[index] + contribution;
     if ((pc.flags & HYBRID_WRITE_AOV) != 0u) {
+#ifdef SHADING_DISTRIBUTED
+        if ((frame.flags & FLAG_SEQUENCE_JITTER) != 0u) {
+            info = pixel_centre_info(pix);
+        }
+#endif
         aov_out[index] = primary_aov(info, 1u);
     }
 #ifdef SHADING_DISTRIBUTED

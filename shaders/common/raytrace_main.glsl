@@ -187,6 +187,11 @@ void main() {
         uint index = pix.y * frame.width + pix.x;
         ColorOut(pc.color).v[index] = vec4(adaptive ? sum : (weight_sum > 0.0 ? sum / weight_sum : vec3(0.0)), 1.0);
         if ((pc.flags & FLAG_WRITE_AOV) != 0u) {
+#ifdef SHADING_DISTRIBUTED
+            if ((frame.flags & FLAG_SEQUENCE_JITTER) != 0u) {
+                info = pixel_centre_info(pix);
+            }
+#endif
             aov_out[index] = primary_aov(info, samples);
         }
 #ifdef SHADING_DISTRIBUTED

@@ -1,10 +1,11 @@
 // Denoising (SVGF, Schied et al. 2017), the parts its passes share: the uniform, the buffers
 // it reaches by address, and the demodulated illumination of a pixel.
 // Each pixel's colour splits into three (DenoiseGuide, written by the distributed shading
-// passes): light through the first vertex's diffuse lobe, divided by the diffuse albedo;
-// the rest of its reflected light (specular), divided by the specular albedo; and what needs
-// no filter (emission, misses). The two illuminations are accumulated over frames and
-// filtered apart, then multiplied back by the albedos (denoise_remodulate.comp).
+// passes): light through the first vertex's diffuse lobe; the rest of its reflected light
+// (specular); and what needs no filter (emission, misses). The two reflected parts are
+// accumulated over frames, divided by their accumulated albedos (diffuse and specular
+// illumination), filtered apart, then multiplied back by the albedos
+// (denoise_remodulate.comp).
 #ifndef RQR_DENOISE_GLSL
 #define RQR_DENOISE_GLSL
 #extension GL_EXT_scalar_block_layout : require
@@ -51,16 +52,14 @@ uint pixel_index(ivec2 p) { return uint(p.y) * params.width + uint(p.x); }
 
 bool pixel_hit(uint i) { return Aovs(params.aov).v[i].instance != AOV_NO_ID; }
 
-// The pixel's diffuse and specular illumination this frame (its own samples, demodulated).
-void demodulated(uint i, out vec3 diffuse, out vec3 specular) {
+// The pixel's diffuse and specular reflected light this frame (its own samples).
+void reflected(uint i, out vec3 diffuse, out vec3 specular) {
     vec4 c = Vec4s(params.color).v[i];
     vec3 color = (params.flags & DN_WEIGHTED_COLOR) != 0u ? (c.a > 0.0 ? c.rgb / c.a : vec3(0.0)) : c.rgb;
     DenoiseGuide g = Guides(params.guide).v[i];
     float w = g.diffuse.a > 0.0 ? g.diffuse.a : 1.0;
-    vec3 d = g.diffuse.rgb / w;
-    vec3 u = g.unfiltered.rgb / w;
-    diffuse = d / max(g.diffuse_albedo.rgb, vec3(MIN_ALBEDO));
-    specular = max(color - d - u, vec3(0.0)) / max(g.specular_albedo.rgb, vec3(MIN_ALBEDO));
+    diffuse = g.diffuse.rgb / w;
+    specular = max(color - diffuse - g.unfiltered.rgb / w, vec3(0.0));
 }
 
 // 2 vec4 per pixel (diffuse, specular) in the buffer at `address`.

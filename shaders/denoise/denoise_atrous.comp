@@ -40,7 +40,11 @@ void main() {
     vec4 d = pair_load(pc.source, i, 0u);
     vec4 s = pair_load(pc.source, i, 1u);
     EdgeCentre c = edge_centre(i);
-    if (c.hit) {
+    // The filter's reach shrinks as the history grows (an accumulation of f frames needs
+    // less of the spatial footprint for the same variance, and every tap adds bias): taps up
+    // to spatial_reach / f pixels apart, none at all for a converged pixel.
+    float frames = Moments(params.moments).v[i].frames;
+    if (c.hit && frames * float(pc.step) <= params.spatial_reach) {
         // The first iteration smooths the variance estimate over 3x3 (SVGF); later ones take
         // the pixel's own, already filtered by the iterations before.
         bool first = pc.step == 1u;

@@ -1,8 +1,7 @@
 #version 460
-// Denoising, temporal accumulation: this frame's demodulated illumination is blended with the
-// previous frame's fed-back illumination, reprojected through the previous camera and (for
-// moving objects) the previous pose, read bilinearly from the taps whose surface matches the
-// pixel's (disocclusion.glsl, as temporal reuse tests its samples). The blend weight is
+// Denoising, temporal accumulation: this frame's reflected light is blended with the previous
+// frame's accumulation, reprojected through the previous camera and (for moving objects) the
+// previous pose, read bilinearly from the taps whose surface matches the pixel's (disocclusion.glsl, as temporal reuse tests its samples). The blend weight is
 // 1 / history length, never below 1 / history_cap; a pixel with no matching tap starts again.
 // Also keeps the luminance moments (variance) and this frame's surface. One thread per pixel.
 #extension GL_GOOGLE_include_directive : require
@@ -50,6 +49,25 @@ vec2 previous_miss_pixel(ivec2 pix) {
     return centre + to_pixels(params.prev_view_proj, world) - to_pixels(params.view_proj, world);
 }
 
+// Whether the previous frame's texel q holds history of the surface the pixel sees now.
+bool history_matches(ivec2 q, uint instance, bool hit, DenoiseSurface here) {
+    if (!inside(q)) return false;
+    DenoiseSurface was = Surfaces(params.prev_surface).v[pixel_index(q)];
+    return was.instance == instance
+        && (!hit || surfaces_match(was.position, was.normal, here.position, here.normal, max(here.depth, 1e-6),
+                                   params.plane_threshold, params.normal_threshold));
+}
+
+// Catmull-Rom weights of the texels at -1, 0, 1, 2 for a position f in [0, 1) past texel 0.
+vec4 catmull_rom(float f) {
+    return vec4(f * (-0.5 + f * (1.0 - 0.5 * f)),
+                1.0 + f * f * (-2.5 + 1.5 * f),
+                f * (0.5 + f * (2.0 - 1.5 * f)),
+                f * f * (-0.5 + 0.5 * f));
+}
+
+const float BIG = 3.0e38;
+
 void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(pix)) return;
@@ -76,31 +94,36 @@ void main() {
         acc.unfiltered = vec4((params.flags & DN_WEIGHTED_COLOR) != 0u ? (c.a > 0.0 ? c.rgb / c.a : vec3(0.0)) : c.rgb, 0.0);
     }
 
+    // What is accumulated is reflected light, and what is filtered is its quotient by the
+    // accumulated albedo: the mean of products, not the product of means, so that with no
+    // spatial filter the output is exactly the average of the frames even where a jittered
+    // sample lands on another texel every frame. The moments are of this frame's illumination.
     vec3 d, s;
-    demodulated(i, d, s);
-    vec4 m = vec4(luma(d), luma(d) * luma(d), luma(s), luma(s) * luma(s));
+    reflected(i, d, s);
+    vec3 id = d / acc.diffuse_albedo.rgb, is = s / acc.specular_albedo.rgb;
+    vec4 m = vec4(luma(id), luma(id) * luma(id), luma(is), luma(is) * luma(is));
 
     vec3 hd = vec3(0.0), hs = vec3(0.0);
     vec4 hda = vec4(0.0), hsa = vec4(0.0), hu = vec4(0.0);
     vec4 hm = vec4(0.0);
     float hl = 0.0;
     float taps = 0.0;
+    bool moved = false;
     if ((params.flags & DN_HISTORY) != 0u) {
         // Misses keep a history too (of what they show, the unfiltered light), so that a
         // jittered environment background averages over frames like the surfaces.
         vec2 p = (hit ? previous_pixel(pix, a) : previous_miss_pixel(pix)) - 0.5;
         ivec2 base = ivec2(floor(p));
         vec2 f = p - vec2(base);
+        moved = length(p - vec2(pix)) > 1e-3;
+        int matched = 0;
+        vec3 lo_d = vec3(BIG), hi_d = vec3(0.0), lo_s = vec3(BIG), hi_s = vec3(0.0);
+        vec3 lo_u = vec3(BIG), hi_u = vec3(0.0);
+        vec3 lo_da = vec3(BIG), hi_da = vec3(0.0), lo_sa = vec3(BIG), hi_sa = vec3(0.0);
         for (int k = 0; k < 4; ++k) {
             ivec2 q = base + ivec2(k & 1, k >> 1);
-            if (!inside(q)) continue;
+            if (!history_matches(q, a.instance, hit, here)) continue;
             uint j = pixel_index(q);
-            DenoiseSurface was = Surfaces(params.prev_surface).v[j];
-            if (was.instance != a.instance
-                || (hit && !surfaces_match(was.position, was.normal, here.position, here.normal, max(here.depth, 1e-6),
-                                           params.plane_threshold, params.normal_threshold))) {
-                continue;
-            }
             float w = ((k & 1) != 0 ? f.x : 1.0 - f.x) * ((k >> 1) != 0 ? f.y : 1.0 - f.y);
             DenoiseHistory h = Histories(params.prev_history).v[j];
             hd += w * h.diffuse.rgb;
@@ -112,19 +135,69 @@ void main() {
             hm += w * pm.moments;
             hl += w * pm.frames;
             taps += w;
+            matched += 1;
+            lo_d = min(lo_d, h.diffuse.rgb); hi_d = max(hi_d, h.diffuse.rgb);
+            lo_s = min(lo_s, h.specular.rgb); hi_s = max(hi_s, h.specular.rgb);
+            lo_u = min(lo_u, h.unfiltered.rgb); hi_u = max(hi_u, h.unfiltered.rgb);
+            lo_da = min(lo_da, h.diffuse_albedo.rgb); hi_da = max(hi_da, h.diffuse_albedo.rgb);
+            lo_sa = min(lo_sa, h.specular_albedo.rgb); hi_sa = max(hi_sa, h.specular_albedo.rgb);
+        }
+        // Where the history sits between texels (the view moved) and the whole 4x4
+        // neighbourhood is the same surface, the light is resampled with Catmull-Rom instead
+        // (as temporal anti-aliasing does): a bilinear resampling every frame is a blur that
+        // compounds over the history's length. Clamped to the four inner texels against
+        // ringing. The albedos too, since the filtered light is multiplied back by them;
+        // moments, roughness and length stay bilinear.
+        if (matched == 4 && (f.x != 0.0 || f.y != 0.0)) {
+            vec4 wx = catmull_rom(f.x), wy = catmull_rom(f.y);
+            vec3 cd = vec3(0.0), cs = vec3(0.0), cu = vec3(0.0), cda = vec3(0.0), csa = vec3(0.0);
+            bool all = true;
+            for (int y = 0; y < 4 && all; ++y) {
+                for (int x = 0; x < 4; ++x) {
+                    ivec2 q = base + ivec2(x - 1, y - 1);
+                    bool inner = x >= 1 && x <= 2 && y >= 1 && y <= 2;
+                    if (!inner && !history_matches(q, a.instance, hit, here)) {
+                        all = false;
+                        break;
+                    }
+                    float w = wx[x] * wy[y];
+                    if (w == 0.0) continue;
+                    DenoiseHistory h = Histories(params.prev_history).v[pixel_index(q)];
+                    cd += w * h.diffuse.rgb;
+                    cs += w * h.specular.rgb;
+                    cu += w * h.unfiltered.rgb;
+                    cda += w * h.diffuse_albedo.rgb;
+                    csa += w * h.specular_albedo.rgb;
+                }
+            }
+            if (all) {
+                hd = clamp(cd, lo_d, hi_d);
+                hs = clamp(cs, lo_s, hi_s);
+                hu.rgb = clamp(cu, lo_u, hi_u);
+                hda.rgb = clamp(cda, lo_da, hi_da);
+                hsa.rgb = clamp(csa, lo_sa, hi_sa);
+            }
         }
     }
     DenoiseMoments out_m;
     out_m.pad = vec3(0.0);
+    float frames_s = 1.0;
     if (taps > 0.01) {
         hd /= taps;
         hs /= taps;
         hm /= taps;
-        float frames = min(floor(hl / taps + 0.5) + 1.0, float(params.history_cap));
+        // A history resampled between texels blurs a little more every frame (even through
+        // Catmull-Rom), so a moving view keeps a shorter one. Reflections move with what they
+        // show, not with the surface that the motion follows: under motion the specular
+        // history shortens further with the sharpness of the lobe, to a single frame on a
+        // mirror.
+        float cap = moved ? min(float(params.history_cap), params.moving_history_cap) : float(params.history_cap);
+        float frames = min(floor(hl / taps + 0.5) + 1.0, cap);
+        frames_s = moved ? min(frames, 1.0 + (cap - 1.0) * guide.specular_albedo.a) : frames;
         float alpha = 1.0 / frames;
         float alpha_m = max(alpha, params.moments_alpha);
         d = mix(hd, d, alpha);
-        s = mix(hs, s, alpha);
+        s = mix(hs, s, 1.0 / frames_s);
         acc.diffuse_albedo = mix(hda / taps, acc.diffuse_albedo, alpha);
         acc.specular_albedo = mix(hsa / taps, acc.specular_albedo, alpha);
         acc.unfiltered = mix(hu / taps, acc.unfiltered, alpha);
@@ -141,8 +214,8 @@ void main() {
     // The variance pass replaces it for young pixels.
     float frames_behind = max(out_m.frames, 1.0);
     float var_d = max(m.y - m.x * m.x, 0.0) / frames_behind;
-    float var_s = max(m.w - m.z * m.z, 0.0) / frames_behind;
-    pair_store(params.accumulated, i, vec4(d, var_d), vec4(s, var_s));
+    float var_s = max(m.w - m.z * m.z, 0.0) / frames_s;
+    pair_store(params.accumulated, i, vec4(d / acc.diffuse_albedo.rgb, var_d), vec4(s / acc.specular_albedo.rgb, var_s));
     // The accumulation itself, not its filtered image, is what the next frame blends with
     // (SVGF feeds the first à-trous iteration back; that blurs a static view a little more
     // every frame, where the accumulation converges to the unbiased mean).

@@ -47,15 +47,16 @@ pub struct DenoiseSurface {
     pub depth: f32,
 }
 
-/// What the next frame blends with, per pixel: the accumulated demodulated illumination and
-/// the accumulated albedos and unfiltered light it is multiplied back with (so that a jittered
-/// sampler's albedo and emission edges are averaged over frames too, not flicker).
+/// What the next frame blends with, per pixel: the accumulated diffuse and specular light, the
+/// accumulated albedos the filter divides them by and multiplies them back with, and the
+/// accumulated unfiltered light (so that a jittered sampler's albedo and emission edges are
+/// averaged over frames too, not flicker).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct DenoiseHistory {
-    /// rgb: diffuse illumination.
+    /// rgb: diffuse light (reflected through the diffuse lobe, not yet divided by its albedo).
     pub diffuse: [f32; 4],
-    /// rgb: specular illumination.
+    /// rgb: specular light.
     pub specular: [f32; 4],
     /// rgb: diffuse albedo.
     pub diffuse_albedo: [f32; 4],
@@ -111,8 +112,12 @@ pub struct DenoiseParams {
     pub plane_threshold: f32,
     /// History test: smallest dot product of the normals.
     pub normal_threshold: f32,
-    /// Padding (aligns the addresses).
-    pub pad0: [u32; 2],
+    /// Spatial filtering fades with history: a pixel with f frames behind it takes the
+    /// à-trous iterations whose taps lie at most `spatial_reach / f` pixels apart.
+    pub spatial_reach: f32,
+    /// Longest history of a pixel whose history is resampled between texels (the view or
+    /// the surface moved).
+    pub moving_history_cap: f32,
     /// Linear colour of the frame, `vec4` per pixel.
     pub color: u64,
     /// [`DenoiseGuide`] per pixel.

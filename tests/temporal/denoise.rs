@@ -1,7 +1,7 @@
 //! The denoiser (`--denoise`) against converged references and against itself: without
 //! history it changes nothing it should not (demodulation multiplies back exactly), the
-//! spatial filter lowers the error and keeps a depth edge, 30 accumulated frames beat 16 samples
-//! per pixel, the hybrid path and both backends agree, runs repeat bit for bit (in bursts or
+//! spatial filter lowers the error and keeps a depth edge, a static view accumulates the plain
+//! mean of its frames and holds still, 30 accumulated frames beat 16 samples per pixel, the hybrid path and both backends agree, runs repeat bit for bit (in bursts or
 //! frame by frame), a camera cut drops the history and a disoccluded pixel starts again within
 //! one frame.
 
@@ -235,6 +235,95 @@ fn the_spatial_filter_lowers_the_error_of_one_frame() {
                 svgf.gpu_ms
             );
         }
+    }
+    support::assert_validation_clean(&ctx);
+}
+
+/// Frame `k` of a sequence through `camera` in `t` (its samples numbered k × spp on).
+fn numbered(ctx: &Context, t: &mut FrameTargets, camera: &Camera, k: u32) -> RenderOutput {
+    let frame = t.sequence_frame(camera, k);
+    ctx.run("test frame", |cmd| {
+        t.record(ctx, cmd, &frame, None, Some((t.readback_ring(), 0)));
+        Ok(())
+    })
+    .unwrap();
+    t.read().unwrap()
+}
+
+#[test]
+fn a_static_view_accumulates_the_plain_mean_of_its_jittered_frames_and_holds_still() {
+    // The light is accumulated before it is divided by the albedo, so with no spatial filter
+    // the output is the mean of the frames, even where a jittered sample lands on another
+    // surface of the pixel every frame; the history is tested against the pixel centre's
+    // surface, so no pixel (silhouettes included) drops it; and the denoised frames change
+    // from one to the next by under a tenth of what the raw frames do.
+    const N: u32 = 30;
+    let ctx = support::gpu();
+    let scene = soft_cornell();
+    let camera = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        let accumulate = settings(DenoiseMode::Temporal, 1);
+        // A history of one frame: each frame as shaded, with the same jittered samples.
+        let alone = RenderSettings {
+            history_cap: 1,
+            ..accumulate.clone()
+        };
+        let svgf = settings(DenoiseMode::Svgf, 1);
+        let mut acc = targets(&ctx, &renderer, &scene, path, &accumulate);
+        let mut each = targets(&ctx, &renderer, &scene, path, &alone);
+        let mut filtered = targets(&ctx, &renderer, &scene, path, &svgf);
+        let mut sum = vec![[0.0f64; 3]; (SIDE * SIDE) as usize];
+        let (mut raw_frames, mut denoised_frames, mut last) = (Vec::new(), Vec::new(), None);
+        for k in 0..N {
+            let f = numbered(&ctx, &mut each, &camera, k);
+            for (s, c) in sum.iter_mut().zip(&f.color) {
+                for ch in 0..3 {
+                    s[ch] += f64::from(c[ch]);
+                }
+            }
+            last = Some(numbered(&ctx, &mut acc, &camera, k));
+            if k >= 20 {
+                raw_frames.push(f);
+                denoised_frames.push(numbered(&ctx, &mut filtered, &camera, k));
+            } else {
+                numbered(&ctx, &mut filtered, &camera, k);
+            }
+        }
+        let last = last.unwrap();
+        let worst = last
+            .color
+            .iter()
+            .zip(&sum)
+            .flat_map(|(c, s)| {
+                (0..3).map(move |ch| {
+                    let mean = s[ch] / f64::from(N);
+                    (f64::from(c[ch]) - mean).abs() / mean.max(1e-2)
+                })
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-3,
+            "{path:?}: accumulated frame off the frames' mean by {worst:.2e}"
+        );
+        let lengths = acc.denoiser().unwrap().history_lengths(&ctx).unwrap();
+        let dropped = lengths
+            .iter()
+            .filter(|&&l| l != 0.0 && l != N as f32)
+            .count();
+        assert_eq!(dropped, 0, "{path:?}: {dropped} pixels lost their history");
+        let change = |frames: &[RenderOutput]| {
+            frames
+                .windows(2)
+                .map(|w| compare::display_mean_abs_diff(&w[0].color, &w[1].color))
+                .sum::<f64>()
+                / (frames.len() - 1) as f64
+        };
+        let (raw, denoised) = (change(&raw_frames), change(&denoised_frames));
+        assert!(
+            denoised <= 0.1 * raw,
+            "{path:?}: frame-to-frame change {denoised:.2e} denoised against {raw:.2e} raw"
+        );
     }
     support::assert_validation_clean(&ctx);
 }
@@ -577,7 +666,8 @@ fn a_disoccluded_pixel_starts_again_within_one_frame() {
             continued += usize::from(lengths[i] >= 2.0);
         }
     }
-    assert!(disoccluded >= 20, "only {disoccluded} disoccluded pixels");
+    // 13 at 64² (pixel-centre surfaces): enough to see a reset that does not happen.
+    assert!(disoccluded >= 10, "only {disoccluded} disoccluded pixels");
     assert!(
         continued * 10 >= kept * 8,
         "{continued} of {kept} visible pixels kept their history"

@@ -2,22 +2,28 @@
 //! own buffers, recorded between the shading passes and tonemapping of every frame
 //! ([`crate::render::FrameTargets`]).
 //!
-//! 1. **Demodulate**: the shading passes split each pixel's colour
+//! 1. **Split**: the shading passes split each pixel's colour
 //!    ([`crate::interface::denoise::DenoiseGuide`]) into light through the first vertex's
 //!    diffuse lobe, the rest of its reflected light, and what needs no filter (emission,
-//!    misses); the two lights are divided by the vertex's diffuse and specular albedo.
-//! 2. **Temporal accumulation** (`denoise_temporal.comp`): the previous frame's illumination is
+//!    misses), with the vertex's diffuse and specular albedo. The AOVs of a jittered sequence
+//!    come from one more ray through the pixel centre, so that the history test sees the same
+//!    surface every frame.
+//! 2. **Temporal accumulation** (`denoise_temporal.comp`): the previous frame's light is
 //!    reprojected through the previous camera and pose (moving objects included), tested
-//!    against the pixel's surface as temporal reuse tests its samples, and blended with weight
-//!    1 / history length, never below 1 / `--history-cap`; a disoccluded pixel starts again,
-//!    and so does every pixel after a camera cut ([`is_camera_cut`]).
+//!    against the pixel's surface as temporal reuse tests its samples, resampled bilinearly
+//!    (Catmull-Rom where the whole 4×4 neighbourhood matches), and blended with weight
+//!    1 / history length, never below 1 / `--history-cap` ([`MOVING_HISTORY_CAP`] while the
+//!    history moves between texels); a disoccluded pixel starts again, and so does every
+//!    pixel after a camera cut ([`is_camera_cut`]). The accumulated light is then divided by
+//!    the accumulated albedos (demodulated): the mean of products, so that with no spatial
+//!    filter the output is exactly the mean of the frames.
 //! 3. **Variance** (`denoise_variance.comp`): from the accumulated luminance moments, or a 7×7
 //!    spatial estimate for pixels with under 4 frames of history.
 //! 4. **À-trous** (`denoise_atrous.comp`): [`ATROUS_ITERATIONS`] iterations, taps 1, 2, 4, 8
-//!    and 16 pixels apart, stopping at normal, depth-plane and luminance edges (the luminance
-//!    edges tighten as a pixel's history grows: its variance is the estimate's). The next
-//!    frame blends with the accumulation, not with the filtered image, so a static view
-//!    converges to the unbiased mean.
+//!    and 16 pixels apart, stopping at normal, depth-plane and luminance edges; a pixel with f
+//!    frames of history takes those up to [`SPATIAL_REACH`] / f pixels apart, so a converged
+//!    one is not filtered. The next frame blends with the accumulation, not with the filtered
+//!    image, so a static view converges to the unbiased mean.
 //! 5. **Remodulate** (`denoise_remodulate.comp`) into the colour tonemapping reads.
 //!
 //! `temporal` runs 1, 2 and 5; `svgf` all five. A single frame (no history) gets the spatial
@@ -75,6 +81,15 @@ pub const DEFAULT_HISTORY_CAP: u32 = 32;
 pub const MAX_HISTORY_CAP: u32 = 1024;
 /// À-trous iterations (taps 1, 2, 4, 8 and 16 pixels apart), as NRD's ReLAX.
 pub const ATROUS_ITERATIONS: u32 = 5;
+/// The spatial filter's reach in pixels, over the history length: a pixel with f frames
+/// behind it takes the à-trous iterations whose taps lie at most `SPATIAL_REACH / f` pixels
+/// apart (a fresh pixel all five; none from 17 frames on, where the accumulation alone has
+/// less error than the filter's bias adds).
+pub const SPATIAL_REACH: f32 = 16.0;
+/// Longest history a pixel keeps while its history is resampled between texels (a moving
+/// view or object): each resampling blurs it a little, and the blur compounds over the
+/// history's length.
+pub const MOVING_HISTORY_CAP: u32 = 8;
 /// Smallest blend weight of the luminance moments (Falcor's SVGF pass).
 pub const MOMENTS_ALPHA: f32 = 0.2;
 /// Luminance edge-stopping scale (Falcor's φ_colour).
@@ -313,7 +328,8 @@ impl Denoiser {
             phi_plane: PHI_PLANE,
             plane_threshold: crate::render::temporal::PLANE_DISTANCE_THRESHOLD,
             normal_threshold: crate::render::temporal::NORMAL_DOT_THRESHOLD,
-            pad0: [0; 2],
+            spatial_reach: SPATIAL_REACH,
+            moving_history_cap: MOVING_HISTORY_CAP.min(self.history_cap) as f32,
             color: color.address(),
             guide: self.guide.address(),
             aov: aov.address(),
