@@ -16,6 +16,7 @@ mod corpus;
 mod environment;
 mod error_chains;
 mod extensions;
+mod images;
 mod manifest;
 mod scene_errors;
 
