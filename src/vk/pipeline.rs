@@ -542,13 +542,13 @@ pub fn memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
     unsafe { device.cmd_pipeline_barrier2(cmd, &dep) };
 }
 
-/// A one-dimensional dispatch of `groups` workgroups as rows of at most
-/// [`crate::interface::GROUPS_PER_ROW`]: a device may launch no more than 65 535 in one
-/// dimension (`maxComputeWorkGroupCount`, lavapipe's limit), which 64-pixel workgroups reach at
-/// 2048×2048. Shaders number their invocations with `linear_invocation()`
-/// (`shaders/common/counters.glsl`) and skip those past their count.
-pub fn rows_of_groups(groups: u32) -> [u32; 3] {
-    let row = groups.min(crate::interface::GROUPS_PER_ROW);
+/// A one-dimensional dispatch of `groups` workgroups as rows of at most `per_row` (a power of
+/// two up to 65 535, the shaders' row width, `interface::GROUPS_PER_ROW`): a device may launch
+/// no more than 65 535 in one dimension (`maxComputeWorkGroupCount`, lavapipe's limit), which
+/// 64-pixel workgroups reach at 2048×2048. Shaders number their invocations with
+/// `linear_invocation()` (`shaders/common/counters.glsl`) and skip those past their count.
+pub fn rows_of_groups(groups: u32, per_row: u32) -> [u32; 3] {
+    let row = groups.min(per_row);
     [row, groups.div_ceil(row.max(1)).max(1), 1]
 }
 
@@ -558,8 +558,12 @@ mod tests {
 
     #[test]
     fn rows_of_groups_cover_the_dispatch_within_the_limit() {
-        for groups in [0, 1, 63, 32_768, 65_535, 65_536, 68_907, 129_600, 1 << 24] {
-            let [x, y, z] = rows_of_groups(groups);
+        // The shaders' row width (`interface::GROUPS_PER_ROW`) and a narrow one.
+        for (groups, per_row) in [0, 1, 63, 32_768, 65_535, 65_536, 68_907, 129_600, 1 << 24]
+            .into_iter()
+            .flat_map(|g| [(g, 32_768), (g, 1024)])
+        {
+            let [x, y, z] = rows_of_groups(groups, per_row);
             assert!(x <= 65_535 && y <= 65_535 && z == 1, "{groups}: {x} x {y}");
             let launched = u64::from(x) * u64::from(y);
             assert!(launched >= u64::from(groups), "{groups}: {x} x {y}");
@@ -569,6 +573,7 @@ mod tests {
                 "{groups}: {x} x {y}"
             );
         }
-        assert_eq!(rows_of_groups(100), [100, 1, 1]);
+        assert_eq!(rows_of_groups(100, 32_768), [100, 1, 1]);
+        assert_eq!(rows_of_groups(2000, 1024), [1024, 2, 1]);
     }
 }
