@@ -284,7 +284,7 @@ fn gpu_skinning_matches_the_reference() {
                     );
                 }
                 // Normals and tangents against the CPU deformation.
-                let cpu = rqr::scene::pose::deform(g, joints.as_deref(), weights);
+                let cpu = rqr::scene::deform::deform(g, joints.as_deref(), weights);
                 for (v, (a, b)) in gpu.normals.iter().zip(&cpu.normals).enumerate() {
                     assert!(a.abs_diff_eq(*b, 1e-4), "{rel} normal {v}: {a} vs {b}");
                 }
