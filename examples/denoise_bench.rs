@@ -26,7 +26,7 @@ use rqr::environment::GpuEnvironment;
 use rqr::render::denoise::{self, DenoiseMode};
 use rqr::render::drivers::animated::{AnimatedFrames, AnimationUpdate};
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
-use rqr::render::image::{compare, output, tonemap};
+use rqr::render::image::{metrics, output, tonemap};
 use rqr::render::readback::RingContents;
 use rqr::render::{
     FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading,
@@ -156,7 +156,7 @@ fn main() -> Result<()> {
         let pairs = &frames[20..];
         pairs
             .windows(2)
-            .map(|w| compare::display_mean_abs_diff(&w[0].output.color, &w[1].output.color))
+            .map(|w| metrics::display_mean_abs_diff(&w[0].output.color, &w[1].output.color))
             .sum::<f64>()
             / (pairs.len() - 1) as f64
     };
@@ -186,10 +186,10 @@ fn main() -> Result<()> {
         )?;
     }
     let static_report = json!({
-        "mse_raw_1spp": compare::display_mse(&raw[last].output.color, &reference.color),
-        "mse_raw_16spp": compare::display_mse(&sixteen.color, &reference.color),
-        "mse_denoised_single_frame": compare::display_mse(&single.color, &reference.color),
-        "mse_denoised_frame_30": compare::display_mse(&denoised[last].output.color, &reference.color),
+        "mse_raw_1spp": metrics::display_mse(&raw[last].output.color, &reference.color),
+        "mse_raw_16spp": metrics::display_mse(&sixteen.color, &reference.color),
+        "mse_denoised_single_frame": metrics::display_mse(&single.color, &reference.color),
+        "mse_denoised_frame_30": metrics::display_mse(&denoised[last].output.color, &reference.color),
         "stability_raw": stability(&raw),
         "stability_denoised": stability(&denoised),
     });
@@ -228,10 +228,10 @@ fn main() -> Result<()> {
             args.reference_spp / 4,
         )?;
         flip_denoised += f64::from(
-            compare::compare(side, side, &r.rgba8, &moving[k as usize].output.rgba8).flip_mean,
+            metrics::compare(side, side, &r.rgba8, &moving[k as usize].output.rgba8).flip_mean,
         );
         flip_raw += f64::from(
-            compare::compare(side, side, &r.rgba8, &moving_raw[k as usize].output.rgba8).flip_mean,
+            metrics::compare(side, side, &r.rgba8, &moving_raw[k as usize].output.rgba8).flip_mean,
         );
         n += 1.0;
     }
@@ -569,7 +569,7 @@ fn ghosting(
                     &camera,
                     args.reference_spp / 4,
                 )?;
-                let d = compare::compare(side, side, &r.rgba8, &frame.output.rgba8);
+                let d = metrics::compare(side, side, &r.rgba8, &frame.output.rgba8);
                 let flip = left.iter().map(|&i| f64::from(d.error_map[i])).sum::<f64>()
                     / left.len() as f64;
                 flips.push((k, flip, left.len()));

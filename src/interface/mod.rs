@@ -75,7 +75,7 @@ pub fn push_bytes<T: bytemuck::Pod>(push: &T) -> &[u8] {
 // Relations between constants the GLSL side relies on.
 const _: () = assert!(reproject::C_SAMPLES == COUNTER_SAMPLES);
 // Reprojection's statistics stripes (after its shared slots) have the full frame's ray-counter
-// layout, so the host sums both alike (`render::passes::raytraced::striped_sum`).
+// layout, so the host sums both alike (`render::passes::raytrace::striped_sum`).
 const _: () = assert!(
     reproject::COUNTER_STRIPES == RAY_COUNTER_STRIPES
         && reproject::COUNTER_STRIPE_WORDS == RAY_COUNTER_STRIDE

@@ -1,6 +1,6 @@
 //! Posing a scene at a time: instance, camera and light transforms from the animated nodes,
 //! and the CPU skinning and morphing of geometry, the reference the GPU pass
-//! (`render::passes::skinning`) is tested against.
+//! (`render::passes::skin`) is tested against.
 
 use glam::{Mat3, Mat4, Vec3, Vec4};
 

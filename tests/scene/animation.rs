@@ -1,12 +1,12 @@
 //! Animation playback: interpolation against hand-computed values (InterpolationTest), and
 //! skinning / morphing of the Khronos samples, on the CPU (`Scene::posed`) and on the GPU
-//! (`render::passes::skinning`), against a reference written here from the glTF spec's formulas.
+//! (`render::passes::skin`), against a reference written here from the glTF spec's formulas.
 
 use crate::support;
 use crate::support::scene_files;
 
 use glam::{Mat4, Quat, Vec3};
-use rqr::render::passes::skinning::SkinningPass;
+use rqr::render::passes::skin::SkinningPass;
 use rqr::scene::{self, AnimationSelection, LoadOptions, Scene};
 use scene_files::asset;
 
@@ -348,7 +348,7 @@ fn cli_renders_animated_frames_on_both_backends() {
         "frame 1 shows the animation moved on"
     );
     for (a, b) in [(&hw.0, &bvh.0), (&hw.1, &bvh.1)] {
-        let d = rqr::render::image::compare::compare(48, 48, a.as_raw(), b.as_raw());
+        let d = rqr::render::image::metrics::compare(48, 48, a.as_raw(), b.as_raw());
         assert!(d.flip_mean < 0.01, "hw vs bvh frame: FLIP {}", d.flip_mean);
     }
     // Reuse between frames keeps one renderer updated in place (samples move with their

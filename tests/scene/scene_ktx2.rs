@@ -10,7 +10,7 @@ use crate::support::readback;
 
 use crate::support::scene_files::{asset, base64, png, quad_doc, Builder};
 use readback::read_level;
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::scene::textures::GpuTextures;
 use rqr::scene::{self, LoadOptions, Scene, TextureFormat};
 use rqr::vk::{vk, Context};
@@ -104,7 +104,7 @@ fn load_rgba8(doc: &[u8]) -> Scene {
 }
 
 fn psnr(a: &[u8], b: &[u8]) -> f64 {
-    compare::psnr_rmse(a, b).0
+    metrics::psnr_rmse(a, b).0
 }
 
 #[test]
@@ -515,7 +515,7 @@ fn texture_format_flag_chooses_the_upload() {
     let (rgba8, rgba8_log) = render("rgba8", "rgba8", "1");
     assert!(block_log.contains(as_blocks), "{block_log}");
     assert!(!rgba8_log.contains("uploaded as"), "{rgba8_log}");
-    let d = compare::compare(48, 48, &rgba8, &block);
+    let d = metrics::compare(48, 48, &rgba8, &block);
     eprintln!(
         "rqr render --texture-format rgba8 vs block: FLIP mean {:.5}",
         d.flip_mean

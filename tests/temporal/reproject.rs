@@ -6,17 +6,17 @@ use crate::support;
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::{Backend, BackendChoice};
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
-use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility};
+use rqr::render::temporal::{PixelSource, PrimaryRayCheck, ReuseOptions};
 use rqr::render::{CameraSetup, RenderOutput, RenderPath, RenderSettings, Renderer};
 use rqr::scene::procedural::{assemble, cornell, cube, look_at, quad};
 use rqr::scene::{Camera, Instance, Material, Scene};
 use rqr::vk::Context;
 
 /// The three ways of checking reprojected samples.
-const MODES: [(RenderPath, RtVisibility); 3] = [
-    (RenderPath::RayTraced, RtVisibility::Edges),
-    (RenderPath::RayTraced, RtVisibility::Full),
-    (RenderPath::Hybrid, RtVisibility::Edges),
+const MODES: [(RenderPath, PrimaryRayCheck); 3] = [
+    (RenderPath::RayTraced, PrimaryRayCheck::Edges),
+    (RenderPath::RayTraced, PrimaryRayCheck::Full),
+    (RenderPath::Hybrid, PrimaryRayCheck::Edges),
 ];
 
 fn settings(size: u32) -> RenderSettings {
@@ -236,7 +236,7 @@ fn sequence(
     scene: &Scene,
     size: u32,
     path: CameraPath,
-    mode: (RenderPath, RtVisibility),
+    mode: (RenderPath, PrimaryRayCheck),
     reuse: ReuseOptions,
 ) -> Sequence {
     Sequence::new(
