@@ -1,12 +1,17 @@
 //! Bad-input cases of images (missing, corrupt, empty, absurd sizes, bad data URIs, formats
-//! rqr does not read) and of glTF extensions it does not support.
+//! rqr does not read) and of glTF extensions it does not support; beside the corpus, images
+//! beyond the device's limit or with fewer bytes than their size at upload.
 
+use rqr::scene::textures::GpuTextures;
+use rqr::scene::{ImageData, Scene};
+use rqr::vk::VkError;
 use serde_json::{json, Value};
 
 use super::corpus::{
     case, embedded_glb, fails, gltf, quad_gltf, textured, textured_in, Case, Expect,
 };
 use crate::support::scene_files::{base64, bytes, png, png_header, quad_doc, Builder};
+use crate::support::{assert_validation_clean, gpu};
 
 /// Images: missing, corrupt, empty, absurd sizes, bad data URIs; extensions.
 pub fn cases(out: &mut Vec<Case>) {
@@ -134,4 +139,47 @@ pub fn cases(out: &mut Vec<Case>) {
             render: true,
         },
     ));
+}
+
+#[test]
+fn images_beyond_the_device_limit_fail_clearly() {
+    let ctx = gpu();
+    let limit = ctx.info().max_image_dimension_2d;
+    let mut s = Scene {
+        source: "big.gltf".into(),
+        ..Default::default()
+    };
+    s.images.push(ImageData {
+        width: limit + 1,
+        height: 1,
+        rgba8: Vec::new(),
+        mips: Vec::new(),
+        srgb: false,
+        ktx2: None,
+    });
+    let err = GpuTextures::upload(&ctx, &s).err().expect("must fail");
+    assert!(
+        matches!(err, rqr::Error::Vk(VkError::Limit { needed, available, .. }) if needed == u64::from(limit) + 1 && available == u64::from(limit)),
+        "{err:?}"
+    );
+    let msg = err.to_string();
+    assert!(
+        msg.contains("big.gltf") && msg.contains("image 0") && msg.contains("maxImageDimension2D"),
+        "{msg}"
+    );
+
+    s.images[0] = ImageData {
+        width: 4,
+        height: 4,
+        rgba8: vec![0; 12],
+        mips: Vec::new(),
+        srgb: false,
+        ktx2: None,
+    };
+    let msg = GpuTextures::upload(&ctx, &s)
+        .err()
+        .expect("must fail")
+        .to_string();
+    assert!(msg.contains("12 bytes"), "{msg}");
+    assert_validation_clean(&ctx);
 }

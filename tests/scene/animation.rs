@@ -107,24 +107,6 @@ fn interpolation_test_matches_hand_computed_values() {
     assert_eq!(pose.world[9], rest.world[9]);
 }
 
-#[test]
-fn animation_selection_errors_name_the_file() {
-    let s = load("InterpolationTest/InterpolationTest.glb");
-    let e = s
-        .select_animations(&AnimationSelection::Index(9))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("InterpolationTest.glb") && e.contains("animation 9"),
-        "{e}"
-    );
-    let e = s
-        .select_animations(&AnimationSelection::Name("Walk".into()))
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("'Walk'") && e.contains("Step Scale"), "{e}");
-}
-
 /// World-space positions of instance `k` at `time`, from the spec's formulas: morph
 /// (base + Σ w·Δ), then skinning Σ weight · (world(joint) · inverseBind) · p, or the
 /// instance's node transform when unskinned.

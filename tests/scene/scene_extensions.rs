@@ -412,48 +412,6 @@ fn layered_extensions_are_parsed_with_textures() {
 }
 
 #[test]
-fn bad_layer_factors_name_material_and_extension() {
-    for (ext, body, needle) in [
-        (
-            "KHR_materials_specular",
-            json!({"specularFactor": 2.0}),
-            "specularFactor",
-        ),
-        (
-            "KHR_materials_clearcoat",
-            json!({"clearcoatFactor": "a lot"}),
-            "KHR_materials_clearcoat",
-        ),
-        (
-            "KHR_materials_sheen",
-            json!({"sheenColorFactor": [2, 0, 0]}),
-            "sheenColorFactor",
-        ),
-        (
-            "KHR_materials_clearcoat",
-            json!({"clearcoatTexture": {"index": 7}}),
-            "clearcoatTexture",
-        ),
-    ] {
-        let mut b = Builder::default();
-        let mut doc = quad_doc(&mut b, json!({"material": 0}));
-        doc["materials"] = json!([{"extensions": {ext: body}}]);
-        let e = scene::load_slice(
-            &bytes(&b.document(doc)),
-            None,
-            "bad.gltf",
-            &LoadOptions::default(),
-        )
-        .expect_err(ext)
-        .to_string();
-        assert!(
-            e.starts_with("bad.gltf: material 0") && e.contains(needle),
-            "{ext}: {e}"
-        );
-    }
-}
-
-#[test]
 fn fuzz_seeds_load() {
     // The fuzz target's seeds are valid files covering the features (layered materials,
     // TEXCOORD_2, meshopt, Draco): each must load. The animation cases of the bad-input corpus
