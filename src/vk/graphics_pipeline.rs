@@ -32,7 +32,8 @@ pub struct GraphicsTargets<'a> {
 }
 
 impl GraphicsPipeline {
-    /// [`Self::new`], built once per context (see [`ComputePipeline::cached`]).
+    /// [`Self::new`], built once per context (see
+    /// [`ComputePipeline::cached`](super::ComputePipeline::cached)).
     pub fn cached(
         ctx: &Context,
         vertex: &[u8],
