@@ -1,4 +1,4 @@
-//! Per-frame GPU cost of animation: the skinning/morphing pass (`render::passes::skinning`, GPU
+//! Per-frame GPU cost of animation: the skinning/morphing pass (`render::passes::skin`, GPU
 //! timestamps over every deformed geometry of the frame) and the acceleration-structure
 //! rebuild of the posed scene (the builder's own GPU timings), for N frames of the first
 //! animation at --fps 24.
@@ -10,7 +10,7 @@
 use std::path::Path;
 
 use rqr::accel::Backend;
-use rqr::render::passes::skinning::SkinningPass;
+use rqr::render::passes::skin::SkinningPass;
 use rqr::render::Renderer;
 use rqr::scene::{AnimationSelection, LoadOptions};
 use rqr::vk::{Context, ContextOptions, GpuProfiler};

@@ -27,7 +27,7 @@ use rqr::environment::GpuEnvironment;
 use rqr::render::denoise::{self, DenoiseMode};
 use rqr::render::drivers::animated::{AnimatedFrames, AnimationUpdate};
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
-use rqr::render::image::{compare, output, tonemap};
+use rqr::render::image::{metrics, output, tonemap};
 use rqr::render::readback::RingContents;
 use rqr::render::{
     FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading,
@@ -167,7 +167,7 @@ fn main() -> Result<()> {
         let pairs = &frames[20..];
         pairs
             .windows(2)
-            .map(|w| compare::display_mean_abs_diff(&w[0].output.color, &w[1].output.color))
+            .map(|w| metrics::display_mean_abs_diff(&w[0].output.color, &w[1].output.color))
             .sum::<f64>()
             / (pairs.len() - 1) as f64
     };
@@ -197,11 +197,11 @@ fn main() -> Result<()> {
         )?;
     }
     let static_report = json!({
-        "mse_raw_1spp": compare::display_mse(&raw[last].output.color, &reference.color),
-        "mse_raw_16spp": compare::display_mse(&sixteen.color, &reference.color),
-        "mse_denoised_single_frame": compare::display_mse(&single.color, &reference.color),
-        "mse_denoised_frame_30": compare::display_mse(&denoised[last].output.color, &reference.color),
-        "mse_temporal_frame_30": compare::display_mse(&accumulated[last].output.color, &reference.color),
+        "mse_raw_1spp": metrics::display_mse(&raw[last].output.color, &reference.color),
+        "mse_raw_16spp": metrics::display_mse(&sixteen.color, &reference.color),
+        "mse_denoised_single_frame": metrics::display_mse(&single.color, &reference.color),
+        "mse_denoised_frame_30": metrics::display_mse(&denoised[last].output.color, &reference.color),
+        "mse_temporal_frame_30": metrics::display_mse(&accumulated[last].output.color, &reference.color),
         "stability_raw": stability(&raw),
         "stability_denoised": stability(&denoised),
     });
@@ -240,10 +240,10 @@ fn main() -> Result<()> {
             args.reference_spp / 4,
         )?;
         flip_denoised += f64::from(
-            compare::compare(side, side, &r.rgba8, &moving[k as usize].output.rgba8).flip_mean,
+            metrics::compare(side, side, &r.rgba8, &moving[k as usize].output.rgba8).flip_mean,
         );
         flip_raw += f64::from(
-            compare::compare(side, side, &r.rgba8, &moving_raw[k as usize].output.rgba8).flip_mean,
+            metrics::compare(side, side, &r.rgba8, &moving_raw[k as usize].output.rgba8).flip_mean,
         );
         n += 1.0;
     }
@@ -614,7 +614,7 @@ fn ghosting(
                 &camera,
                 args.reference_spp / 4,
             )?;
-            let d = compare::compare(side, side, &r.rgba8, &frame.output.rgba8);
+            let d = metrics::compare(side, side, &r.rgba8, &frame.output.rgba8);
             let now = &covered[k as usize];
             // Frames since each pixel was last covered (None: covered now, or never in view).
             let age = |i: usize| -> Option<u32> {

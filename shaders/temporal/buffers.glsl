@@ -34,8 +34,8 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) buffer ShownRecords
 // The job lists share one buffer: list k holds jobs [k n, k n + n), n = pixels.
 #define JOBS(i) Words(params.jobs).v[i]
 layout(set = 0, binding = BINDING_RP_COUNTERS, std430) buffer Counters { uint counters[]; };
-// The G-buffer images (gbuffer.frag's layout): the raster pass's (hybrid) or the visibility
-// pass's (rt).
+// The G-buffer images (gbuffer.frag's layout): the raster pass's (hybrid) or 1x1 placeholders
+// (rt: the verify pass keeps its primary hits in registers).
 layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_POSITION, rgba32f) uniform image2D g_position;   // world position, t
 layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_NORMAL, rgba32f) uniform image2D g_normal;       // shading normal, roughness
 layout(set = 0, binding = BINDING_RP_GBUFFER + GBUFFER_GEOMETRIC, rgba32f) uniform image2D g_geometric; // front-face normal, metallic

@@ -50,7 +50,7 @@ void commit_entry(uint q, uint st, CacheEntry e, PixelHit hit) {
         // collide with its original next frame and leave the pixel empty again, so the
         // sample density of a surface seen larger and larger would only fall. Instead it
         // becomes this pixel's sample at this pixel's primary hit: the G-buffer's or the
-        // visibility pass's where there is one, else where this pixel's ray meets the copied
+        // verify pass's where there is one, else where this pixel's ray meets the copied
         // sample's plane (the neighbourhood passed the edge test, so it is that smooth
         // surface).
         if ((params.flags & RP_GBUFFER) != 0u) {

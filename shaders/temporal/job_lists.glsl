@@ -1,10 +1,10 @@
 // Temporal reuse: the job lists the tracing passes work through, and the striped statistics
 // counters the passes settle pixels into.
 // Included by temporal.glsl (in its order: each part uses the ones before it).
-// Job lists. The stage that settles the pixels lists those the visibility pass looks at (list
-// 0, rt path) and the first pixels to trace (list 1); the visibility pass adds the candidates
+// Job lists. The stage that settles the pixels lists those the verify pass looks at (list
+// 0, rt path) and the first pixels to trace (list 1); the verify pass adds the candidates
 // it rejects to list 1; each adaptive interpolation lists the next level's pixels in list 0,
-// whose visibility jobs are done by then. Tracing passes run one job per invocation, 64 per
+// whose verify jobs are done by then. Tracing passes run one job per invocation, 64 per
 // workgroup.
 uint job_count(uint list) { return dispatch_args[4u * list + 3u]; }
 uint job_at(uint list, uint i) { return JOBS(list * pixel_count() + i); }

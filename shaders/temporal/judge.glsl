@@ -53,7 +53,7 @@ uint judge_against_gbuffer(ivec2 pix, CacheEntry e) {
 }
 
 // A pixel's own primary hit, where the pass that commits the pixel knows it: the G-buffer's
-// (hybrid path), or the ray the rt visibility pass has just traced, kept in registers (that
+// (hybrid path), or the ray the rt verify pass has just traced, kept in registers (that
 // pass stored it in G-buffer images for its readers once: a quarter of its time on lavapipe).
 struct PixelHit {
     bool known;

@@ -25,7 +25,7 @@ Neighbours load_neighbours(ivec2 pix) {
     return nb;
 }
 
-// Render Cache-style edge test for the rt path without a full primary-visibility pass: a
+// Render Cache-style edge test for the rt path without a full primary-verify pass: a
 // sample is trusted when the samples of its edge-sharing neighbours lie on the same smooth
 // surface (an edge that is a continuous curve passes between a pixel and one of them). A
 // surface that was hidden comes into view next to the silhouette that hid it, a depth edge,

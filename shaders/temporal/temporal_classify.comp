@@ -1,7 +1,7 @@
 #version 460
 // Temporal reuse, classify: decides every pixel (reuse, verify with a primary ray on the rt path,
 // or trace, and why), selects the frameless refresh, commits the reused pixels, counts the
-// settled ones, and lists the pixels left for rays: for the visibility pass (rt path) and the
+// settled ones, and lists the pixels left for rays: for the verify pass (rt path) and the
 // first trace (fused, so that deciding and listing cost one pass over the image, not two). One
 // thread per pixel, 8x8-pixel workgroups.
 #extension GL_GOOGLE_include_directive : require
@@ -22,7 +22,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // whose pixels to trace the stage lists (GATHER_NONE: it lists none).
 layout(push_constant) uniform Push { ReprojectPush pc; };
 
-// Decides pixel q and, unless it is a candidate for the visibility pass, commits it with the
+// Decides pixel q and, unless it is a candidate for the verify pass, commits it with the
 // entry it has read anyway. Returns the state.
 uint classify(uint q, ivec2 pix) {
     uint w = WINNER(q);
@@ -82,15 +82,15 @@ uint classify(uint q, ivec2 pix) {
 }
 
 // The state classify counts for pixel q: 0 while the pixel is undecided (a candidate for the
-// visibility pass, which settles it).
+// verify pass, which settles it).
 uint settled_state(uint st) {
     return (st & PX_KIND_MASK) == PX_VERIFY ? 0u : st;
 }
 
-// Whether the visibility pass (rt path) looks at pixel q: the candidates. (Pixels that need new
-// colour trace their own primary ray: a visibility round trip for every such pixel cost more
+// Whether the verify pass (rt path) looks at pixel q: the candidates. (Pixels that need new
+// colour trace their own primary ray: a verify round trip for every such pixel cost more
 // than it saved.)
-bool wants_visibility(uint st) {
+bool wants_verify(uint st) {
     return (st & PX_KIND_MASK) == PX_VERIFY;
 }
 
@@ -105,8 +105,8 @@ void main() {
         settled = settled_state(st);
     }
     // Settled pixels are counted, and the pixels left for rays are listed: those the
-    // visibility pass looks at first, and the others to trace at the first level.
-    bool look = inside && wants_visibility(st);
+    // verify pass looks at first, and the others to trace at the first level.
+    bool look = inside && wants_verify(st);
     bool adaptive = (params.flags & RP_ADAPTIVE) != 0u;
     bool leader = subgroupElect();
     settle_and_list(settled, uvec3(LIST_VERIFY, LIST_TRACE, LIST_PENDING),

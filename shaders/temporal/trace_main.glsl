@@ -37,7 +37,7 @@ void main() {
     ivec2 pix = ivec2(pixel_of(q));
     uint st = STATE(q);
     Ray camera = camera_ray(vec2(pix) + 0.5);
-    // The rt path traces its own primary ray, also for a candidate the visibility pass
+    // The rt path traces its own primary ray, also for a candidate the verify pass
     // rejected (a second ray for a few pixels costs less than a G-buffer round trip for all).
     bool known = (params.flags & RP_GBUFFER) != 0u;
 

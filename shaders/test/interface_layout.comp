@@ -44,7 +44,7 @@ layout(set = 0, binding = 4, std430) readonly buffer Pushes {
     RasterPush raster;
     RaybenchPush raybench;
     ReprojectPush reproject;
-    VisibilityPush visibility;
+    VerifyPush verify;
     TracePush trace;
     SkinPush skin;
     TextureSamplingPush texture_sampling;
@@ -74,7 +74,7 @@ void main() {
     put_RasterPush(pushes.raster);
     put_RaybenchPush(pushes.raybench);
     put_ReprojectPush(pushes.reproject);
-    put_VisibilityPush(pushes.visibility);
+    put_VerifyPush(pushes.verify);
     put_TracePush(pushes.trace);
     put_SkinPush(pushes.skin);
     put_TextureSamplingPush(pushes.texture_sampling);

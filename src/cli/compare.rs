@@ -11,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rqr::accel::Backend;
 use rqr::render::drivers::burst::{self, BurstReport};
 use rqr::render::drivers::sequence::{pass_spreads, Spread};
-use rqr::render::image::{compare, label, output};
+use rqr::render::image::{label, metrics, output};
 use rqr::render::passes::draw_list;
 use rqr::render::{
     merge_scopes, FrameTargets, PassScope, RenderOutput, RenderPath, RenderSettings, Renderer,
@@ -338,7 +338,7 @@ impl ShadingSplit {
 /// One backend's results as the reports need them.
 struct BackendSummary {
     backend: Backend,
-    diff: compare::ImageDiff,
+    diff: metrics::ImageDiff,
     hybrid_over_rt_time: f64,
     json: serde_json::Value,
 }
@@ -347,7 +347,7 @@ struct BackendSummary {
 #[derive(serde::Serialize)]
 struct CrossBackend {
     backends: [&'static str; 2],
-    flip: compare::ImageDiff,
+    flip: metrics::ImageDiff,
     primary_ids_agree: f64,
 }
 
@@ -471,11 +471,11 @@ fn write_images(
     dir: &Path,
     settings: &RenderSettings,
     run: &BackendRun,
-) -> Result<compare::ImageDiff> {
+) -> Result<metrics::ImageDiff> {
     let (rt, hybrid, backend) = (&run.rt.last, &run.hybrid.last, run.backend);
     let diff = {
         let _spinner = super::progress::Spinner::start("FLIP");
-        compare::compare(settings.width, settings.height, &rt.rgba8, &hybrid.rgba8)
+        metrics::compare(settings.width, settings.height, &rt.rgba8, &hybrid.rgba8)
     };
     output::write_png(&dir.join("rt.png"), rt)?;
     output::write_png(&dir.join("hybrid.png"), hybrid)?;
@@ -539,7 +539,7 @@ fn timing_rows(table: &mut String, run: &BackendRun) -> Result<()> {
 fn backend_summary(
     run: &BackendRun,
     dir: &Path,
-    diff: compare::ImageDiff,
+    diff: metrics::ImageDiff,
     splits: Option<(ShadingSplit, ShadingSplit)>,
 ) -> BackendSummary {
     let (rt, hybrid) = (&run.rt, &run.hybrid);
@@ -576,7 +576,7 @@ fn cross_backend(settings: &RenderSettings, runs: &[BackendRun]) -> Option<Cross
         return None;
     };
     let (a_out, b_out) = (&a.rt.last, &b.rt.last);
-    let flip = compare::compare(settings.width, settings.height, &a_out.rgba8, &b_out.rgba8);
+    let flip = metrics::compare(settings.width, settings.height, &a_out.rgba8, &b_out.rgba8);
     let primary_ids_agree = a_out
         .aov
         .iter()

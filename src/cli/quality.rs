@@ -14,7 +14,7 @@ use rqr::environment::EnvironmentMap;
 use rqr::render::denoise::DenoiseMode;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
 use rqr::render::image::tonemap::tonemap_rgba8;
-use rqr::render::image::{compare, output};
+use rqr::render::image::{metrics, output};
 use rqr::render::passes::draw_list;
 use rqr::render::{RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading};
 use rqr::scene::{Camera, Scene};
@@ -201,7 +201,7 @@ pub fn error_against_time(
                 let name = format!("quality-{}.png", config.replace(' ', "-"));
                 output::write_png(&dir.join(name), &out)?;
             }
-            let d = compare::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
+            let d = metrics::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
             rows.push(QualityRow {
                 config: config.clone(),
                 path: path.as_str(),
@@ -223,7 +223,7 @@ pub fn error_against_time(
                 let name = format!("quality-{}.png", config.replace(' ', "-"));
                 output::write_png(&dir.join(name), &out)?;
             }
-            let d = compare::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
+            let d = metrics::compare(s.width, s.height, &reference.rgba8, &out.rgba8);
             rows.push(QualityRow {
                 config,
                 path: path.as_str(),

@@ -16,7 +16,9 @@ use rqr::render::drivers::sequence::{
 use rqr::render::image::output;
 use rqr::render::passes::draw_list;
 use rqr::render::readback::RingContents;
-use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility, DEFAULT_SUBSAMPLE_THRESHOLD};
+use rqr::render::temporal::{
+    PixelSource, PrimaryRayCheck, ReuseOptions, DEFAULT_SUBSAMPLE_THRESHOLD,
+};
 use rqr::render::RenderPath;
 use rqr::render::{PassScope, RenderOutput, RenderSettings, Renderer};
 use serde_json::json;
@@ -101,8 +103,8 @@ pub struct SequenceArgs {
     max_age: Option<u32>,
     /// rt path: which reprojected samples get a primary ray to check visibility. `edges`:
     /// only those next to a depth edge or a hole; `full`: all of them.
-    #[arg(long, value_enum, default_value_t = RtVisibility::Edges)]
-    rt_visibility: RtVisibility,
+    #[arg(long, value_enum, default_value_t = PrimaryRayCheck::Edges)]
+    rt_visibility: PrimaryRayCheck,
     /// Also render every frame in full; report rays relative to it, FLIP and PSNR.
     #[arg(long)]
     reference: bool,

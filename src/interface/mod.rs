@@ -75,7 +75,7 @@ pub fn push_bytes<T: bytemuck::Pod>(push: &T) -> &[u8] {
 // Relations between constants the GLSL side relies on.
 const _: () = assert!(reproject::C_SAMPLES == COUNTER_SAMPLES);
 // Reprojection's statistics stripes (after its shared slots) have the full frame's ray-counter
-// layout, so the host sums both alike (`render::passes::raytraced::striped_sum`).
+// layout, so the host sums both alike (`render::passes::raytrace::striped_sum`).
 const _: () = assert!(
     reproject::COUNTER_STRIPES == RAY_COUNTER_STRIPES
         && reproject::COUNTER_STRIPE_WORDS == RAY_COUNTER_STRIDE
@@ -101,6 +101,9 @@ const _: () = assert!(
         && reproject::KEY_NOT_COPYABLE == 1 << (2 * reproject::KEY_PLACE_BITS)
 );
 const _: () = assert!(GBUFFER_BARY + 1 == GBUFFER_IMAGES);
+// `vk::rows_of_groups` rows: within `maxComputeWorkGroupCount[0]`'s minimum, and a power of two
+// (the shaders split an invocation index into row and column with it).
+const _: () = assert!(GROUPS_PER_ROW.is_power_of_two() && GROUPS_PER_ROW <= 65_535);
 // Temporal pixel states: the kinds fit their mask, and the reason bits start above it; cache
 // flags stay below the hop count.
 const _: () = assert!(

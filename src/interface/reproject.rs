@@ -40,12 +40,12 @@ pub const NO_ANCHOR: u32 = 0xFFFF_FFFF;
 
 /// [`ReprojectPush::gather`] of a stage that lists no pixels to trace.
 pub const GATHER_NONE: u32 = u32::MAX;
-/// Job list 0: the visibility pass's jobs (rt path), then each later adaptive level's.
+/// Job list 0: the verify pass's jobs (rt path), then each later adaptive level's.
 pub const LIST_VERIFY: u32 = 0;
-/// Job list 1: the first pixels to trace (the settling stage's and the visibility pass's).
+/// Job list 1: the first pixels to trace (the settling stage's and the verify pass's).
 pub const LIST_TRACE: u32 = 1;
 /// Job list 2, adaptive sub-sampling only: the pixels that need new colour (the settling
-/// stage's and the visibility pass's), which the interpolation passes work through instead of
+/// stage's and the verify pass's), which the interpolation passes work through instead of
 /// the whole image.
 pub const LIST_PENDING: u32 = 2;
 /// Job lists in the jobs buffer (and indirect dispatches in the arguments buffer).
@@ -253,10 +253,10 @@ pub struct ReprojectPush {
     pub gather: u32,
 }
 
-/// `temporal_visibility.comp`'s push constant.
+/// `temporal_verify.comp`'s push constant.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct VisibilityPush {
+pub struct VerifyPush {
     /// The adaptive level (1, 2, 4) whose pixels to trace it lists.
     pub level: u32,
 }

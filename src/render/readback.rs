@@ -4,7 +4,7 @@
 
 use ash::vk;
 
-use crate::render::passes::raytraced::COUNTER_WORDS;
+use crate::render::passes::raytrace::COUNTER_WORDS;
 use crate::render::{Aov, RenderSettings};
 use crate::vk::{host_read_barrier, Buffer, Context, MemoryLocation, VkError, VkResult};
 

@@ -5,6 +5,7 @@
 //! [`Buffer`], [`Image`], [`Sampler`], [`ComputePipeline`] and [`GpuProfiler`].
 
 mod context;
+mod graphics_pipeline;
 mod instance;
 mod memory;
 mod pipeline;
@@ -16,11 +17,11 @@ mod sampler;
 
 pub(crate) use context::Shared;
 pub use context::{Context, ContextOptions, Features, ABANDONED_WORK_GRACE, DEFAULT_FENCE_TIMEOUT};
+pub use graphics_pipeline::{GraphicsPipeline, GraphicsTargets};
 pub use instance::{normalize_uuid, validation_layer_available, DeviceSelector};
 pub use memory::{host_read_barrier, Buffer, Image};
 pub use pipeline::{
     memory_barrier, rows_of_groups, spirv_words, Binding, ComputePipeline, DescriptorSet,
-    GraphicsPipeline, GraphicsTargets,
 };
 pub use probe::{
     describe_devices, largest_device_heap, AsProperties, DeviceInfo, DeviceList, MemoryHeapInfo,

@@ -1,5 +1,6 @@
-//! Compute and graphics pipelines with one descriptor set layout each ([`Binding`] per binding
-//! number), their descriptor sets, and the per-context pipeline cache.
+//! Compute pipelines with one descriptor set layout each ([`Binding`] per binding number),
+//! their descriptor sets, and the per-context pipeline cache (graphics pipelines, in
+//! `graphics_pipeline`, share all three).
 
 use std::ffi::CStr;
 use std::hash::{Hash, Hasher};
@@ -54,7 +55,7 @@ pub fn spirv_words(bytes: &[u8]) -> VkResult<Vec<u32>> {
 }
 
 /// Creates a descriptor set layout for `bindings` visible to `stages`.
-pub(crate) fn create_set_layout(
+pub(super) fn create_set_layout(
     device: &ash::Device,
     bindings: &[Binding],
     stages: vk::ShaderStageFlags,
@@ -92,14 +93,14 @@ pub(crate) fn create_set_layout(
 /// Creating a pipeline costs lavapipe 50-200 ms of CPU even when its JIT cache hits (SPIR-V to
 /// NIR and NIR optimisation), and passes are built per frame, so every pass reuses one pipeline
 /// per shader for the context's lifetime.
-fn cache_key(parts: impl Hash) -> u64 {
+pub(super) fn cache_key(parts: impl Hash) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     parts.hash(&mut h);
     h.finish()
 }
 
 /// Map entries of 32-bit specialization constants: `constants[i]` is `constant_id = i`.
-fn specialization_entries(constants: &[u32]) -> Vec<vk::SpecializationMapEntry> {
+pub(super) fn specialization_entries(constants: &[u32]) -> Vec<vk::SpecializationMapEntry> {
     (0..constants.len() as u32)
         .map(|i| vk::SpecializationMapEntry {
             constant_id: i,
@@ -362,7 +363,7 @@ impl ComputePipeline {
 }
 
 /// Destroys a pipeline with its layouts once no submission can use them.
-fn retire_pipeline(
+pub(super) fn retire_pipeline(
     shared: &Shared,
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
@@ -541,271 +542,13 @@ pub fn memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
     unsafe { device.cmd_pipeline_barrier2(cmd, &dep) };
 }
 
-/// A graphics pipeline for dynamic rendering with vertex pulling (no vertex input state),
-/// one descriptor set, push constants, dynamic viewport/scissor/cull mode/front face.
-pub struct GraphicsPipeline {
-    shared: Arc<Shared>,
-    bindings: Vec<Binding>,
-    set_layout: vk::DescriptorSetLayout,
-    layout: vk::PipelineLayout,
-    pipeline: vk::Pipeline,
-}
-
-/// What a [`GraphicsPipeline`] renders into.
-pub struct GraphicsTargets<'a> {
-    /// Colour attachment formats, in location order.
-    pub color_formats: &'a [vk::Format],
-    /// Depth attachment format (depth test LESS, write on).
-    pub depth_format: vk::Format,
-}
-
-impl GraphicsPipeline {
-    /// [`Self::new`], built once per context (see [`ComputePipeline::cached`]).
-    pub fn cached(
-        ctx: &Context,
-        vertex: &[u8],
-        fragment: &[u8],
-        bindings: &[Binding],
-        push_size: u32,
-        targets: &GraphicsTargets<'_>,
-        fragment_constants: &[u32],
-    ) -> VkResult<Arc<Self>> {
-        let key = cache_key((
-            "graphics",
-            vertex,
-            fragment,
-            format!("{bindings:?}"),
-            push_size,
-            format!("{:?} {:?}", targets.color_formats, targets.depth_format),
-            fragment_constants,
-        ));
-        let mut cache = ctx.pipelines.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(p) = cache
-            .get(&key)
-            .and_then(|p| p.clone().downcast::<Self>().ok())
-        {
-            return Ok(p);
-        }
-        let p = Arc::new(Self::new(
-            ctx,
-            vertex,
-            fragment,
-            bindings,
-            push_size,
-            targets,
-            fragment_constants,
-        )?);
-        cache.insert(key, p.clone());
-        Ok(p)
-    }
-
-    /// Builds the pipeline from vertex and fragment SPIR-V (entry points `main`);
-    /// `fragment_constants[i]` specialises the fragment stage's `constant_id = i`.
-    pub fn new(
-        ctx: &Context,
-        vertex: &[u8],
-        fragment: &[u8],
-        bindings: &[Binding],
-        push_size: u32,
-        targets: &GraphicsTargets<'_>,
-        fragment_constants: &[u32],
-    ) -> VkResult<Self> {
-        let device = ctx.device();
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let set_layout = create_set_layout(device, bindings, stages)?;
-        let ranges = [vk::PushConstantRange::default()
-            .stage_flags(stages)
-            .size(push_size)];
-        let set_layouts = [set_layout];
-        let layout_info = vk::PipelineLayoutCreateInfo::default()
-            .set_layouts(&set_layouts)
-            .push_constant_ranges(if push_size > 0 { &ranges } else { &[] });
-        // SAFETY: valid create info.
-        let layout = match unsafe { device.create_pipeline_layout(&layout_info, None) }
-            .call("vkCreatePipelineLayout")
-        {
-            Ok(l) => l,
-            Err(e) => {
-                // SAFETY: unused layout.
-                unsafe { device.destroy_descriptor_set_layout(set_layout, None) };
-                return Err(e);
-            }
-        };
-        let destroy_layouts = || {
-            // SAFETY: unused objects.
-            unsafe {
-                device.destroy_pipeline_layout(layout, None);
-                device.destroy_descriptor_set_layout(set_layout, None);
-            }
-        };
-        let mut modules = Vec::new();
-        for code in [vertex, fragment] {
-            let words = match spirv_words(code) {
-                Ok(w) => w,
-                Err(e) => {
-                    destroy_layouts();
-                    return Err(e);
-                }
-            };
-            // SAFETY: valid SPIR-V from build.rs.
-            match unsafe {
-                device
-                    .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
-            } {
-                Ok(m) => modules.push(m),
-                Err(result) => {
-                    // SAFETY: unused modules.
-                    unsafe {
-                        modules
-                            .iter()
-                            .for_each(|&m| device.destroy_shader_module(m, None))
-                    };
-                    destroy_layouts();
-                    return Err(VkError::from_call("vkCreateShaderModule", result));
-                }
-            }
-        }
-        const MAIN: &CStr = c"main";
-        let entries = specialization_entries(fragment_constants);
-        let spec = vk::SpecializationInfo::default()
-            .map_entries(&entries)
-            .data(bytemuck::cast_slice(fragment_constants));
-        let stage_info = [
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::VERTEX)
-                .module(modules[0])
-                .name(MAIN),
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(modules[1])
-                .name(MAIN)
-                .specialization_info(&spec),
-        ];
-        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(true)
-            .depth_write_enable(true)
-            .depth_compare_op(vk::CompareOp::LESS);
-        let blend_attachments: Vec<_> = targets
-            .color_formats
-            .iter()
-            .map(|_| {
-                vk::PipelineColorBlendAttachmentState::default()
-                    .color_write_mask(vk::ColorComponentFlags::RGBA)
-            })
-            .collect();
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
-        let dynamic_states = [
-            vk::DynamicState::VIEWPORT,
-            vk::DynamicState::SCISSOR,
-            vk::DynamicState::CULL_MODE,
-            vk::DynamicState::FRONT_FACE,
-        ];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(targets.color_formats)
-            .depth_attachment_format(targets.depth_format);
-        let info = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stage_info)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .depth_stencil_state(&depth)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(layout)
-            .push_next(&mut rendering);
-        // SAFETY: every referenced struct lives until the call returns.
-        let result =
-            unsafe { device.create_graphics_pipelines(ctx.pipeline_cache(), &[info], None) };
-        // SAFETY: modules are no longer needed once the pipeline exists (or failed).
-        unsafe {
-            modules
-                .iter()
-                .for_each(|&m| device.destroy_shader_module(m, None))
-        };
-        let pipeline = match result {
-            Ok(p) => p[0],
-            Err((_, result)) => {
-                destroy_layouts();
-                return Err(VkError::from_call("vkCreateGraphicsPipelines", result));
-            }
-        };
-        Ok(Self {
-            shared: ctx.shared.clone(),
-            bindings: bindings.to_vec(),
-            set_layout,
-            layout,
-            pipeline,
-        })
-    }
-
-    /// Allocates a descriptor set for this pipeline.
-    pub fn allocate_set(&self) -> VkResult<DescriptorSet> {
-        DescriptorSet::new(&self.shared, self.set_layout, &self.bindings)
-    }
-
-    /// Binds the pipeline and its set (call inside a dynamic rendering scope).
-    pub fn bind(&self, cmd: vk::CommandBuffer, set: &DescriptorSet) {
-        // SAFETY: recording command buffer, live objects.
-        unsafe {
-            self.shared.device.cmd_bind_pipeline(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.pipeline,
-            );
-            self.shared.device.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.layout,
-                0,
-                &[set.raw],
-                &[],
-            );
-        }
-    }
-
-    /// Sets the push constants of both stages.
-    pub fn push(&self, cmd: vk::CommandBuffer, bytes: &[u8]) {
-        // SAFETY: the range was declared for both stages at creation.
-        unsafe {
-            self.shared.device.cmd_push_constants(
-                cmd,
-                self.layout,
-                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                0,
-                bytes,
-            )
-        };
-    }
-}
-
-impl Drop for GraphicsPipeline {
-    fn drop(&mut self) {
-        retire_pipeline(&self.shared, self.pipeline, self.layout, self.set_layout);
-    }
-}
-
-/// A one-dimensional dispatch of `groups` workgroups as rows of at most
-/// [`crate::interface::GROUPS_PER_ROW`]: a device may launch no more than 65 535 in one
-/// dimension (`maxComputeWorkGroupCount`, lavapipe's limit), which 64-pixel workgroups reach at
-/// 2048×2048. Shaders number their invocations with `linear_invocation()`
-/// (`shaders/common/counters.glsl`) and skip those past their count.
-pub fn rows_of_groups(groups: u32) -> [u32; 3] {
-    let row = groups.min(crate::interface::GROUPS_PER_ROW);
+/// A one-dimensional dispatch of `groups` workgroups as rows of at most `per_row` (a power of
+/// two up to 65 535, the shaders' row width, `interface::GROUPS_PER_ROW`): a device may launch
+/// no more than 65 535 in one dimension (`maxComputeWorkGroupCount`, lavapipe's limit), which
+/// 64-pixel workgroups reach at 2048×2048. Shaders number their invocations with
+/// `linear_invocation()` (`shaders/common/counters.glsl`) and skip those past their count.
+pub fn rows_of_groups(groups: u32, per_row: u32) -> [u32; 3] {
+    let row = groups.min(per_row);
     [row, groups.div_ceil(row.max(1)).max(1), 1]
 }
 
@@ -815,8 +558,12 @@ mod tests {
 
     #[test]
     fn rows_of_groups_cover_the_dispatch_within_the_limit() {
-        for groups in [0, 1, 63, 32_768, 65_535, 65_536, 68_907, 129_600, 1 << 24] {
-            let [x, y, z] = rows_of_groups(groups);
+        // The shaders' row width (`interface::GROUPS_PER_ROW`) and a narrow one.
+        for (groups, per_row) in [0, 1, 63, 32_768, 65_535, 65_536, 68_907, 129_600, 1 << 24]
+            .into_iter()
+            .flat_map(|g| [(g, 32_768), (g, 1024)])
+        {
+            let [x, y, z] = rows_of_groups(groups, per_row);
             assert!(x <= 65_535 && y <= 65_535 && z == 1, "{groups}: {x} x {y}");
             let launched = u64::from(x) * u64::from(y);
             assert!(launched >= u64::from(groups), "{groups}: {x} x {y}");
@@ -826,6 +573,7 @@ mod tests {
                 "{groups}: {x} x {y}"
             );
         }
-        assert_eq!(rows_of_groups(100), [100, 1, 1]);
+        assert_eq!(rows_of_groups(100, 32_768), [100, 1, 1]);
+        assert_eq!(rows_of_groups(2000, 1024), [1024, 2, 1]);
     }
 }

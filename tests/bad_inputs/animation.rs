@@ -1,12 +1,15 @@
 //! Bad-input cases of animations, skins and morph targets: joints out of range,
 //! weights that do not sum to 1, inverse bind matrix count mismatch, sampler input not
 //! increasing, output count mismatch, CUBICSPLINE with the wrong tangent count, morph target
-//! count differing across primitives, animation of a missing node, cyclic skeleton.
+//! count differing across primitives, animation of a missing node, cyclic skeleton; and
+//! `--animation` choices that name no animation of the file.
 
 use serde_json::{json, Value};
 
 use super::corpus::{Case, Expect};
-use crate::support::scene_files::{bytes, quad_doc, Builder};
+use rqr::scene::AnimationSelection;
+
+use crate::support::scene_files::{bytes, load_asset, quad_doc, Builder};
 
 /// What to break in the skinned, animated quad.
 #[derive(Clone, Copy, Default)]
@@ -210,4 +213,22 @@ pub fn cases(out: &mut Vec<Case>) {
         |d| d["nodes"][0]["skin"] = json!(4),
         &["node 0", "skin 4 does not exist"],
     ));
+}
+
+#[test]
+fn animation_selection_errors_name_the_file() {
+    let s = load_asset("InterpolationTest/InterpolationTest.glb");
+    let e = s
+        .select_animations(&AnimationSelection::Index(9))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("InterpolationTest.glb") && e.contains("animation 9"),
+        "{e}"
+    );
+    let e = s
+        .select_animations(&AnimationSelection::Name("Walk".into()))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("'Walk'") && e.contains("Step Scale"), "{e}");
 }

@@ -1,6 +1,6 @@
-//! Bad command lines and GPU faults through the real binary: every one fails with exit code
-//! ≠ 0 and a one-line message saying what is wrong, fast, without a panic or a hang, and
-//! without Vulkan validation errors.
+//! Bad command lines, missing or unmatched devices and GPU faults through the real binary:
+//! every one fails with exit code ≠ 0 and a one-line message saying what is wrong, fast,
+//! without a panic or a hang, and without Vulkan validation errors.
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -418,5 +418,113 @@ fn closed_stdout_ends_commands_quietly() {
     }
     // The render's work was done: only its summary line found nobody to read it.
     assert!(out_png.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn info_fails_cleanly_on_bad_input() {
+    let dir = std::env::temp_dir().join(format!("rqr-info-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let broken = dir.join("broken.glb");
+    std::fs::write(&broken, b"glTF\x02\0\0\0\xff\0\0\0JSON").unwrap();
+    let missing = dir.join("missing.gltf");
+    let sparse = support::scene_files::asset("SimpleSparseAccessor/SimpleSparseAccessor.gltf");
+    // Exit 1: the file is missing, broken or lacks the scene; exit 2: a usage mistake (the
+    // built-in scene has one scene whatever the file system holds).
+    for (args, needle, code) in [
+        (vec!["info", missing.to_str().unwrap()], "missing.gltf", 1),
+        (vec!["info", broken.to_str().unwrap()], "truncated GLB", 1),
+        (
+            vec!["info", sparse.to_str().unwrap(), "--scene", "3"],
+            "scene 3",
+            1,
+        ),
+        (vec!["info", "--scene", "1"], "built-in", 2),
+    ] {
+        let (out, _) = rqr(&args, &[], Duration::from_secs(60));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: '{needle}' not in {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(out.stdout.is_empty());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn device_selector_errors_name_the_available_devices() {
+    let (out, _) = rqr(
+        &["probe", "--device", "no-such-gpu-xyz"],
+        &[],
+        Duration::from_secs(60),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no-such-gpu-xyz") && err.contains("0: "),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_vulkan_driver_exits_2_with_install_hint() {
+    let (out, _) = rqr(&["probe"], NO_VULKAN, Duration::from_secs(30));
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("scripts/setup-vulkan.sh"));
+}
+
+/// `rqr render --frames` options that cannot work (a camera path the scene lacks, a frame
+/// range past the sequence or empty, reuse with several samples per pixel, ...) are refused
+/// naming the option.
+#[test]
+fn sequence_options_that_cannot_work_are_refused() {
+    let dir = tmp_dir("sequence");
+    let out = dir.join("seq.png");
+    let out_s = out.to_str().unwrap();
+    for (args, message) in [
+        (
+            vec!["--frames", "2", "--camera-path", "gltf"],
+            "has no camera animation",
+        ),
+        (
+            vec!["--frames", "2", "--frame-range", "1..3"],
+            "goes past --frames",
+        ),
+        (vec!["--frame-range", "3..3"], "empty frame range"),
+        (
+            vec!["--frames", "2", "--frameless", "0"],
+            "must be a percentage",
+        ),
+        (
+            vec!["--frames", "2", "--reproject", "--max-age", "1024"],
+            "--max-age 1024 must be at most 1023",
+        ),
+        (
+            vec![
+                "--frames",
+                "2",
+                "--reproject",
+                "--spp",
+                "4",
+                "--sampler",
+                "grid",
+            ],
+            "--spp 1",
+        ),
+        (vec!["--camera-path", "spin:2"], "unknown camera path"),
+        (vec!["--camera-path", "orbit:1"], "needs --frames"),
+    ] {
+        let mut full = vec!["render", "--width", "16", "--height", "16", "-o", out_s];
+        full.extend(args.iter().copied());
+        let (o, _) = rqr(&full, &[], Duration::from_secs(60));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(stderr.contains(message), "{args:?}: {stderr}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

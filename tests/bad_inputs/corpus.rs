@@ -4,9 +4,7 @@
 
 use serde_json::{json, Value};
 
-use crate::support::scene_files::{
-    base64, bytes, glb, png, png_header, quad_doc, unbase64, Builder,
-};
+use crate::support::scene_files::{base64, bytes, glb, png, quad_doc, unbase64, Builder};
 
 /// What loading a case must do.
 #[derive(Clone, Debug)]
@@ -30,16 +28,16 @@ pub struct Case {
     pub expect: Expect,
 }
 
-fn fails(needles: &[&'static str]) -> Expect {
+pub fn fails(needles: &[&'static str]) -> Expect {
     Expect::Fails(needles.to_vec())
 }
 
-const RENDERS: Expect = Expect::Loads {
+pub const RENDERS: Expect = Expect::Loads {
     warning: None,
     render: true,
 };
 
-fn case(name: &str, file: &str, data: Vec<u8>, expect: Expect) -> Case {
+pub fn case(name: &str, file: &str, data: Vec<u8>, expect: Expect) -> Case {
     Case {
         name: name.to_string(),
         files: vec![(file.to_string(), data)],
@@ -47,7 +45,7 @@ fn case(name: &str, file: &str, data: Vec<u8>, expect: Expect) -> Case {
     }
 }
 
-fn gltf(name: &str, doc: &Value, expect: Expect) -> Case {
+pub fn gltf(name: &str, doc: &Value, expect: Expect) -> Case {
     case(name, "scene.gltf", bytes(doc), expect)
 }
 
@@ -59,7 +57,7 @@ fn quad() -> (Builder, Value) {
 }
 
 /// The quad as a complete `.gltf` document with an embedded buffer.
-fn quad_gltf() -> Value {
+pub fn quad_gltf() -> Value {
     let (b, doc) = quad();
     b.document(doc)
 }
@@ -87,14 +85,14 @@ pub fn big_png(side: u32) -> Vec<u8> {
 use image::ImageEncoder as _;
 
 /// A textured quad whose only image is `image` (a JSON image object).
-fn textured(image: Value) -> (Builder, Value) {
+pub fn textured(image: Value) -> (Builder, Value) {
     let mut b = Builder::default();
     let doc = textured_in(&mut b, image);
     (b, doc)
 }
 
 /// The quad with UVs and a base-colour texture whose image is `image`, built in `b`.
-fn textured_in(b: &mut Builder, image: Value) -> Value {
+pub fn textured_in(b: &mut Builder, image: Value) -> Value {
     let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
     let mut doc = quad_doc(b, json!({"material": 0}));
     doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
@@ -105,7 +103,7 @@ fn textured_in(b: &mut Builder, image: Value) -> Value {
 }
 
 /// A GLB of the textured quad with `image` (PNG bytes, or what claims to be) in its BIN chunk.
-fn embedded_glb(image: &[u8]) -> Vec<u8> {
+pub fn embedded_glb(image: &[u8]) -> Vec<u8> {
     let mut b = Builder::default();
     let view = b.view(image);
     let doc = textured_in(&mut b, json!({"bufferView": view, "mimeType": "image/png"}));
@@ -659,134 +657,6 @@ fn million_nodes(name: &str) -> Case {
     gltf(name, &d, RENDERS)
 }
 
-/// Images: missing, corrupt, empty, absurd sizes, bad data URIs; extensions.
-fn image_cases(out: &mut Vec<Case>) {
-    let with_image = |name: &str, image: Value, extra: Vec<(String, Vec<u8>)>, expect: Expect| {
-        let (b, doc) = textured(image);
-        let mut files = vec![("scene.gltf".to_string(), bytes(&b.document(doc)))];
-        files.extend(extra);
-        Case {
-            name: name.to_string(),
-            files,
-            expect,
-        }
-    };
-    let embedded = |name: &str, data: Vec<u8>, expect: Expect| {
-        case(name, "scene.glb", embedded_glb(&data), expect)
-    };
-    out.push(with_image(
-        "image_missing_file",
-        json!({"uri": "missing.png"}),
-        vec![],
-        fails(&["image 0 (missing.png): cannot read"]),
-    ));
-    out.push(with_image(
-        "image_zero_bytes",
-        json!({"uri": "empty.png"}),
-        vec![("empty.png".into(), Vec::new())],
-        fails(&["image 0 (empty.png): not a PNG, JPEG, WebP or KTX2 image"]),
-    ));
-    out.push(with_image(
-        "image_garbage",
-        json!({"uri": "garbage.png"}),
-        vec![("garbage.png".into(), b"definitely not an image".to_vec())],
-        fails(&["image 0 (garbage.png): not a PNG, JPEG, WebP or KTX2 image"]),
-    ));
-    let good = png(4, 4, &[200; 64]);
-    out.push(embedded(
-        "image_truncated_png",
-        good[..good.len() - 20].to_vec(),
-        fails(&["image 0: cannot decode"]),
-    ));
-    out.push(embedded(
-        "image_header_0x0",
-        png_header(0, 0),
-        fails(&["image 0: "]),
-    ));
-    out.push(embedded(
-        "image_header_20000",
-        png_header(20000, 20000),
-        fails(&["image 0: 20000x20000 is outside rqr's 1..=16384 pixel limit per side"]),
-    ));
-    out.push(embedded(
-        "image_header_16k_without_pixels",
-        png_header(16384, 16384),
-        fails(&["image 0: cannot decode"]),
-    ));
-    // Five 16k² headers: more texels than a scene may hold, refused before any decoding.
-    let mut b = Builder::default();
-    let header = b.view(&png_header(16384, 16384));
-    let mut doc = textured_in(
-        &mut b,
-        json!({"bufferView": header, "mimeType": "image/png"}),
-    );
-    doc["images"] = json!((0..5)
-        .map(|_| json!({"bufferView": header, "mimeType": "image/png"}))
-        .collect::<Vec<_>>());
-    doc["textures"] = json!((0..5).map(|i| json!({"source": i})).collect::<Vec<_>>());
-    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}},
-        "emissiveTexture": {"index": 1}, "normalTexture": {"index": 2},
-        "occlusionTexture": {"index": 3},
-        "extensions": {"KHR_materials_transmission": {"transmissionTexture": {"index": 4}}}}]);
-    doc["extensionsUsed"] = json!(["KHR_materials_transmission"]);
-    out.push(case(
-        "images_beyond_texel_budget",
-        "scene.glb",
-        b.glb(doc),
-        fails(&["exceed rqr's limit of 1073741824 texels"]),
-    ));
-    out.push(with_image(
-        "image_data_uri_bad_base64",
-        json!({"uri": "data:image/png;base64,iVBOR!!!!"}),
-        vec![],
-        fails(&["image 0: invalid base64"]),
-    ));
-    out.push(with_image(
-        "image_data_uri_not_an_image",
-        json!({"uri": format!("data:image/png;base64,{}", base64(b"hello"))}),
-        vec![],
-        fails(&["image 0: cannot decode"]),
-    ));
-    out.push(with_image(
-        "image_remote_uri",
-        json!({"uri": "http://example.com/a.png"}),
-        vec![],
-        fails(&["image 0 (http://example.com/a.png): URI scheme 'http:' is not supported"]),
-    ));
-    let mut b = Builder::default();
-    let bmp = b.view(b"BM\0\0\0\0\0\0\0\0\0\0\0\0");
-    let mut doc = quad_doc(&mut b, json!({"material": 0}));
-    doc["images"] = json!([{"bufferView": bmp, "mimeType": "image/bmp"}]);
-    doc["textures"] = json!([{"source": 0}]);
-    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
-    out.push(gltf(
-        "image_bmp",
-        &b.document(doc),
-        fails(&["image 0: Bmp images are not supported"]),
-    ));
-
-    let mut d = quad_gltf();
-    d["extensionsUsed"] = json!(["KHR_materials_diffuse_transmission"]);
-    d["extensionsRequired"] = json!(["KHR_materials_diffuse_transmission"]);
-    out.push(gltf(
-        "extension_required_unsupported",
-        &d,
-        fails(&[
-            "requires glTF extension(s) rqr does not support: KHR_materials_diffuse_transmission",
-        ]),
-    ));
-    let mut d = quad_gltf();
-    d["extensionsUsed"] = json!(["KHR_materials_iridescence"]);
-    out.push(gltf(
-        "extension_optional_unsupported",
-        &d,
-        Expect::Loads {
-            warning: Some("ignoring unsupported glTF extension(s): KHR_materials_iridescence"),
-            render: true,
-        },
-    ));
-}
-
 /// Every cut point of [`small_glb`] (the intact file is a case of its own).
 pub fn truncations() -> Vec<Case> {
     let full = small_glb();
@@ -828,7 +698,7 @@ pub fn cases() -> Vec<Case> {
     accessor_cases(&mut out);
     geometry_cases(&mut out);
     node_cases(&mut out);
-    image_cases(&mut out);
+    crate::images::cases(&mut out);
     crate::extensions::cases(&mut out);
     crate::animation::cases(&mut out);
     out

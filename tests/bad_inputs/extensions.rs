@@ -1,10 +1,15 @@
 //! Bad-input cases of the material extensions rqr reads (KHR_materials_specular, _clearcoat,
-//! _sheen, the volume's thickness texture) and of texture coordinate sets.
+//! _sheen, the volume's thickness texture) and of texture coordinate sets; beside the corpus,
+//! bad layer factors and KHR_materials_variants names and mappings through the loader.
 
 use serde_json::json;
 
 use super::corpus::{Case, Expect};
-use crate::support::scene_files::{asset, bytes, glb, quad_doc, Builder};
+use rqr::scene::{self, LoadOptions};
+
+use crate::support::scene_files::{
+    asset, bytes, glb, load_variant, quad_doc, variants_quad, Builder,
+};
 
 fn material_case(name: &str, material: serde_json::Value, needles: &[&'static str]) -> Case {
     let mut b = Builder::default();
@@ -222,4 +227,61 @@ pub fn cases(out: &mut Vec<Case>) {
         json!({"extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatNormalTexture": {"index": 1, "scale": 2}}}}),
         &["material 0 clearcoatNormalTexture", "texture 1 does not exist"],
     ));
+}
+
+#[test]
+fn bad_layer_factors_name_material_and_extension() {
+    for (ext, body, needle) in [
+        (
+            "KHR_materials_specular",
+            json!({"specularFactor": 2.0}),
+            "specularFactor",
+        ),
+        (
+            "KHR_materials_clearcoat",
+            json!({"clearcoatFactor": "a lot"}),
+            "KHR_materials_clearcoat",
+        ),
+        (
+            "KHR_materials_sheen",
+            json!({"sheenColorFactor": [2, 0, 0]}),
+            "sheenColorFactor",
+        ),
+        (
+            "KHR_materials_clearcoat",
+            json!({"clearcoatTexture": {"index": 7}}),
+            "clearcoatTexture",
+        ),
+    ] {
+        let mut b = Builder::default();
+        let mut doc = quad_doc(&mut b, json!({"material": 0}));
+        doc["materials"] = json!([{"extensions": {ext: body}}]);
+        let e = scene::load_slice(
+            &bytes(&b.document(doc)),
+            None,
+            "bad.gltf",
+            &LoadOptions::default(),
+        )
+        .expect_err(ext)
+        .to_string();
+        assert!(
+            e.starts_with("bad.gltf: material 0") && e.contains(needle),
+            "{ext}: {e}"
+        );
+    }
+}
+
+#[test]
+fn bad_variants_fail_naming_file_and_element() {
+    let e = load_variant(&variants_quad(json!([1])), Some("Blue")).unwrap_err();
+    assert_eq!(
+        e,
+        "variants.gltf: root: variant 'Blue' does not exist (variants: Red, Green)"
+    );
+    let e = load_variant(&variants_quad(json!([7])), Some("Red")).unwrap_err();
+    assert!(
+        e.starts_with("variants.gltf: mesh 0 primitive 0")
+            && e.contains("KHR_materials_variants: mapping 1 names variant 7, the file has 2"),
+        "{e}"
+    );
 }

@@ -3,19 +3,26 @@
 //! file and the element (exit code 1), or loads with the documented warning and then renders
 //! with every backend; never a panic, a hang or a validation error.
 //!
-//! Beside the corpus: the loader's `SceneError`s on crafted broken files (`scene_errors`), bad
-//! command lines, resolutions beyond the device and GPU timeouts through the binary
-//! (`cli_errors`), and error messages that never repeat their cause (`error_chains`).
+//! Beside the corpus: the loader's `SceneError`s on crafted broken files (`scene_errors`);
+//! broken compressed meshes (`compression`) and KTX2 textures (`ktx2`); bad layer factors and
+//! variants (`extensions`), animation choices (`animation`), images beyond the device
+//! (`images`); bad command lines, `rqr info` on broken files, unmatched or missing devices,
+//! resolutions beyond the device and GPU timeouts through the binary (`cli_errors`); broken
+//! environment maps (`environment`) and batch manifests (`manifest`); and error messages that
+//! never repeat their cause (`error_chains`).
 
 #[path = "../support/mod.rs"]
 mod support;
 
 mod animation;
 mod cli_errors;
+mod compression;
 mod corpus;
 mod environment;
 mod error_chains;
 mod extensions;
+mod images;
+mod ktx2;
 mod manifest;
 mod scene_errors;
 

@@ -241,7 +241,7 @@ fn compare_writes_every_file_with_a_consistent_report() {
     }
     // FLIP of an image against itself is exactly 0.
     let rt = image::open(dir.join("rt.png")).unwrap().to_rgba8();
-    let d = rqr::render::image::compare::compare(rt.width(), rt.height(), rt.as_raw(), rt.as_raw());
+    let d = rqr::render::image::metrics::compare(rt.width(), rt.height(), rt.as_raw(), rt.as_raw());
     assert_eq!(d.flip_mean, 0.0);
 }
 

@@ -180,7 +180,7 @@ fn interface_structs_match_generated_glsl_layout() {
         GpuBvhRefs,
     };
     use rqr::interface::reproject::{
-        CacheEntry, GpuParams, ReprojectPush, Shown, TracePush, VisibilityPush,
+        CacheEntry, GpuParams, ReprojectPush, Shown, TracePush, VerifyPush,
     };
     use rqr::interface::*;
     let ctx = support::gpu();
@@ -199,7 +199,7 @@ fn interface_structs_match_generated_glsl_layout() {
         ("RasterPush", words(&distinct::<RasterPush>(5))),
         ("RaybenchPush", words(&distinct::<RaybenchPush>(7))),
         ("ReprojectPush", words(&distinct::<ReprojectPush>(8))),
-        ("VisibilityPush", words(&distinct::<VisibilityPush>(14))),
+        ("VerifyPush", words(&distinct::<VerifyPush>(14))),
         ("TracePush", words(&distinct::<TracePush>(15))),
         ("SkinPush", words(&distinct::<SkinPush>(20))),
         (

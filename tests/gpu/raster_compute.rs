@@ -5,7 +5,7 @@ use crate::support;
 use crate::support::scene_files::load_asset;
 
 use rqr::accel::Backend;
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::render::passes::draw_list;
 use rqr::render::passes::gbuffer;
 use rqr::render::passes::raster_compute::RasterMode;
@@ -168,7 +168,7 @@ fn hybrid_with_compute_visibility_matches_ray_traced() {
             let hy = renderer
                 .render_hybrid(&ctx, &draws, &s, &camera, true)
                 .unwrap();
-            let d = compare::compare(rt.width, rt.height, &rt.rgba8, &hy.rgba8);
+            let d = metrics::compare(rt.width, rt.height, &rt.rgba8, &hy.rgba8);
             assert!(
                 d.psnr_db >= 40.0 && d.flip_mean <= 0.02,
                 "{backend:?} spp {spp}: PSNR {:.1} dB, FLIP mean {:.4}",

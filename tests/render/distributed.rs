@@ -9,7 +9,7 @@ use crate::support;
 use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
 use rqr::environment::{EnvironmentMap, GpuEnvironment};
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::render::passes::draw_list;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind, Shading};
 use rqr::scene::procedural::{assemble, cornell, look_at, quad, sphere};
@@ -422,7 +422,7 @@ fn hybrid_equals_ray_traced_at_equal_samples_and_seed() {
     for backend in backends(&ctx) {
         let rt = render(&ctx, &scene, &camera, None, backend, false, &settings);
         let hybrid = render(&ctx, &scene, &camera, None, backend, true, &settings);
-        let d = compare::compare(64, 64, &rt.rgba8, &hybrid.rgba8);
+        let d = metrics::compare(64, 64, &rt.rgba8, &hybrid.rgba8);
         eprintln!(
             "{}: hybrid against rt: FLIP mean {:.5}, PSNR {:.2} dB",
             backend.as_str(),

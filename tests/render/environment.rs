@@ -505,7 +505,7 @@ fn hybrid_and_ray_traced_paths_agree_under_an_environment() {
     for backend in backends(&ctx) {
         let rt = render(&ctx, &scene, &map, backend, false, &s);
         let hybrid = render(&ctx, &scene, &map, backend, true, &s);
-        let d = rqr::render::image::compare::compare(96, 64, &rt.rgba8, &hybrid.rgba8);
+        let d = rqr::render::image::metrics::compare(96, 64, &rt.rgba8, &hybrid.rgba8);
         eprintln!(
             "{}: hybrid vs rt FLIP {:.5}, PSNR {:.1} dB",
             backend.as_str(),
@@ -521,7 +521,7 @@ fn hybrid_and_ray_traced_paths_agree_under_an_environment() {
         images.push(rt.rgba8);
     }
     if images.len() == 2 {
-        let d = rqr::render::image::compare::compare(96, 64, &images[0], &images[1]);
+        let d = rqr::render::image::metrics::compare(96, 64, &images[0], &images[1]);
         assert!(d.flip_mean <= 0.01, "hw vs bvh FLIP {}", d.flip_mean);
     }
     support::assert_validation_clean(&ctx);

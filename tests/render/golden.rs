@@ -10,7 +10,7 @@ use crate::support::scene_files::load_asset;
 use std::path::{Path, PathBuf};
 
 use rqr::accel::Backend;
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::Scene;
 
@@ -67,7 +67,7 @@ fn check(name: &str, scene: &Scene, settings: &RenderSettings) {
             (out.width, out.height),
             "{name}: golden size"
         );
-        let d = compare::compare(out.width, out.height, golden.as_raw(), &out.rgba8);
+        let d = metrics::compare(out.width, out.height, golden.as_raw(), &out.rgba8);
         if d.flip_mean > MAX_MEAN || d.flip_p99 > MAX_P99 {
             let actual = golden_dir().join(format!("{name}-{}-actual.png", backend.as_str()));
             let diff = golden_dir().join(format!("{name}-{}-diff.png", backend.as_str()));

@@ -7,7 +7,7 @@ use crate::support::scene_files::load_asset;
 
 use glam::{Mat4, Vec3};
 use rqr::accel::{Backend, BackendChoice};
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::render::passes::draw_list;
 use rqr::render::passes::gbuffer::GbufferLayout;
 use rqr::render::{RenderOutput, RenderSettings, Renderer, SamplerKind};
@@ -31,8 +31,8 @@ fn backends(ctx: &rqr::vk::Context) -> Vec<Backend> {
     b
 }
 
-fn diff(a: &RenderOutput, b: &RenderOutput) -> compare::ImageDiff {
-    compare::compare(a.width, a.height, &a.rgba8, &b.rgba8)
+fn diff(a: &RenderOutput, b: &RenderOutput) -> metrics::ImageDiff {
+    metrics::compare(a.width, a.height, &a.rgba8, &b.rgba8)
 }
 
 /// The invariant of the two paths on one scene: same camera, spp and sampler → PSNR ≥ 40 dB,

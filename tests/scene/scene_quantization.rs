@@ -8,7 +8,7 @@ use crate::support;
 use crate::support::scene_files::{asset, bytes, png, Builder};
 use glam::{Vec2, Vec3};
 use rqr::accel::Backend;
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, LoadOptions, Scene};
 use serde_json::{json, Value};
@@ -327,7 +327,7 @@ fn avocado_quantized_renders_like_avocado() {
     for backend in backends {
         let a = render(&ctx, &plain, &camera, backend);
         let b = render(&ctx, &quant, &camera, backend);
-        let d = compare::compare(128, 128, &a, &b);
+        let d = metrics::compare(128, 128, &a, &b);
         eprintln!(
             "Avocado vs Avocado_Quantized, {}: FLIP mean {:.5}",
             backend.as_str(),

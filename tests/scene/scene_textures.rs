@@ -1,5 +1,5 @@
 //! Texture upload: every image once, with mips, sRGB vs UNORM, one sampler per distinct
-//! state, validation clean; oversized images fail clearly.
+//! state, validation clean (oversized images are in the bad-input binary, `images`).
 
 use crate::support::readback;
 use crate::support::scene_files;
@@ -7,7 +7,7 @@ use crate::support::scene_files;
 use crate::support::{assert_validation_clean, gpu};
 use rqr::scene::textures::{mip_levels, GpuTextures};
 use rqr::scene::{self, ImageData, LoadOptions, Sampler, Scene, Texture};
-use rqr::vk::{vk, Context, VkError};
+use rqr::vk::{vk, Context};
 
 /// Copies mip `level` of uploaded image `index` back to the host (RGBA8).
 fn read_mip(ctx: &Context, tex: &GpuTextures, index: usize, level: u32) -> Vec<u8> {
@@ -106,48 +106,5 @@ fn sample_model_textures_upload_validation_clean() {
     let tex = GpuTextures::upload(&ctx, &default).unwrap();
     assert_eq!(tex.descriptors().len(), 1);
     drop(tex);
-    assert_validation_clean(&ctx);
-}
-
-#[test]
-fn images_beyond_the_device_limit_fail_clearly() {
-    let ctx = gpu();
-    let limit = ctx.info().max_image_dimension_2d;
-    let mut s = Scene {
-        source: "big.gltf".into(),
-        ..Default::default()
-    };
-    s.images.push(ImageData {
-        width: limit + 1,
-        height: 1,
-        rgba8: Vec::new(),
-        mips: Vec::new(),
-        srgb: false,
-        ktx2: None,
-    });
-    let err = GpuTextures::upload(&ctx, &s).err().expect("must fail");
-    assert!(
-        matches!(err, rqr::Error::Vk(VkError::Limit { needed, available, .. }) if needed == u64::from(limit) + 1 && available == u64::from(limit)),
-        "{err:?}"
-    );
-    let msg = err.to_string();
-    assert!(
-        msg.contains("big.gltf") && msg.contains("image 0") && msg.contains("maxImageDimension2D"),
-        "{msg}"
-    );
-
-    s.images[0] = ImageData {
-        width: 4,
-        height: 4,
-        rgba8: vec![0; 12],
-        mips: Vec::new(),
-        srgb: false,
-        ktx2: None,
-    };
-    let msg = GpuTextures::upload(&ctx, &s)
-        .err()
-        .expect("must fail")
-        .to_string();
-    assert!(msg.contains("12 bytes"), "{msg}");
     assert_validation_clean(&ctx);
 }

@@ -3,6 +3,11 @@
 //! KHR_texture_basisu requires, so a test can encode the texels it also keeps uncompressed.
 
 use basis_universal::{BasisTextureFormat, ColorSpace, Compressor, CompressorParams};
+use rqr::scene::{self, LoadOptions, Scene};
+use rqr::vk::{vk, Context};
+use serde_json::{json, Value};
+
+use super::scene_files::{base64, quad_doc, Builder};
 
 /// The 12-byte KTX2 identifier.
 pub const MAGIC: [u8; 12] = [
@@ -190,4 +195,91 @@ fn dfd(uastc: bool, alpha: bool, srgb: bool) -> Vec<u8> {
         d.extend_from_slice(&u32::MAX.to_le_bytes());
     }
     d
+}
+
+/// An opaque test picture: smooth colour ramps with a soft disc (what block codecs keep well)
+/// plus one hard edge (what they blur).
+pub fn picture(w: u32, h: u32) -> Vec<u8> {
+    let mut out = Vec::with_capacity((w * h * 4) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let (u, v) = (x as f32 / w as f32, y as f32 / h as f32);
+            let d = ((u - 0.6).powi(2) + (v - 0.4).powi(2)).sqrt();
+            let disc = (1.0 - d * 3.0).clamp(0.0, 1.0);
+            let edge = if x > w * 3 / 4 { 0.25 } else { 0.0 };
+            out.extend_from_slice(&[
+                (255.0 * (0.8 * u + 0.2 * disc)) as u8,
+                (255.0 * (0.3 + 0.5 * v * (1.0 - edge))) as u8,
+                (255.0 * (0.9 * disc + 0.1)) as u8,
+                255,
+            ]);
+        }
+    }
+    out
+}
+
+/// A textured unit quad whose base colour samples texture 0; `images` and `textures` as
+/// given, `extensions` goes to extensionsUsed (and extensionsRequired when `required`).
+pub fn textured_quad(
+    images: Value,
+    textures: Value,
+    extensions: &[&str],
+    required: bool,
+) -> Vec<u8> {
+    let mut b = Builder::default();
+    let mut doc = quad_doc(&mut b, json!({"material": 0}));
+    let uv = b.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
+    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}}]);
+    doc["images"] = images;
+    doc["textures"] = textures;
+    doc["extensionsUsed"] = json!(extensions);
+    if required {
+        doc["extensionsRequired"] = json!(extensions);
+    }
+    serde_json::to_vec(&b.document(doc)).unwrap()
+}
+
+/// A glTF image of `bytes` as a base64 data URI of type `mime`.
+pub fn data_uri(mime: &str, bytes: &[u8]) -> Value {
+    json!({"uri": format!("data:{mime};base64,{}", base64(bytes)), "mimeType": mime})
+}
+
+/// The quad with a KTX2 image as its only (required) texture source.
+pub fn ktx2_quad(ktx: &[u8]) -> Vec<u8> {
+    textured_quad(
+        json!([data_uri("image/ktx2", ktx)]),
+        json!([{"extensions": {"KHR_texture_basisu": {"source": 0}}}]),
+        &["KHR_texture_basisu"],
+        true,
+    )
+}
+
+/// Loads a glTF document as `ktx.gltf` (the name errors start with); the error as text.
+pub fn load(doc: &[u8]) -> Result<Scene, String> {
+    scene::load_slice(doc, None, "ktx.gltf", &LoadOptions::default()).map_err(|e| e.to_string())
+}
+
+/// The block format this device uploads KTX2 textures as: BC7 on lavapipe and desktop GPUs.
+/// A device with neither BC7 nor ASTC 4x4 fails the block tests (not skipped).
+pub fn device_blocks(ctx: &Context) -> (basisu::TargetFormat, vk::Format, vk::Format) {
+    let f = ctx.features();
+    if ctx.info().driver_name.contains("llvmpipe") {
+        assert!(f.bc7_textures, "lavapipe samples BC7");
+    }
+    if f.bc7_textures {
+        (
+            basisu::TargetFormat::Bc7Rgba,
+            vk::Format::BC7_SRGB_BLOCK,
+            vk::Format::BC7_UNORM_BLOCK,
+        )
+    } else if f.astc_4x4_textures {
+        (
+            basisu::TargetFormat::Astc4x4Rgba,
+            vk::Format::ASTC_4X4_SRGB_BLOCK,
+            vk::Format::ASTC_4X4_UNORM_BLOCK,
+        )
+    } else {
+        panic!("{} samples neither BC7 nor ASTC 4x4", ctx.info().name)
+    }
 }

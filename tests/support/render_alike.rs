@@ -1,7 +1,7 @@
 //! Cross-checks of two scenes that should look the same (a compressed copy and its source).
 
 use rqr::accel::Backend;
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::render::{RenderSettings, Renderer};
 use rqr::scene::{self, Scene};
 use rqr::vk::Context;
@@ -34,7 +34,7 @@ pub fn assert_renders_alike(
                 .unwrap()
                 .rgba8
         };
-        let d = compare::compare(size, size, &render(a), &render(b));
+        let d = metrics::compare(size, size, &render(a), &render(b));
         eprintln!(
             "{label}, {}: FLIP mean {:.5}, PSNR {:.2} dB",
             backend.as_str(),

@@ -263,3 +263,35 @@ pub fn png_header(width: u32, height: u32) -> Vec<u8> {
     chunk(b"IEND", &[]);
     out
 }
+
+/// A quad with three materials (white default, red, green) and variants "Red" and "Green"
+/// mapping to them; `mapping_variants` is the Green mapping's variant list.
+pub fn variants_quad(mapping_variants: serde_json::Value) -> Vec<u8> {
+    let mut b = Builder::default();
+    let mut doc = quad_doc(
+        &mut b,
+        json!({"material": 0, "extensions": {"KHR_materials_variants": {"mappings": [
+            {"material": 1, "variants": [0]},
+            {"material": 2, "variants": mapping_variants},
+        ]}}}),
+    );
+    let colour = |c: [f32; 4]| json!({"pbrMetallicRoughness": {"baseColorFactor": c}});
+    doc["materials"] = json!([
+        colour([1.0, 1.0, 1.0, 1.0]),
+        colour([1.0, 0.0, 0.0, 1.0]),
+        colour([0.0, 1.0, 0.0, 1.0]),
+    ]);
+    doc["extensionsUsed"] = json!(["KHR_materials_variants"]);
+    doc["extensions"] =
+        json!({"KHR_materials_variants": {"variants": [{"name": "Red"}, {"name": "Green"}]}});
+    bytes(&b.document(doc))
+}
+
+/// Loads `doc` as `variants.gltf` with `variant` chosen; the error as text.
+pub fn load_variant(doc: &[u8], variant: Option<&str>) -> Result<rqr::scene::Scene, String> {
+    let opts = rqr::scene::LoadOptions {
+        variant: variant.map(str::to_string),
+        ..Default::default()
+    };
+    rqr::scene::load_slice(doc, None, "variants.gltf", &opts).map_err(|e| e.to_string())
+}

@@ -77,7 +77,7 @@ fn updated_frames_match_rebuilt_frames_on_both_backends() {
                 let rebuilt_renderer =
                     frame_renderer(&ctx, &posed, backend, BvhBuild::Gpu).unwrap();
                 let rebuilt = rt(&ctx, &rebuilt_renderer, &cam);
-                let d = rqr::render::image::compare::compare(
+                let d = rqr::render::image::metrics::compare(
                     SIZE,
                     SIZE,
                     &rebuilt.rgba8,
@@ -108,7 +108,7 @@ fn updated_frames_match_rebuilt_frames_on_both_backends() {
                 let h_rebuilt = rebuilt_renderer
                     .render_hybrid(&ctx, &draws, &settings(), &cam, false)
                     .unwrap();
-                let h = rqr::render::image::compare::compare(
+                let h = rqr::render::image::metrics::compare(
                     SIZE,
                     SIZE,
                     &h_rebuilt.rgba8,
@@ -285,7 +285,7 @@ fn bvh_rebuilds_only_the_deformed_bottom_levels() {
             let fresh = frame_renderer(&ctx, &posed, Backend::Bvh, build).unwrap();
             let rebuilt = rt(&ctx, &fresh, &cam);
             let d =
-                rqr::render::image::compare::compare(SIZE, SIZE, &rebuilt.rgba8, &updated.rgba8);
+                rqr::render::image::metrics::compare(SIZE, SIZE, &rebuilt.rgba8, &updated.rgba8);
             let ids = id_agreement(&rebuilt, &updated);
             eprintln!(
                 "{build:?} t={t}: FLIP {:.5}, PSNR {:.1} dB, ids {ids:.4}",

@@ -11,7 +11,7 @@ use glam::{Mat4, Vec3, Vec4};
 use rqr::accel::Backend;
 use rqr::render::denoise::DenoiseMode;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceOptions};
-use rqr::render::image::compare;
+use rqr::render::image::metrics;
 use rqr::render::passes::draw_list;
 use rqr::render::readback::RingContents;
 use rqr::render::{
@@ -86,7 +86,7 @@ fn save_failure(name: &str, actual: &RenderOutput, reference: &RenderOutput) -> 
     };
     save(&format!("{name}-actual.png"), &actual.rgba8);
     save(&format!("{name}-reference.png"), &reference.rgba8);
-    let d = compare::compare(w, h, &reference.rgba8, &actual.rgba8);
+    let d = metrics::compare(w, h, &reference.rgba8, &actual.rgba8);
     image::save_buffer(
         dir.join(format!("{name}-diff.png")),
         &d.heatmap,
@@ -199,8 +199,8 @@ fn the_spatial_filter_lowers_the_error_of_one_frame() {
         .render(&ctx, &camera)
         .unwrap();
         let (e_raw, e_svgf) = (
-            compare::display_mse(&raw.color, &truth.color),
-            compare::display_mse(&svgf.color, &truth.color),
+            metrics::display_mse(&raw.color, &truth.color),
+            metrics::display_mse(&svgf.color, &truth.color),
         );
         // On the room's diffuse walls (instances 0-4) the filter has the most to do; the
         // mirror and glass spheres' sharp reflections are left to accumulation over frames.
@@ -213,8 +213,8 @@ fn the_spatial_filter_lowers_the_error_of_one_frame() {
                 .collect()
         };
         let (w_raw, w_svgf) = (
-            compare::display_mse(&walls(&raw), &walls(&truth)),
-            compare::display_mse(&walls(&svgf), &walls(&truth)),
+            metrics::display_mse(&walls(&raw), &walls(&truth)),
+            metrics::display_mse(&walls(&svgf), &walls(&truth)),
         );
         if e_svgf >= 0.9 * e_raw || w_svgf >= 0.6 * w_raw {
             let dir = save_failure(&format!("one-frame-{}", path.as_str()), &svgf, &truth);
@@ -315,7 +315,7 @@ fn a_static_view_accumulates_the_plain_mean_of_its_jittered_frames_and_holds_sti
         let change = |frames: &[RenderOutput]| {
             frames
                 .windows(2)
-                .map(|w| compare::display_mean_abs_diff(&w[0].color, &w[1].color))
+                .map(|w| metrics::display_mean_abs_diff(&w[0].color, &w[1].color))
                 .sum::<f64>()
                 / (frames.len() - 1) as f64
         };
@@ -363,8 +363,8 @@ fn thirty_accumulated_frames_beat_sixteen_samples_per_pixel() {
     }
     let last = last.unwrap();
     let (e16, e30) = (
-        compare::display_mse(&sixteen.color, &truth.color),
-        compare::display_mse(&last.output.color, &truth.color),
+        metrics::display_mse(&sixteen.color, &truth.color),
+        metrics::display_mse(&last.output.color, &truth.color),
     );
     if e30 > e16 {
         let dir = save_failure("thirty-frames", &last.output, &truth);
@@ -494,7 +494,7 @@ fn hybrid_and_both_backends_denoise_alike() {
     }
     let (first_name, first) = &images[0];
     for (name, img) in &images[1..] {
-        let d = compare::compare(SIDE, SIDE, first, img);
+        let d = metrics::compare(SIDE, SIDE, first, img);
         assert!(
             d.flip_mean <= 0.01,
             "{name} against {first_name}: FLIP {}",

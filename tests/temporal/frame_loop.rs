@@ -9,7 +9,7 @@ use rqr::render::drivers::burst;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
 use rqr::render::passes::draw_list;
 use rqr::render::readback::RingContents;
-use rqr::render::temporal::{PixelSource, ReuseOptions, RtVisibility};
+use rqr::render::temporal::{PixelSource, PrimaryRayCheck, ReuseOptions};
 use rqr::render::RenderPath;
 use rqr::render::{FrameTargets, RenderSettings, Renderer};
 use rqr::scene::procedural::cornell;
@@ -90,7 +90,7 @@ fn reuse_cases() -> Vec<(&'static str, RenderPath, ReuseOptions)> {
             "reproject, full visibility",
             RenderPath::RayTraced,
             ReuseOptions {
-                rt_visibility: RtVisibility::Full,
+                rt_visibility: PrimaryRayCheck::Full,
                 ..reproject
             },
         ),

@@ -9,7 +9,7 @@ use rqr::accel::bvh::BvhBuild;
 use rqr::accel::BackendChoice;
 use rqr::render::drivers::animated::AnimatedFrames;
 use rqr::render::drivers::sequence::{CameraPath, Sequence, SequenceFrame, SequenceOptions};
-use rqr::render::temporal::{ReuseOptions, RtVisibility};
+use rqr::render::temporal::{PrimaryRayCheck, ReuseOptions};
 use rqr::render::{RenderPath, RenderSettings};
 use rqr::vk::Context;
 
@@ -36,7 +36,7 @@ struct Frame {
 fn run(
     ctx: &Context,
     rel: &str,
-    (path, visibility): (RenderPath, RtVisibility),
+    (path, visibility): (RenderPath, PrimaryRayCheck),
     frames: u32,
     anchors: bool,
     reference: bool,
@@ -135,7 +135,7 @@ fn assert_close_to_full_renders(what: &str, frames: &[Frame], max_ray_fraction: 
 fn hybrid_reprojection_follows_a_skinned_figure() {
     let ctx = support::gpu();
     let rel = "CesiumMan/CesiumMan.glb";
-    let mode = (RenderPath::Hybrid, RtVisibility::Edges);
+    let mode = (RenderPath::Hybrid, PrimaryRayCheck::Edges);
     let tracked = run(&ctx, rel, mode, 60, true, true);
     assert_close_to_full_renders("CesiumMan hybrid", &tracked, 0.4);
     let world = run(&ctx, rel, mode, 12, false, false);
@@ -172,7 +172,7 @@ fn hybrid_reprojection_follows_a_skinned_figure() {
 #[test]
 fn rt_reprojection_follows_moving_objects() {
     let ctx = support::gpu();
-    let full = (RenderPath::RayTraced, RtVisibility::Full);
+    let full = (RenderPath::RayTraced, PrimaryRayCheck::Full);
     for rel in ["BoxAnimated/BoxAnimated.glb", "CesiumMan/CesiumMan.glb"] {
         let tracked = run(&ctx, rel, full, 10, true, false);
         let world = run(&ctx, rel, full, 10, false, false);
@@ -185,7 +185,7 @@ fn rt_reprojection_follows_moving_objects() {
             "{rel}: moved samples rejected {rejected} times, world-space samples {rejected_world}"
         );
     }
-    let edges = (RenderPath::RayTraced, RtVisibility::Edges);
+    let edges = (RenderPath::RayTraced, PrimaryRayCheck::Edges);
     let frames = run(&ctx, "CesiumMan/CesiumMan.glb", edges, 16, true, true);
     assert_close_to_full_renders("CesiumMan rt", &frames, 1.0);
     support::assert_validation_clean(&ctx);

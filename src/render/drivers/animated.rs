@@ -6,7 +6,7 @@
 //! 0. **previous frame**: the instances and the deformed geometry's vertex ranges are copied
 //!    into the scene's previous-frame buffers ([`GpuScene::keep_previous_frame`]), from which
 //!    the G-buffer's motion vectors take each point's previous position;
-//! 1. **skin**: the GPU skinning/morphing pass ([`crate::render::passes::skinning`]) of every deformed
+//! 1. **skin**: the GPU skinning/morphing pass ([`crate::render::passes::skin`]) of every deformed
 //!    (skinned or morphed) instance writes its vertices into the scene's vertex buffers
 //!    (`skin_scatter.comp`); node-only animation does no vertex work;
 //! 2. instance transforms, lights and the scene bounds are uploaded;
@@ -34,7 +34,7 @@ use crate::accel::bvh::refit::DeviceVertices;
 use crate::accel::bvh::{BvhBuild, BvhBuildOptions, GpuBvh};
 use crate::accel::hw_update::{self, HwAnimatedAccel, HwUpdateCounters};
 use crate::accel::{Backend, RayBackend};
-use crate::render::passes::skinning::{self, SkinningPass};
+use crate::render::passes::skin::{self, SkinningPass};
 use crate::scene::gpu::GpuScene;
 use crate::scene::Scene;
 use crate::vk::{memory_barrier, Binding, ComputePipeline, Context, DescriptorSet, GpuProfiler};
@@ -42,7 +42,7 @@ use crate::vk::{memory_barrier, Binding, ComputePipeline, Context, DescriptorSet
 use crate::render::Renderer;
 
 /// Push constants of `skin_scatter.comp` (first vertex, count, tangents flag, padding); the
-/// copy is timed with the skinning pass under [`skinning::PASS_NAME`].
+/// copy is timed with the skinning pass under [`skin::PASS_NAME`].
 const SCATTER_PUSH_BYTES: u32 = 16;
 
 /// How the frames of an animated sequence get their scene (`--animation-update`).
@@ -307,7 +307,7 @@ impl AnimatedFrames {
     /// scene's vertex buffers, new instance transforms, lights and bounds, and the
     /// acceleration-structure update of the module docs. Returns the posed scene (cameras,
     /// lights: what the frame loop needs from it) and the GPU milliseconds of the update by
-    /// pass: [`skinning::PASS_NAME`], [`hw_update::BLAS_PASS_NAME`] and
+    /// pass: [`skin::PASS_NAME`], [`hw_update::BLAS_PASS_NAME`] and
     /// [`hw_update::TLAS_PASS_NAME`] (`bvh`: the refit's and the top-level build's GPU
     /// times; a full rebuild reports `blas build`/`tlas build` instead).
     pub fn update(
@@ -496,7 +496,7 @@ fn record_skinning(
     }
     memory_barrier(ctx.device(), cmd);
     if let Some(p) = profiler.as_deref_mut() {
-        p.begin(cmd, skinning::PASS_NAME);
+        p.begin(cmd, skin::PASS_NAME);
     }
     for d in deformers {
         let push: Vec<u8> = [d.first_vertex, d.count, d.has_tangents, 0]

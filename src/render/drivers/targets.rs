@@ -16,7 +16,7 @@ use crate::render::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, Render
 use crate::render::passes::draw_list::Draw;
 use crate::render::passes::gbuffer::GbufferPass;
 use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
-use crate::render::passes::raytraced::{ray_counts, RaytracedPass, COUNTER_WORDS};
+use crate::render::passes::raytrace::{ray_counts, RaytracedPass, COUNTER_WORDS};
 use crate::render::passes::tonemap::TonemapPass;
 use crate::render::readback::{FrameRing, RingContents, RingSources};
 use crate::render::settings::SettingsError;

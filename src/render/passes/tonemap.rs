@@ -78,7 +78,7 @@ impl TonemapPass {
             cmd,
             None,
             push_bytes(&push),
-            rows_of_groups(self.count.div_ceil(64)),
+            rows_of_groups(self.count.div_ceil(64), io::GROUPS_PER_ROW),
         );
         if let Some(p) = profiler {
             p.end(cmd);

@@ -18,7 +18,7 @@
 //! 2. **Decide** per pixel: no sample (disocclusion, screen edge, first frame) → trace;
 //!    a view-dependent sample (mirror/metal, transmissive, blended, or a path that spawned
 //!    reflection/refraction rays) → trace; a sample older than `max_age` → trace; otherwise
-//!    the sample is checked against this frame's primary visibility (see [`RtVisibility`]):
+//!    the sample is checked against this frame's primary visibility (see [`PrimaryRayCheck`]):
 //!    rejected when the plane distance over the view depth exceeds
 //!    [`PLANE_DISTANCE_THRESHOLD`], the normals' dot is below [`NORMAL_DOT_THRESHOLD`], the
 //!    material differs, or the new surface is itself view-dependent.
@@ -58,12 +58,12 @@ mod resources;
 
 use options::counts;
 pub use options::{
-    check_sampling, PixelSource, ReprojectedFrame, ReuseOptions, ReuseStats, RtVisibility,
+    check_sampling, PixelSource, PrimaryRayCheck, ReprojectedFrame, ReuseOptions, ReuseStats,
     DEFAULT_SUBSAMPLE_THRESHOLD, EDGE_PLANE_THRESHOLD, FILL_RADIUS, MAX_FILL_HOPS,
     NORMAL_DOT_THRESHOLD, PLANE_DISTANCE_THRESHOLD, SPECULAR_METALLIC, SPECULAR_ROUGHNESS,
 };
 use pipelines::{Pipelines, Stage};
-use resources::{Resources, Visibility};
+use resources::{Gbuffer, Resources};
 
 use crate::interface::push_bytes;
 use crate::interface::reproject::*;
@@ -106,10 +106,10 @@ pub struct Reprojector {
     profiler: Option<GpuProfiler>,
     parity: usize,
     has_history: bool,
-    /// Whether the rt path's visibility images are in GENERAL layout already: they stay
+    /// Whether the rt path's G-buffer images are in GENERAL layout already: they stay
     /// there, so only the first frame transitions them (every pixel a pass reads from them
     /// is written earlier in the same frame).
-    visibility_in_general: bool,
+    gbuffer_in_general: bool,
     prev_view_proj: Option<[f32; 16]>,
     /// Frames recorded: the camera sample number of the next (distributed shading draws new
     /// random numbers every frame).
@@ -156,7 +156,7 @@ impl Reprojector {
             profiler: GpuProfiler::new(ctx, SCOPES_PER_FRAME).ok(),
             parity: 0,
             has_history: false,
-            visibility_in_general: false,
+            gbuffer_in_general: false,
             prev_view_proj: None,
             frames_recorded: 0,
         };

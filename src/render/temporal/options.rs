@@ -4,7 +4,7 @@
 use serde::Serialize;
 
 use crate::interface::reproject::*;
-use crate::render::passes::raytraced::{ray_counts, striped_sum};
+use crate::render::passes::raytrace::{ray_counts, striped_sum};
 use crate::render::settings::{RenderSettings, SamplerKind, SettingsError};
 use crate::render::{RayCounts, RenderOutput};
 
@@ -13,7 +13,7 @@ use crate::render::{RayCounts, RenderOutput};
 pub const PLANE_DISTANCE_THRESHOLD: f32 = 0.003;
 /// Rejection: dot of the cached and new geometric normals below this (cos 25°).
 pub const NORMAL_DOT_THRESHOLD: f32 = 0.906;
-/// rt path with [`RtVisibility::Edges`]: a neighbour's sample this far off a sample's plane
+/// rt path with [`PrimaryRayCheck::Edges`]: a neighbour's sample this far off a sample's plane
 /// (relative to the view depth) marks a depth edge.
 pub const EDGE_PLANE_THRESHOLD: f32 = 0.01;
 /// Metallic at or above this is view-dependent (mirror/metal).
@@ -50,7 +50,7 @@ pub fn check_sampling(settings: &RenderSettings) -> Result<(), SettingsError> {
 /// hybrid path always checks every pixel against its raster G-buffer, which costs no rays).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
-pub enum RtVisibility {
+pub enum PrimaryRayCheck {
     /// One primary ray per reprojected sample: exact, but a primary ray per pixel per frame.
     Full,
     /// Primary rays only where the reprojected samples form a depth edge or border a hole;
@@ -75,8 +75,9 @@ pub struct ReuseOptions {
     pub subsample_threshold: f32,
     /// Re-trace samples older than this many frames (`None`: no limit).
     pub max_age: Option<u32>,
-    /// Primary rays of the rt path's visibility check.
-    pub rt_visibility: RtVisibility,
+    /// `--rt-visibility`: which reprojected samples the rt path's verify pass spends primary
+    /// rays on.
+    pub rt_visibility: PrimaryRayCheck,
     /// Keep each frame's linear colour (EXR output) besides its display pixels. Off, the
     /// passes write only the display pixels: one word per pixel instead of five (the
     /// colours adaptive sub-sampling interpolates between are in the next cache anyway).
@@ -96,7 +97,7 @@ impl Default for ReuseOptions {
             adaptive_subsample: false,
             subsample_threshold: DEFAULT_SUBSAMPLE_THRESHOLD,
             max_age: None,
-            rt_visibility: RtVisibility::Edges,
+            rt_visibility: PrimaryRayCheck::Edges,
             linear_color: true,
             moving_geometry: false,
         }
@@ -183,7 +184,7 @@ pub struct ReuseStats {
     pub expired: u64,
     /// Samples re-traced by the frameless refresh.
     pub frameless: u64,
-    /// Primary rays of the rt path's visibility pass (included in the primary ray count):
+    /// Primary rays of the rt path's verify pass (included in the primary ray count):
     /// checks of reprojected samples.
     pub verify_rays: u64,
 }

@@ -1,5 +1,5 @@
 //! The technique's pipelines and descriptor sets: one pipeline per stage that traces no rays
-//! ([`Stage`], `shaders/temporal/temporal_<stage>.comp`), the visibility and tracing passes,
+//! ([`Stage`], `shaders/temporal/temporal_<stage>.comp`), the verify and tracing passes,
 //! and the one-pass scatter where the device has 64-bit atomics. Every pass binds the same set,
 //! declared once ([`SLOTS`]): that one list makes both the set layout and the descriptor writes.
 
@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use crate::accel::Backend;
 use crate::interface::reproject::{
-    ReprojectPush, TracePush, VisibilityPush, BINDING_RP_COUNTERS, BINDING_RP_DISPATCH_ARGS,
+    ReprojectPush, TracePush, VerifyPush, BINDING_RP_COUNTERS, BINDING_RP_DISPATCH_ARGS,
     BINDING_RP_GBUFFER, BINDING_RP_KEY_WINNER, BINDING_RP_PARAMS,
 };
 use crate::interface::{
@@ -62,10 +62,10 @@ impl Stage {
     }
 }
 
-fn visibility_spirv(backend: Backend) -> &'static [u8] {
+fn verify_spirv(backend: Backend) -> &'static [u8] {
     match backend {
-        Backend::Hw => crate::shaders::TEMPORAL_VISIBILITY_COMP_HW,
-        Backend::Bvh => crate::shaders::TEMPORAL_VISIBILITY_COMP_BVH,
+        Backend::Hw => crate::shaders::TEMPORAL_VERIFY_COMP_HW,
+        Backend::Bvh => crate::shaders::TEMPORAL_VERIFY_COMP_BVH,
     }
 }
 
@@ -98,7 +98,7 @@ enum Slot {
     Counters,
     /// [`Resources::args`].
     DispatchArgs,
-    /// G-buffer image `GBUFFER_*` of [`Resources::visibility`].
+    /// G-buffer image `GBUFFER_*` of [`Resources::gbuffer`].
     Gbuffer(u32),
 }
 
@@ -170,7 +170,7 @@ fn write(set: &DescriptorSet, pass: &PassContext<'_>, res: &Resources, rays: boo
                 set.buffer(number, &res.args, Binding::StorageBuffer);
             }
             Slot::Gbuffer(i) => {
-                set.storage_image(number, res.visibility.images()[i as usize].view());
+                set.storage_image(number, res.gbuffer.images()[i as usize].view());
             }
         }
     }
@@ -190,8 +190,10 @@ pub(super) struct Pipelines {
     pub(super) stages: Vec<Arc<ComputePipeline>>,
     /// The stages' descriptor set.
     pub(super) stages_set: DescriptorSet,
-    /// The rt path's visibility pass (`temporal_visibility.comp`) and its set.
-    pub(super) visibility: (Arc<ComputePipeline>, DescriptorSet),
+    /// The rt path's verify pass (`temporal_verify.comp`) and its set (its pipeline and
+    /// timestamp scope keep the names `reproject visibility` and `visibility`, which outputs
+    /// show).
+    pub(super) verify: (Arc<ComputePipeline>, DescriptorSet),
     /// The tracing pass (`temporal_trace.comp`) and its set.
     pub(super) trace: (Arc<ComputePipeline>, DescriptorSet),
     /// The one-pass scatter and its descriptor set, where the device has 64-bit buffer
@@ -225,12 +227,12 @@ impl Pipelines {
                 )
             })
             .collect::<VkResult<Vec<_>>>()?;
-        let visibility = ComputePipeline::cached(
+        let verify = ComputePipeline::cached(
             ctx,
             "reproject visibility",
-            visibility_spirv(backend),
+            verify_spirv(backend),
             &rays,
-            push_size(std::mem::size_of::<VisibilityPush>()),
+            push_size(std::mem::size_of::<VerifyPush>()),
         )?;
         let trace = ComputePipeline::cached(
             ctx,
@@ -263,7 +265,7 @@ impl Pipelines {
         Ok(Self {
             stages,
             stages_set,
-            visibility: make(visibility, true)?,
+            verify: make(verify, true)?,
             trace: make(trace, true)?,
             scatter64: scatter64.map(|p| make(p, false)).transpose()?,
         })
@@ -272,7 +274,7 @@ impl Pipelines {
     /// Rebinds the scene (its ray backend, which an update may have built again) in the sets of
     /// the passes that trace rays.
     pub(super) fn rebind_scene(&self, pass: &PassContext<'_>) {
-        pass.bind_scene(&self.visibility.1);
+        pass.bind_scene(&self.verify.1);
         pass.bind_scene(&self.trace.1);
     }
 }

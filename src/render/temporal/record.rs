@@ -37,7 +37,7 @@ impl Reprojector {
         }
         if self.path == RenderPath::Hybrid {
             flags |= RP_GBUFFER;
-        } else if o.rt_visibility == RtVisibility::Full {
+        } else if o.rt_visibility == PrimaryRayCheck::Full {
             flags |= RP_VERIFY_ALL;
         }
         if o.frameless_percent.is_some() {
@@ -154,17 +154,17 @@ impl Reprojector {
             device.cmd_fill_buffer(cmd, self.res.state.raw(), 0, vk::WHOLE_SIZE, PX_REUSE);
         }
         memory_barrier(device, cmd);
-        match &self.res.visibility {
-            Visibility::Raster(g) => {
+        match &self.res.gbuffer {
+            Gbuffer::Raster(g) => {
                 g.record(ctx, cmd, draws, camera.position(), profiler.as_deref_mut())
             }
-            Visibility::Traced(images) => {
-                if !self.visibility_in_general {
+            Gbuffer::Traced(images) => {
+                if !self.gbuffer_in_general {
                     for image in images {
                         image.transition(cmd, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL);
                     }
                 }
-                self.visibility_in_general = true;
+                self.gbuffer_in_general = true;
             }
         }
         // Every stage is its own timestamp scope, so the JSON and the reports show where a
@@ -190,7 +190,7 @@ impl Reprojector {
             stage(cmd, Stage::Shown, 0, GATHER_NONE);
         }
         // The stage that settles the pixels commits the reused ones, counts them, and lists
-        // the pixels left for rays: for the visibility pass (rt path) and for the first trace.
+        // the pixels left for rays: for the verify pass (rt path) and for the first trace.
         scope(&mut profiler, "classify");
         if frameless {
             // From the shown stage's histogram of the candidates' refresh order.
@@ -201,10 +201,10 @@ impl Reprojector {
             // Settles the candidates and lists the rejected ones for the first trace.
             traced(
                 cmd,
-                &pipes.visibility.0,
-                &pipes.visibility.1,
+                &pipes.verify.0,
+                &pipes.verify.1,
                 "visibility",
-                push_bytes(&VisibilityPush { level: levels[0] }),
+                push_bytes(&VerifyPush { level: levels[0] }),
                 LIST_VERIFY,
                 profiler.as_deref_mut(),
             );

@@ -26,12 +26,12 @@ const ANCHOR_BYTES: u64 = std::mem::size_of::<io::Anchor>() as u64;
 
 /// G-buffer images: the raster pass's (hybrid) or placeholders (rt, which keeps its primary
 /// hits in registers).
-pub(super) enum Visibility {
+pub(super) enum Gbuffer {
     Raster(Box<GbufferPass>),
     Traced(Vec<Image>),
 }
 
-impl Visibility {
+impl Gbuffer {
     pub(super) fn images(&self) -> &[Image] {
         match self {
             Self::Raster(g) => &g.images,
@@ -66,7 +66,7 @@ pub(super) struct Resources {
     /// Indirect dispatch of the tracing passes, sized by their job lists.
     pub(super) args: Buffer,
     /// The G-buffer images (and the hybrid path's raster pass).
-    pub(super) visibility: Visibility,
+    pub(super) gbuffer: Gbuffer,
     /// The frame's display pixels (RGBA8), written with the colour (tonemapping fused into
     /// the passes that write colour).
     pub(super) display: Buffer,
@@ -128,11 +128,11 @@ impl Resources {
             vk::BufferUsageFlags::INDIRECT_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
-        let visibility = match path {
+        let gbuffer = match path {
             RenderPath::Hybrid => {
                 // The cache stores positions and motion, so reprojection rasterizes the full
                 // G-buffer.
-                Visibility::Raster(Box::new(GbufferPass::new(
+                Gbuffer::Raster(Box::new(GbufferPass::new(
                     ctx,
                     pass,
                     &frame,
@@ -140,9 +140,9 @@ impl Resources {
                     gbuffer::GbufferLayout::Full,
                 )?))
             }
-            // The rt path keeps its primary hits in registers (temporal_visibility.comp): 1x1
+            // The rt path keeps its primary hits in registers (temporal_verify.comp): 1x1
             // placeholders for the bindings the passes share with the hybrid path.
-            RenderPath::RayTraced => Visibility::Traced(
+            RenderPath::RayTraced => Gbuffer::Traced(
                 GBUFFER_FORMATS
                     .iter()
                     .enumerate()
@@ -174,7 +174,7 @@ impl Resources {
             shown,
             counters,
             args,
-            visibility,
+            gbuffer,
             display,
         })
     }

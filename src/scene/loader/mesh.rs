@@ -309,7 +309,7 @@ impl Loader<'_> {
             g.joints = joints;
             g.weights = weights;
         }
-        g.morph_targets = skin::read_morph_targets(
+        g.morph_targets = morph::read_morph_targets(
             &self.file,
             &self.root,
             &self.buffers,

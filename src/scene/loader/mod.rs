@@ -20,6 +20,7 @@ use super::error::SceneError;
 use super::extensions::{self, ExtensionStatus, ExtensionSupport};
 use super::geometry::{compute_flat_normals, compute_tangents, triangulate, Topology};
 use super::image::{self as img, MAX_IMAGE_SIZE};
+use super::morph;
 use super::pose::{self, Rig};
 use super::skin;
 use super::textures::TextureFormat;

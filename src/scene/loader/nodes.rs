@@ -70,7 +70,7 @@ impl Loader<'_> {
     /// [`Loader::load_scene`]).
     pub(super) fn load_rig(&mut self) -> Result<(), SceneError> {
         let (file, root, buffers) = (&self.file, &self.root, &self.buffers);
-        skin::check_morph_counts(file, root)?;
+        morph::check_morph_counts(file, root)?;
         self.scene.rig = Rig {
             nodes: pose::rest_nodes(root),
             skins: skin::parse_skins(file, root, buffers)?,

@@ -21,7 +21,7 @@ pub use summary::{
 use serde::Serialize;
 
 use crate::render::drivers::targets::FrameTargets;
-use crate::render::image::compare;
+use crate::render::image::metrics;
 use crate::render::passes::draw_list::{self, Draw};
 use crate::render::passes::gbuffer;
 use crate::render::readback::{FrameRing, RingContents};
@@ -487,7 +487,7 @@ impl Sequence {
                     timing.total_ms,
                 ),
             };
-            let diff = compare::compare(output.width, output.height, &full.rgba8, &output.rgba8);
+            let diff = metrics::compare(output.width, output.height, &full.rgba8, &output.rgba8);
             (
                 Some(ReferenceComparison {
                     rays: full.rays,

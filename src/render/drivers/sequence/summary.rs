@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::render::image::compare::ImageDiff;
+use crate::render::image::metrics::ImageDiff;
 use crate::render::settings::RenderPath;
 use crate::render::temporal::{PixelSource, ReuseOptions, ReuseStats};
 use crate::render::{RayCounts, RenderOutput};

@@ -1,6 +1,6 @@
 // variants: hw bvh
 #version 460
-// Temporal reuse, visibility (rt path): primary visibility for the pixels that hold a candidate
+// Temporal reuse, verify (rt path): primary visibility for the pixels that hold a candidate
 // sample but cannot trust it without a look (all candidates, or those next to a depth edge,
 // per --rt-visibility).
 // One primary ray per listed pixel; its hit decides between reusing the sample (committed
@@ -16,8 +16,8 @@
 #include "temporal.glsl"
 
 layout(local_size_x = 64) in;
-// VisibilityPush: the adaptive level (1, 2, 4) whose pixels to trace this pass lists.
-layout(push_constant) uniform Push { VisibilityPush pc; };
+// VerifyPush: the adaptive level (1, 2, 4) whose pixels to trace this pass lists.
+layout(push_constant) uniform Push { VerifyPush pc; };
 
 void main() {
     // Job lists longer than a device launches in one dimension come in rows of workgroups.
@@ -35,7 +35,7 @@ void main() {
         COUNTER_ADD(counters[stat_slot(C_VERIFY_RAYS)], 1u);
         uint w = resolved_winner(q);
         CacheEntry e = CACHE_PREV(w == NO_SAMPLE ? 0u : w);
-        // Every listed pixel is a candidate (wants_visibility() of temporal_classify.comp).
+        // Every listed pixel is a candidate (wants_verify() of temporal_classify.comp).
         uint st = STATE(q);
         bool hit = hit_found(h);
         PixelHit ph = unknown_pixel_hit();

@@ -1,6 +1,6 @@
 //! GPU skinning and morphing (`shaders/skin.comp`): one compute dispatch per deformed
 //! geometry writes this frame's positions, normals and tangents from the rest vertices, the
-//! joint matrices and the morph weights. The CPU reference is [`crate::scene::pose::deform`].
+//! joint matrices and the morph weights. The CPU reference is [`crate::scene::deform::deform`].
 
 use std::sync::Arc;
 
@@ -14,7 +14,7 @@ use crate::interface::{
     BINDING_SKIN_REST_POSITIONS, BINDING_SKIN_REST_TANGENTS, BINDING_SKIN_WEIGHTS, SKIN_SKINNED,
     SKIN_TANGENTS,
 };
-use crate::scene::pose::Deformed;
+use crate::scene::deform::Deformed;
 use crate::scene::Geometry;
 use crate::vk::{
     Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, MemoryLocation, VkError,
