@@ -1,5 +1,5 @@
 // Compute rasterizer of the visibility buffer (`--raster compute`; src/render/passes/raster_compute.rs).
-// Writes what visibility.frag writes (instance, primitive per pixel) with the rules of the
+// Writes what gbuffer_visibility.frag writes (instance, primitive per pixel) with the rules of the
 // graphics pipeline it replaces: vertices transformed and jittered like gbuffer.vert, clipped
 // against the near plane (and a guard band), snapped to 1/256 pixel (subPixelPrecisionBits 8),
 // exact integer edge functions with the top-left fill rule at pixel centres, back-face culling

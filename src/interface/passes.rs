@@ -1,5 +1,5 @@
 //! Bindings, flags and push constants of the passes: ray-traced (`raytrace.comp`), hybrid
-//! shading (`hybrid_main.glsl`), G-buffer raster (`gbuffer.*`, `visibility.frag`), compute
+//! shading (`hybrid_main.glsl`), G-buffer raster (`gbuffer.*`, `gbuffer_visibility.frag`), compute
 //! raster (`raster.glsl`), tonemap and `rqr bench`'s ray throughput (`interface_passes.glsl`).
 //! Bindings 0-3 are the shared ones of `shared.rs`.
 

@@ -1,6 +1,6 @@
 //! G-buffer raster pass of the hybrid path: dynamic rendering, vertex pulling, depth test,
 //! back-face culling honouring doubleSided, alpha MASK discard. Two layouts: a visibility
-//! buffer (`shaders/visibility.frag`, the default) or the full G-buffer
+//! buffer (`shaders/gbuffer_visibility.frag`, the default) or the full G-buffer
 //! (`shaders/gbuffer.frag`); see [`GbufferLayout`].
 
 use std::sync::Arc;
@@ -42,7 +42,7 @@ impl GbufferLayout {
     }
 }
 
-/// Visibility-buffer attachment: instance, primitive (`visibility.frag`).
+/// Visibility-buffer attachment: instance, primitive (`gbuffer_visibility.frag`).
 pub const VISIBILITY_FORMATS: [vk::Format; 1] = [vk::Format::R32G32_UINT];
 
 /// Full G-buffer attachment formats, in location order (see `gbuffer.frag` for the contents).
@@ -135,7 +135,7 @@ impl GbufferPass {
                 ctx,
                 crate::shaders::GBUFFER_VERT,
                 match layout {
-                    GbufferLayout::Visibility => crate::shaders::VISIBILITY_FRAG,
+                    GbufferLayout::Visibility => crate::shaders::GBUFFER_VISIBILITY_FRAG,
                     GbufferLayout::Full => crate::shaders::GBUFFER_FRAG,
                 },
                 &set_layout,

@@ -1,9 +1,9 @@
 //! Compute rasterizer of the hybrid path's visibility buffer (`--raster compute`): the same
-//! (instance, primitive) image `visibility.frag` writes, produced by compute shaders instead of
+//! (instance, primitive) image `gbuffer_visibility.frag` writes, produced by compute shaders instead of
 //! the graphics pipeline, for GPUs whose graphics units are scarce next to their compute units
 //! (H100 and H200 run graphics on 2 of 66 TPCs).
 //!
-//! Stages (`shaders/raster_*.comp`, rules in `shaders/common/raster.glsl`), tile-binned as in
+//! Stages (`shaders/raster_compute/raster_*.comp`, rules in `shaders/common/raster.glsl`), tile-binned as in
 //! Laine & Karras 2011 ("High-Performance Software Rasterization on GPUs") for every triangle
 //! that is not small:
 //! 1. `raster_triangles`: one invocation per scene triangle transforms, culls and sets it up;
@@ -34,7 +34,7 @@ use crate::vk::{
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RasterMode {
-    /// The graphics pipeline (`gbuffer.vert` + `visibility.frag`).
+    /// The graphics pipeline (`gbuffer.vert` + `gbuffer_visibility.frag`).
     #[default]
     Graphics,
     /// The compute rasterizer of this module (64-bit atomics where the device has them).
