@@ -18,6 +18,7 @@
 // Include after scene.glsl, trace.glsl, frame.glsl, sampling.glsl, brdf.glsl and shade.glsl.
 #ifndef RQR_DISTRIBUTED_GLSL
 #define RQR_DISTRIBUTED_GLSL
+#include "interface_distributed.glsl"
 #include "bsdf.glsl"
 
 // Diffuse rays traced by this invocation (RAY_DIFFUSE; the other kinds are in rays_by_kind).
@@ -173,14 +174,36 @@ vec3 lights_met(vec3 o, vec3 d, float t_max, float bsdf_pdf) {
     return sum;
 }
 
+// The weighted BSDF x |n.l| of the last bsdf_eval (whose value was f, its density bsdf_pdf)
+// for a light sample drawn with density light_pdf: against BSDF sampling by the power
+// heuristic, or weight 1 where the BSDF's own ray is not traced (the `last` vertex; a punctual
+// light, light_pdf = 0). With `cosine_by_light` the cosine lobes' part of f has weight 1 (no
+// ray of theirs is traced) and only the other lobes' part is weighed, against the density
+// their continuation is drawn with (bsdf_traced_pdf). `diffuse_w`: the diffuse lobe's weight.
+vec3 light_sample_weighted(vec3 f, float bsdf_pdf, float light_pdf, bool last, bool cosine_by_light, out float diffuse_w) {
+    diffuse_w = 1.0;
+    if (!(light_pdf > 0.0) || last) {
+        return f;
+    }
+    if (cosine_by_light) {
+        return bsdf_cosine_part + bsdf_traced_part * power_heuristic(light_pdf, bsdf_traced_pdf);
+    }
+    diffuse_w = power_heuristic(light_pdf, bsdf_pdf);
+    return f * diffuse_w;
+}
+
 // Direct light at surface s from every light (one sample each) and the environment (one
 // sample), each through one shadow ray, weighted against BSDF sampling; at the `last` vertex
 // of a path, whose BSDF ray is not traced, light sampling alone carries the light (weight 1).
+// With `cosine_by_light` (no diffuse ray leaves this vertex) the cosine lobes take light
+// sampling's estimate alone, and without an environment the background joins the lights: one
+// cosine-drawn shadow ray for those lobes (what their ray would have met on escaping).
 // `diffuse_part`: the share of the sum that came through the diffuse lobe (the denoiser's split).
-vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng rng, out vec3 diffuse_part) {
+vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine_by_light, inout Rng rng, out vec3 diffuse_part) {
     vec3 sum = vec3(0.0);
     diffuse_part = vec3(0.0);
     vec3 origin = s.position + s.ng * eps_offset();
+    float diffuse_w;
     for (uint i = 0u; i < scene.light_count; ++i) {
         GpuLight l = scene_light(i);
         vec2 u = rng_next(rng);
@@ -200,9 +223,8 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng r
         if (trace_any(origin, dir, 0.0, tmax)) {
             continue;
         }
-        float w = pdf > 0.0 && !last ? power_heuristic(pdf, bsdf_pdf) : 1.0;
-        sum += f * li * w;
-        diffuse_part += bsdf_diffuse_part * li * w;
+        sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, diffuse_w) * li;
+        diffuse_part += bsdf_diffuse_part * li * diffuse_w;
     }
     if (env_enabled()) {
         vec2 u = rng_next(rng);
@@ -214,8 +236,27 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng r
             if (max3(f) > 0.0) {
                 rays_by_kind[RAY_SHADOW] += 1u;
                 if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
-                    vec3 li = env_radiance_texel(dir) / pdf * (last ? 1.0 : power_heuristic(pdf, bsdf_pdf));
-                    sum += f * li;
+                    vec3 li = env_radiance_texel(dir) / pdf;
+                    sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, diffuse_w) * li;
+                    diffuse_part += bsdf_diffuse_part * li * diffuse_w;
+                }
+            }
+        }
+    } else if (cosine_by_light && !last && max3(frame.background) > 0.0) {
+        // The background as a light for the cosine lobes, drawn by their cosine: radiance x
+        // (their part of the BSDF x |n.l|) / (n.l / π). The other lobes meet it with their rays;
+        // at the last vertex no ray leaves, and the background lights nothing there (as a
+        // traced diffuse ray would not have left either).
+        vec3 dir = to_world(sample_cosine(rng_next(rng)), s.n);
+        float cos_pdf = dot(s.n, dir) / PI;
+        if (cos_pdf > 0.0 && dot(s.ng, dir) > 0.0) {
+            float bsdf_pdf;
+            bsdf_eval(s, b, v, dir, bsdf_pdf);
+            if (max3(bsdf_cosine_part) > 0.0) {
+                rays_by_kind[RAY_SHADOW] += 1u;
+                if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
+                    vec3 li = background_radiance(dir) / cos_pdf;
+                    sum += bsdf_cosine_part * li;
                     diffuse_part += bsdf_diffuse_part * li;
                 }
             }
@@ -349,8 +390,10 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
             }
         }
         bool last = depth >= frame.max_depth;
+        // A diffuse ray from here could only collect light, and light sampling finds all of it.
+        bool cosine_by_light = (frame.flags & FLAG_DIFFUSE_LIGHT_SAMPLED) != 0u && diffuse_used >= frame.diffuse_bounces;
         vec3 direct_diffuse;
-        radiance += throughput * direct_light_sampled(s, b, v, last, rng, direct_diffuse);
+        radiance += throughput * direct_light_sampled(s, b, v, last, cosine_by_light, rng, direct_diffuse);
         if (splitting) {
             split_diffuse += throughput * direct_diffuse;
         }
@@ -361,7 +404,7 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         vec2 u_dir = rng_next(rng);
         vec3 l, weight;
         uint lobe;
-        if (!bsdf_sample(s, b, v, u_choice.x, u_dir, l, weight, bsdf_pdf, lobe)) {
+        if (!bsdf_sample(s, b, v, u_choice.x, u_dir, !cosine_by_light, l, weight, bsdf_pdf, lobe)) {
             break;
         }
         throughput *= weight;
