@@ -196,8 +196,7 @@ vec3 light_sample_weighted(vec3 f, float bsdf_pdf, float light_pdf, bool last, b
 // sample), each through one shadow ray, weighted against BSDF sampling; at the `last` vertex
 // of a path, whose BSDF ray is not traced, light sampling alone carries the light (weight 1).
 // With `cosine_by_light` (no diffuse ray leaves this vertex) the cosine lobes take light
-// sampling's estimate alone, and without an environment the background joins the lights: one
-// cosine-drawn shadow ray for those lobes (what their ray would have met on escaping).
+// sampling's estimate alone (the background, without an environment: background_seen).
 // `diffuse_part`: the share of the sum that came through the diffuse lobe (the denoiser's split).
 vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine_by_light, inout Rng rng, out vec3 diffuse_part) {
     vec3 sum = vec3(0.0);
@@ -242,27 +241,35 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine
                 }
             }
         }
-    } else if (cosine_by_light && !last && max3(frame.background) > 0.0) {
-        // The background as a light for the cosine lobes, drawn by their cosine: radiance x
-        // (their part of the BSDF x |n.l|) / (n.l / π). The other lobes meet it with their rays;
-        // at the last vertex no ray leaves, and the background lights nothing there (as a
-        // traced diffuse ray would not have left either).
-        vec3 dir = to_world(sample_cosine(rng_next(rng)), s.n);
-        float cos_pdf = dot(s.n, dir) / PI;
-        if (cos_pdf > 0.0 && dot(s.ng, dir) > 0.0) {
-            float bsdf_pdf;
-            bsdf_eval(s, b, v, dir, bsdf_pdf);
-            if (max3(bsdf_cosine_part) > 0.0) {
-                rays_by_kind[RAY_SHADOW] += 1u;
-                if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
-                    vec3 li = background_radiance(dir) / cos_pdf;
-                    sum += bsdf_cosine_part * li;
-                    diffuse_part += bsdf_diffuse_part * li;
-                }
-            }
-        }
     }
     return sum;
+}
+
+// The background (no environment) through the cosine lobes of surface s from v, when their
+// ray would only collect light and bsdf_sample's lobe choice fell on them (probability
+// lobe_p.x): its radiance x (their BSDF x |n.l|) / (lobe_p.x n.l / π) along a cosine-drawn
+// direction, if a shadow ray there escapes. The background is the one light light sampling
+// does not draw; this any-hit ray stands in for the closest-hit diffuse ray that met it before,
+// and the lights that ray met are light-sampled instead. `diffuse_part`: the Lambert share.
+vec3 background_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_part) {
+    diffuse_part = vec3(0.0);
+    vec3 dir = to_world(sample_cosine(u), s.n);
+    float pdf = b.lobe_p.x * dot(s.n, dir) / PI;
+    if (!(pdf > 0.0) || dot(s.ng, dir) <= 0.0) {
+        return vec3(0.0);
+    }
+    float bsdf_pdf;
+    bsdf_eval(s, b, v, dir, bsdf_pdf);
+    if (max3(bsdf_cosine_part) <= 0.0) {
+        return vec3(0.0);
+    }
+    rays_by_kind[RAY_SHADOW] += 1u;
+    if (trace_any(s.position + s.ng * eps_offset(), dir, 0.0, BIG_FLOAT)) {
+        return vec3(0.0);
+    }
+    vec3 li = background_radiance(dir) / pdf;
+    diffuse_part = bsdf_diffuse_part * li;
+    return bsdf_cosine_part * li;
 }
 
 // Alpha-blended surfaces a path may pass straight through before it stops.
@@ -402,6 +409,18 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         }
         vec2 u_choice = rng_next(rng);
         vec2 u_dir = rng_next(rng);
+        if (cosine_by_light && u_choice.x < b.lobe_p.x) {
+            // The cosine lobes' turn: their light came from light sampling; only the
+            // background is left for them, and then the path ends.
+            if (!env_enabled() && max3(frame.background) > 0.0) {
+                vec3 seen_diffuse;
+                radiance += throughput * background_seen(s, b, v, u_dir, seen_diffuse);
+                if (splitting) {
+                    split_diffuse += throughput * seen_diffuse;
+                }
+            }
+            break;
+        }
         vec3 l, weight;
         uint lobe;
         if (!bsdf_sample(s, b, v, u_choice.x, u_dir, !cosine_by_light, l, weight, bsdf_pdf, lobe)) {
