@@ -128,6 +128,7 @@ vec3 bsdf_diffuse_part = vec3(0.0);
 // no diffuse ray (distributed.glsl) estimates the first part by light sampling alone and draws
 // its continuation from the second only.
 vec3 bsdf_cosine_part = vec3(0.0);
+float bsdf_cosine_pdf = 0.0;
 vec3 bsdf_traced_part = vec3(0.0);
 float bsdf_traced_pdf = 0.0;
 
@@ -137,6 +138,7 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
     pdf = 0.0;
     bsdf_diffuse_part = vec3(0.0);
     bsdf_cosine_part = vec3(0.0);
+    bsdf_cosine_pdf = 0.0;
     bsdf_traced_part = vec3(0.0);
     bsdf_traced_pdf = 0.0;
     float n_dot_l = dot(s.n, l);
@@ -159,7 +161,8 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
         }
         vec3 result = base * n_dot_l;
         float specular_pdf = b.lobe_p.y * ggx_reflection_pdf(b.n_dot_v, n_dot_h, b.alpha);
-        pdf = b.lobe_p.x * n_dot_l / PI + specular_pdf;
+        bsdf_cosine_pdf = b.lobe_p.x * n_dot_l / PI;
+        pdf = bsdf_cosine_pdf + specular_pdf;
         bsdf_cosine_part = cosine * n_dot_l * (1.0 - b.coat);
         bsdf_traced_part = specular * n_dot_l * (1.0 - b.coat);
         bsdf_traced_pdf = specular_pdf;

@@ -177,16 +177,20 @@ vec3 lights_met(vec3 o, vec3 d, float t_max, float bsdf_pdf) {
 // The weighted BSDF x |n.l| of the last bsdf_eval (whose value was f, its density bsdf_pdf)
 // for a light sample drawn with density light_pdf: against BSDF sampling by the power
 // heuristic, or weight 1 where the BSDF's own ray is not traced (the `last` vertex; a punctual
-// light, light_pdf = 0). With `cosine_by_light` the cosine lobes' part of f has weight 1 (no
-// ray of theirs is traced) and only the other lobes' part is weighed, against the density
-// their continuation is drawn with (bsdf_traced_pdf). `diffuse_w`: the diffuse lobe's weight.
-vec3 light_sample_weighted(vec3 f, float bsdf_pdf, float light_pdf, bool last, bool cosine_by_light, out float diffuse_w) {
+// light, light_pdf = 0). With `cosine_by_light` (no diffuse ray leaves the vertex) the two
+// parts of f are weighed apart, each against the density its own ray is drawn with: the other
+// lobes' part against their continuation's (bsdf_traced_pdf), the cosine lobes' part against
+// their any-hit ray's (bsdf_cosine_pdf) for the environment (`sky`), which that ray finds, and
+// with weight 1 for the lights, which it does not look for. `diffuse_w`: the diffuse lobe's
+// weight.
+vec3 light_sample_weighted(vec3 f, float bsdf_pdf, float light_pdf, bool last, bool cosine_by_light, bool sky, out float diffuse_w) {
     diffuse_w = 1.0;
     if (!(light_pdf > 0.0) || last) {
         return f;
     }
     if (cosine_by_light) {
-        return bsdf_cosine_part + bsdf_traced_part * power_heuristic(light_pdf, bsdf_traced_pdf);
+        diffuse_w = sky ? power_heuristic(light_pdf, bsdf_cosine_pdf) : 1.0;
+        return bsdf_cosine_part * diffuse_w + bsdf_traced_part * power_heuristic(light_pdf, bsdf_traced_pdf);
     }
     diffuse_w = power_heuristic(light_pdf, bsdf_pdf);
     return f * diffuse_w;
@@ -196,7 +200,7 @@ vec3 light_sample_weighted(vec3 f, float bsdf_pdf, float light_pdf, bool last, b
 // sample), each through one shadow ray, weighted against BSDF sampling; at the `last` vertex
 // of a path, whose BSDF ray is not traced, light sampling alone carries the light (weight 1).
 // With `cosine_by_light` (no diffuse ray leaves this vertex) the cosine lobes take light
-// sampling's estimate alone (the background, without an environment: background_seen).
+// sampling's estimate of the lights alone, and share the environment with sky_seen.
 // `diffuse_part`: the share of the sum that came through the diffuse lobe (the denoiser's split).
 vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine_by_light, inout Rng rng, out vec3 diffuse_part) {
     vec3 sum = vec3(0.0);
@@ -222,7 +226,7 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine
         if (trace_any(origin, dir, 0.0, tmax)) {
             continue;
         }
-        sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, diffuse_w) * li;
+        sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, false, diffuse_w) * li;
         diffuse_part += bsdf_diffuse_part * li * diffuse_w;
     }
     if (env_enabled()) {
@@ -236,7 +240,7 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine
                 rays_by_kind[RAY_SHADOW] += 1u;
                 if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
                     vec3 li = env_radiance_texel(dir) / pdf;
-                    sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, diffuse_w) * li;
+                    sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, true, diffuse_w) * li;
                     diffuse_part += bsdf_diffuse_part * li * diffuse_w;
                 }
             }
@@ -245,13 +249,14 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine
     return sum;
 }
 
-// The background (no environment) through the cosine lobes of surface s from v, when their
-// ray would only collect light and bsdf_sample's lobe choice fell on them (probability
-// lobe_p.x): its radiance x (their BSDF x |n.l|) / (lobe_p.x n.l / π) along a cosine-drawn
-// direction, if a shadow ray there escapes. The background is the one light light sampling
-// does not draw; this any-hit ray stands in for the closest-hit diffuse ray that met it before,
-// and the lights that ray met are light-sampled instead. `diffuse_part`: the Lambert share.
-vec3 background_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_part) {
+// The sky (the environment, or without one the background) through the cosine lobes of
+// surface s from v, when their ray would only collect light and bsdf_sample's lobe choice fell
+// on them (probability lobe_p.x): along a cosine-drawn direction, drawn with density
+// lobe_p.x n.l / π, its radiance x their BSDF x |n.l| / density if a shadow ray there escapes,
+// weighted against the environment's light sampling (the background is not light-sampled).
+// This any-hit ray stands in for the closest-hit diffuse ray that met the sky before; the
+// lights that ray met are light-sampled alone. `diffuse_part`: the Lambert share.
+vec3 sky_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_part) {
     diffuse_part = vec3(0.0);
     vec3 dir = to_world(sample_cosine(u), s.n);
     float pdf = b.lobe_p.x * dot(s.n, dir) / PI;
@@ -267,7 +272,9 @@ vec3 background_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_pa
     if (trace_any(s.position + s.ng * eps_offset(), dir, 0.0, BIG_FLOAT)) {
         return vec3(0.0);
     }
-    vec3 li = background_radiance(dir) / pdf;
+    vec3 li = env_enabled()
+        ? env_radiance_texel(dir) * power_heuristic(bsdf_cosine_pdf, env_pdf(dir)) / bsdf_cosine_pdf
+        : background_radiance(dir) / bsdf_cosine_pdf;
     diffuse_part = bsdf_diffuse_part * li;
     return bsdf_cosine_part * li;
 }
@@ -410,11 +417,11 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         vec2 u_choice = rng_next(rng);
         vec2 u_dir = rng_next(rng);
         if (cosine_by_light && u_choice.x < b.lobe_p.x) {
-            // The cosine lobes' turn: their light came from light sampling; only the
-            // background is left for them, and then the path ends.
-            if (!env_enabled() && max3(frame.background) > 0.0) {
+            // The cosine lobes' turn: light sampling found the lights for them; only the
+            // sky is left for their ray, and then the path ends.
+            if (env_enabled() || max3(frame.background) > 0.0) {
                 vec3 seen_diffuse;
-                radiance += throughput * background_seen(s, b, v, u_dir, seen_diffuse);
+                radiance += throughput * sky_seen(s, b, v, u_dir, seen_diffuse);
                 if (splitting) {
                     split_diffuse += throughput * seen_diffuse;
                 }
