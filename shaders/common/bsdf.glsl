@@ -7,7 +7,8 @@
 // only, as Mitsuba's and pbrt's microfacet models: GGX at roughness 0.5 loses a few per cent.
 // Sampling: cosine for diffuse and sheen, visible normals (Heitz 2018) for GGX reflection,
 // transmission and the coat; one lobe drawn by its estimated weight, and the density of a
-// direction is the mixture over every lobe (so any lobe's direction is weighted correctly).
+// direction is the mixture over every lobe (so any lobe's direction is weighted correctly), or
+// over the non-cosine lobes where the cosine ones are not drawn (bsdf_sample's cosine_lobes).
 // Include after shade.glsl (Surface, surface_fresnel, clearcoat_reflectance, brdf.glsl).
 #ifndef RQR_BSDF_GLSL
 #define RQR_BSDF_GLSL

@@ -9,9 +9,13 @@
 // keeps the punctual light (found by light sampling only, as in the Whitted model).
 //
 // One continuation ray per vertex follows a lobe chosen by its weight, up to frame.max_depth
-// segments. Diffuse inter-reflection is off as in Cook's model (a diffuse ray then only
-// collects the light it meets: emission, a light, the environment) until
-// frame.diffuse_bounces allows that many diffuse bounces, with Russian roulette: a path tracer.
+// segments. Diffuse inter-reflection is off as in Cook's model until frame.diffuse_bounces
+// allows that many diffuse bounces, with Russian roulette: a path tracer. Where the diffuse
+// bounces are spent, a diffuse ray could only collect light: in a scene without emissive
+// triangles (FLAG_DIFFUSE_LIGHT_SAMPLED) light sampling carries the cosine lobes' light, an
+// any-hit ray their sky (sky_seen), and the continuation is drawn from the other lobes only;
+// otherwise the diffuse ray is traced and collects the emission, lights and environment it
+// meets (docs/techniques/distributed.md, "Spent diffuse lobes").
 // Random numbers: Owen-scrambled Sobol (0,2) pairs (sampling.glsl's sobol_owen), indexed by
 // the sample number and decorrelated by a hash of (seed, pixel, dimension): "padded" 2-D
 // Sobol as in Burley 2020.
