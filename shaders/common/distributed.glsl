@@ -283,6 +283,11 @@ vec3 sky_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_part) {
     return bsdf_cosine_part * li;
 }
 
+// Russian roulette on the background's ray (no environment): traced with probability
+// q = SKY_SHARE x (the most it can add) / (the vertex's light so far), at least SKY_MIN_Q.
+#define SKY_SHARE 4.0
+#define SKY_MIN_Q 0.0625
+
 // Alpha-blended surfaces a path may pass straight through before it stops.
 #define MAX_PASS_THROUGH 16u
 
@@ -398,10 +403,12 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         if (collect_only) {
             break;
         }
+        vec3 lit_here = vec3(0.0);  // this vertex's light so far, before the throughput
         if (!env_enabled() && frame.diffuse_bounces == 0u) {
             // The Whitted model's ambient term stands in for the untraced diffuse
             // inter-reflection (a path tracer, with diffuse bounces, traces it instead).
-            vec3 ambient = throughput * frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
+            lit_here = frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
+            vec3 ambient = throughput * lit_here;
             radiance += ambient;
             if (splitting) {
                 split_diffuse += ambient;
@@ -411,7 +418,9 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         // A diffuse ray from here could only collect light, and light sampling finds all of it.
         bool cosine_by_light = (frame.flags & FLAG_DIFFUSE_LIGHT_SAMPLED) != 0u && diffuse_used >= frame.diffuse_bounces;
         vec3 direct_diffuse;
-        radiance += throughput * direct_light_sampled(s, b, v, last, cosine_by_light, rng, direct_diffuse);
+        vec3 direct = direct_light_sampled(s, b, v, last, cosine_by_light, rng, direct_diffuse);
+        lit_here += direct;
+        radiance += throughput * direct;
         if (splitting) {
             split_diffuse += throughput * direct_diffuse;
         }
@@ -422,12 +431,21 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         vec2 u_dir = rng_next(rng);
         if (cosine_by_light && u_choice.x < b.lobe_p.x) {
             // The cosine lobes' turn: light sampling found the lights for them; only the
-            // sky is left for their ray, and then the path ends.
-            if (env_enabled() || max3(frame.background) > 0.0) {
+            // sky is left for their ray, and then the path ends. The environment is a light
+            // like the others; the background, often a dim fill, takes Russian roulette by the
+            // most it can add to this vertex's light: that share at most, 1 / SKY_SHARE, rides
+            // on a traced ray's 1 / q (none where the vertex is dark).
+            float q = 1.0;
+            if (!env_enabled()) {
+                float cosine_albedo = max(max3(b.diffuse_color), s.layered ? max3(s.sheen_color) : 0.0);
+                float most = max3(frame.background) * cosine_albedo;
+                q = most > 0.0 ? clamp(SKY_SHARE * most / max(luminance(lit_here), 1e-8), SKY_MIN_Q, 1.0) : 0.0;
+            }
+            if (u_choice.y < q) {
                 vec3 seen_diffuse;
-                radiance += throughput * sky_seen(s, b, v, u_dir, seen_diffuse);
+                radiance += throughput * sky_seen(s, b, v, u_dir, seen_diffuse) / q;
                 if (splitting) {
-                    split_diffuse += throughput * seen_diffuse;
+                    split_diffuse += throughput * seen_diffuse / q;
                 }
             }
             break;
