@@ -133,7 +133,13 @@ fn check_converges_without_fireflies(
         new_bias <= old_bias.max(0.01) * 1.5,
         "{name}: a block differs by {new_bias} (the traced estimator's worst: {old_bias})"
     );
-    check_no_fireflies(name, &reference, &run(4, 3, false), &reference, &run(4, 3, true));
+    check_no_fireflies(
+        name,
+        &reference,
+        &run(4, 3, false),
+        &reference,
+        &run(4, 3, true),
+    );
     support::assert_validation_clean(&ctx);
 }
 
