@@ -287,6 +287,9 @@ vec3 sky_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_part) {
 // q = SKY_SHARE x (the most it can add) / (the vertex's light so far), at least SKY_MIN_Q.
 #define SKY_SHARE 4.0
 #define SKY_MIN_Q 0.0625
+// Russian roulette on the non-cosine lobes' continuation where the cosine lobes are light-
+// sampled: survival CONTINUE_SHARE x (1 - lobe_p.x), at most 1.
+#define CONTINUE_SHARE 1.0
 
 // Alpha-blended surfaces a path may pass straight through before it stops.
 #define MAX_PASS_THROUGH 16u
@@ -454,6 +457,19 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         uint lobe;
         if (!bsdf_sample(s, b, v, u_choice.x, u_dir, !cosine_by_light, l, weight, bsdf_pdf, lobe)) {
             break;
+        }
+        if (cosine_by_light && b.lobe_p.x > 0.0) {
+            // Russian roulette on the other lobes' continuation from a surface that is mostly
+            // diffuse: their share of its light is about their share of the lobe choice,
+            // 1 - lobe_p.x, so a path survives with CONTINUE_SHARE times that (a rough
+            // dielectric wall's faint glossy inter-reflection then costs a ray in a few per
+            // cent of its pixels, not in every one that drew the lobe). Mirrors, metals and
+            // glass (lobe_p.x = 0) always continue.
+            float q = min(1.0, CONTINUE_SHARE * (1.0 - b.lobe_p.x));
+            if (rng_next(rng).x >= q) {
+                break;
+            }
+            weight /= q;
         }
         throughput *= weight;
         if (splitting && lobe == LOBE_DIFFUSE) {
