@@ -7,7 +7,8 @@
 // only, as Mitsuba's and pbrt's microfacet models: GGX at roughness 0.5 loses a few per cent.
 // Sampling: cosine for diffuse and sheen, visible normals (Heitz 2018) for GGX reflection,
 // transmission and the coat; one lobe drawn by its estimated weight, and the density of a
-// direction is the mixture over every lobe (so any lobe's direction is weighted correctly).
+// direction is the mixture over every lobe (so any lobe's direction is weighted correctly), or
+// over the non-cosine lobes where the cosine ones are not drawn (bsdf_sample's cosine_lobes).
 // Include after shade.glsl (Surface, surface_fresnel, clearcoat_reflectance, brdf.glsl).
 #ifndef RQR_BSDF_GLSL
 #define RQR_BSDF_GLSL
@@ -122,11 +123,25 @@ BsdfFrame bsdf_frame(Surface s, vec3 v) {
 // the denoiser filters diffuse and specular light apart (denoise_split.glsl).
 vec3 bsdf_diffuse_part = vec3(0.0);
 
+// The last bsdf_eval split by how bsdf_sample draws its lobes: the cosine-sampled ones
+// (Lambert and sheen, under the coat; lobe_p.x) and the rest ("traced": GGX reflection,
+// transmission, the coat), each with its own term of the mixture density. A vertex that traces
+// no diffuse ray (distributed.glsl) estimates the first part by light sampling alone and draws
+// its continuation from the second only.
+vec3 bsdf_cosine_part = vec3(0.0);
+float bsdf_cosine_pdf = 0.0;
+vec3 bsdf_traced_part = vec3(0.0);
+float bsdf_traced_pdf = 0.0;
+
 // BSDF x |n.l| of surface `s` from v (towards the viewer) to l (towards the light), and the
 // density `pdf` bsdf_sample draws l with (solid angle).
 vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
     pdf = 0.0;
     bsdf_diffuse_part = vec3(0.0);
+    bsdf_cosine_part = vec3(0.0);
+    bsdf_cosine_pdf = 0.0;
+    bsdf_traced_part = vec3(0.0);
+    bsdf_traced_pdf = 0.0;
     float n_dot_l = dot(s.n, l);
     float g_dot_l = dot(s.ng, l);
     bool no_specular = (frame.flags & FLAG_NO_SPECULAR) != 0u;
@@ -137,13 +152,21 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
         vec3 f = no_specular ? vec3(0.0) : surface_fresnel(s, b.f0, fresnel_cosine(v_dot_h, b.etap));
         vec3 lambert = (vec3(1.0) - f) * b.diffuse_color / PI;
         bsdf_diffuse_part = lambert * n_dot_l * (1.0 - b.coat);
-        vec3 base = lambert + f * d_ggx(n_dot_h, b.alpha) * v_smith_ggx(n_dot_l, b.n_dot_v, b.alpha);
-        float sheen_pdf = 0.0;
+        vec3 specular = f * d_ggx(n_dot_h, b.alpha) * v_smith_ggx(n_dot_l, b.n_dot_v, b.alpha);
+        vec3 base = lambert + specular;
+        vec3 cosine = lambert;
         if (s.layered && max3(s.sheen_color) > 0.0) {
-            base += s.sheen_color * d_charlie(s.sheen_roughness, n_dot_h) * v_sheen(n_dot_l, b.n_dot_v, s.sheen_roughness);
+            vec3 sheen = s.sheen_color * d_charlie(s.sheen_roughness, n_dot_h) * v_sheen(n_dot_l, b.n_dot_v, s.sheen_roughness);
+            base += sheen;
+            cosine += sheen;
         }
         vec3 result = base * n_dot_l;
-        pdf = b.lobe_p.x * n_dot_l / PI + b.lobe_p.y * ggx_reflection_pdf(b.n_dot_v, n_dot_h, b.alpha);
+        float specular_pdf = b.lobe_p.y * ggx_reflection_pdf(b.n_dot_v, n_dot_h, b.alpha);
+        bsdf_cosine_pdf = b.lobe_p.x * n_dot_l / PI;
+        pdf = bsdf_cosine_pdf + specular_pdf;
+        bsdf_cosine_part = cosine * n_dot_l * (1.0 - b.coat);
+        bsdf_traced_part = specular * n_dot_l * (1.0 - b.coat);
+        bsdf_traced_pdf = specular_pdf;
         if (b.coat > 0.0) {
             float c_dot_l = dot(s.clearcoat_n, l);
             float c_dot_v = max(dot(s.clearcoat_n, v), 1e-4);
@@ -151,8 +174,12 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
             result *= 1.0 - b.coat;
             if (c_dot_l > 0.0) {
                 float fc = s.clearcoat * fresnel_schlick(vec3(0.04), v_dot_h).x;
-                result += vec3(fc * d_ggx(c_dot_h, b.c_alpha) * v_smith_ggx(c_dot_l, c_dot_v, b.c_alpha) * c_dot_l);
-                pdf += b.lobe_p.w * ggx_reflection_pdf(c_dot_v, c_dot_h, b.c_alpha);
+                vec3 coat = vec3(fc * d_ggx(c_dot_h, b.c_alpha) * v_smith_ggx(c_dot_l, c_dot_v, b.c_alpha) * c_dot_l);
+                float coat_pdf = b.lobe_p.w * ggx_reflection_pdf(c_dot_v, c_dot_h, b.c_alpha);
+                result += coat;
+                pdf += coat_pdf;
+                bsdf_traced_part += coat;
+                bsdf_traced_pdf += coat_pdf;
             }
         }
         return result;
@@ -177,6 +204,8 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
         vec3 result = b.transmission * (vec3(1.0) - f) * s.base_color * bt * abs(n_dot_l) * (1.0 - b.coat);
         float visible = smith_g1(b.n_dot_v, a) * d * v_dot_h / b.n_dot_v;
         pdf = b.lobe_p.z * visible * abs(l_dot_h) / (denom * denom);
+        bsdf_traced_part = result;
+        bsdf_traced_pdf = pdf;
         return result;
     }
     return vec3(0.0);
@@ -184,13 +213,19 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
 
 // Draws a direction l from the BSDF at (lobe choice u_lobe, direction u). Returns false when
 // the drawn direction carries nothing (below the surface, total internal reflection); else
-// `weight` = bsdf_eval / pdf and `lobe` the lobe drawn.
-bool bsdf_sample(Surface s, BsdfFrame b, vec3 v, float u_lobe, vec2 u, out vec3 l, out vec3 weight, out float pdf, out uint lobe) {
+// `weight` = bsdf_eval / pdf and `lobe` the lobe drawn. Without `cosine_lobes` the cosine-
+// sampled lobes are not drawn: their share of u_lobe (lobe_p.x) ends the path (returns false;
+// Russian roulette on the lobe choice), and the other lobes' draws carry only their own part of
+// the BSDF over their own part of the density (bsdf_traced_part / bsdf_traced_pdf, the density
+// they are drawn with, returned as `pdf` for MIS), so the cosine lobes' light, which the caller
+// then estimates by light sampling alone, is neither lost nor counted twice.
+bool bsdf_sample(Surface s, BsdfFrame b, vec3 v, float u_lobe, vec2 u, bool cosine_lobes, out vec3 l, out vec3 weight, out float pdf, out uint lobe) {
     l = vec3(0.0);
     weight = vec3(0.0);
     pdf = 0.0;
+    lobe = LOBE_DIFFUSE;
     vec4 p = b.lobe_p;
-    if (p.x + p.y + p.z + p.w <= 0.0) {
+    if (p.x + p.y + p.z + p.w <= 0.0 || (!cosine_lobes && u_lobe < p.x)) {
         return false;
     }
     if (u_lobe < p.x) {
@@ -211,6 +246,10 @@ bool bsdf_sample(Surface s, BsdfFrame b, vec3 v, float u_lobe, vec2 u, out vec3 
     }
     l = normalize(l);
     vec3 f = bsdf_eval(s, b, v, l, pdf);
+    if (!cosine_lobes) {
+        f = bsdf_traced_part;
+        pdf = bsdf_traced_pdf;
+    }
     if (!(pdf > 0.0) || max3(f) <= 0.0) {
         return false;
     }

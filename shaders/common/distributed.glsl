@@ -9,15 +9,20 @@
 // keeps the punctual light (found by light sampling only, as in the Whitted model).
 //
 // One continuation ray per vertex follows a lobe chosen by its weight, up to frame.max_depth
-// segments. Diffuse inter-reflection is off as in Cook's model (a diffuse ray then only
-// collects the light it meets: emission, a light, the environment) until
-// frame.diffuse_bounces allows that many diffuse bounces, with Russian roulette: a path tracer.
+// segments. Diffuse inter-reflection is off as in Cook's model until frame.diffuse_bounces
+// allows that many diffuse bounces, with Russian roulette: a path tracer. Where the diffuse
+// bounces are spent, a diffuse ray could only collect light: in a scene without emissive
+// triangles (FLAG_DIFFUSE_LIGHT_SAMPLED) light sampling carries the cosine lobes' light, an
+// any-hit ray their sky (sky_seen), and the continuation is drawn from the other lobes only;
+// otherwise the diffuse ray is traced and collects the emission, lights and environment it
+// meets (docs/techniques/distributed.md, "Spent diffuse lobes").
 // Random numbers: Owen-scrambled Sobol (0,2) pairs (sampling.glsl's sobol_owen), indexed by
 // the sample number and decorrelated by a hash of (seed, pixel, dimension): "padded" 2-D
 // Sobol as in Burley 2020.
 // Include after scene.glsl, trace.glsl, frame.glsl, sampling.glsl, brdf.glsl and shade.glsl.
 #ifndef RQR_DISTRIBUTED_GLSL
 #define RQR_DISTRIBUTED_GLSL
+#include "interface_distributed.glsl"
 #include "bsdf.glsl"
 
 // Diffuse rays traced by this invocation (RAY_DIFFUSE; the other kinds are in rays_by_kind).
@@ -173,14 +178,39 @@ vec3 lights_met(vec3 o, vec3 d, float t_max, float bsdf_pdf) {
     return sum;
 }
 
+// The weighted BSDF x |n.l| of the last bsdf_eval (whose value was f, its density bsdf_pdf)
+// for a light sample drawn with density light_pdf: against BSDF sampling by the power
+// heuristic, or weight 1 where the BSDF's own ray is not traced (the `last` vertex; a punctual
+// light, light_pdf = 0). With `cosine_by_light` (no diffuse ray leaves the vertex) the two
+// parts of f are weighed apart, each against the density its own ray is drawn with: the other
+// lobes' part against their continuation's (bsdf_traced_pdf), the cosine lobes' part against
+// their any-hit ray's (bsdf_cosine_pdf) for the environment (`sky`), which that ray finds, and
+// with weight 1 for the lights, which it does not look for. `diffuse_w`: the diffuse lobe's
+// weight.
+vec3 light_sample_weighted(vec3 f, float bsdf_pdf, float light_pdf, bool last, bool cosine_by_light, bool sky, out float diffuse_w) {
+    diffuse_w = 1.0;
+    if (!(light_pdf > 0.0) || last) {
+        return f;
+    }
+    if (cosine_by_light) {
+        diffuse_w = sky ? power_heuristic(light_pdf, bsdf_cosine_pdf) : 1.0;
+        return bsdf_cosine_part * diffuse_w + bsdf_traced_part * power_heuristic(light_pdf, bsdf_traced_pdf);
+    }
+    diffuse_w = power_heuristic(light_pdf, bsdf_pdf);
+    return f * diffuse_w;
+}
+
 // Direct light at surface s from every light (one sample each) and the environment (one
 // sample), each through one shadow ray, weighted against BSDF sampling; at the `last` vertex
 // of a path, whose BSDF ray is not traced, light sampling alone carries the light (weight 1).
+// With `cosine_by_light` (no diffuse ray leaves this vertex) the cosine lobes take light
+// sampling's estimate of the lights alone, and share the environment with sky_seen.
 // `diffuse_part`: the share of the sum that came through the diffuse lobe (the denoiser's split).
-vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng rng, out vec3 diffuse_part) {
+vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine_by_light, inout Rng rng, out vec3 diffuse_part) {
     vec3 sum = vec3(0.0);
     diffuse_part = vec3(0.0);
     vec3 origin = s.position + s.ng * eps_offset();
+    float diffuse_w;
     for (uint i = 0u; i < scene.light_count; ++i) {
         GpuLight l = scene_light(i);
         vec2 u = rng_next(rng);
@@ -200,9 +230,8 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng r
         if (trace_any(origin, dir, 0.0, tmax)) {
             continue;
         }
-        float w = pdf > 0.0 && !last ? power_heuristic(pdf, bsdf_pdf) : 1.0;
-        sum += f * li * w;
-        diffuse_part += bsdf_diffuse_part * li * w;
+        sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, false, diffuse_w) * li;
+        diffuse_part += bsdf_diffuse_part * li * diffuse_w;
     }
     if (env_enabled()) {
         vec2 u = rng_next(rng);
@@ -214,15 +243,53 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, inout Rng r
             if (max3(f) > 0.0) {
                 rays_by_kind[RAY_SHADOW] += 1u;
                 if (!trace_any(origin, dir, 0.0, BIG_FLOAT)) {
-                    vec3 li = env_radiance_texel(dir) / pdf * (last ? 1.0 : power_heuristic(pdf, bsdf_pdf));
-                    sum += f * li;
-                    diffuse_part += bsdf_diffuse_part * li;
+                    vec3 li = env_radiance_texel(dir) / pdf;
+                    sum += light_sample_weighted(f, bsdf_pdf, pdf, last, cosine_by_light, true, diffuse_w) * li;
+                    diffuse_part += bsdf_diffuse_part * li * diffuse_w;
                 }
             }
         }
     }
     return sum;
 }
+
+// The sky (the environment, or without one the background) through the cosine lobes of
+// surface s from v, when their ray would only collect light and bsdf_sample's lobe choice fell
+// on them (probability lobe_p.x): along a cosine-drawn direction, drawn with density
+// lobe_p.x n.l / π, its radiance x their BSDF x |n.l| / density if a shadow ray there escapes,
+// weighted against the environment's light sampling (the background is not light-sampled).
+// This any-hit ray stands in for the closest-hit diffuse ray that met the sky before; the
+// lights that ray met are light-sampled alone. `diffuse_part`: the Lambert share.
+vec3 sky_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_part) {
+    diffuse_part = vec3(0.0);
+    vec3 dir = to_world(sample_cosine(u), s.n);
+    float pdf = b.lobe_p.x * dot(s.n, dir) / PI;
+    if (!(pdf > 0.0) || dot(s.ng, dir) <= 0.0) {
+        return vec3(0.0);
+    }
+    float bsdf_pdf;
+    bsdf_eval(s, b, v, dir, bsdf_pdf);
+    if (max3(bsdf_cosine_part) <= 0.0) {
+        return vec3(0.0);
+    }
+    rays_by_kind[RAY_SHADOW] += 1u;
+    if (trace_any(s.position + s.ng * eps_offset(), dir, 0.0, BIG_FLOAT)) {
+        return vec3(0.0);
+    }
+    vec3 li = env_enabled()
+        ? env_radiance_texel(dir) * power_heuristic(bsdf_cosine_pdf, env_pdf(dir)) / bsdf_cosine_pdf
+        : background_radiance(dir) / bsdf_cosine_pdf;
+    diffuse_part = bsdf_diffuse_part * li;
+    return bsdf_cosine_part * li;
+}
+
+// Russian roulette on the background's ray (no environment): traced with probability
+// q = SKY_SHARE x (the most it can add) / (the vertex's light so far), at least SKY_MIN_Q.
+#define SKY_SHARE 4.0
+#define SKY_MIN_Q 0.0625
+// Russian roulette on the non-cosine lobes' continuation where the cosine lobes are light-
+// sampled: survival CONTINUE_SHARE x (1 - lobe_p.x), at most 1.
+#define CONTINUE_SHARE 1.0
 
 // Alpha-blended surfaces a path may pass straight through before it stops.
 #define MAX_PASS_THROUGH 16u
@@ -339,18 +406,24 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         if (collect_only) {
             break;
         }
+        vec3 lit_here = vec3(0.0);  // this vertex's light so far, before the throughput
         if (!env_enabled() && frame.diffuse_bounces == 0u) {
             // The Whitted model's ambient term stands in for the untraced diffuse
             // inter-reflection (a path tracer, with diffuse bounces, traces it instead).
-            vec3 ambient = throughput * frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
+            lit_here = frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
+            vec3 ambient = throughput * lit_here;
             radiance += ambient;
             if (splitting) {
                 split_diffuse += ambient;
             }
         }
         bool last = depth >= frame.max_depth;
+        // A diffuse ray from here could only collect light, and light sampling finds all of it.
+        bool cosine_by_light = (frame.flags & FLAG_DIFFUSE_LIGHT_SAMPLED) != 0u && diffuse_used >= frame.diffuse_bounces;
         vec3 direct_diffuse;
-        radiance += throughput * direct_light_sampled(s, b, v, last, rng, direct_diffuse);
+        vec3 direct = direct_light_sampled(s, b, v, last, cosine_by_light, rng, direct_diffuse);
+        lit_here += direct;
+        radiance += throughput * direct;
         if (splitting) {
             split_diffuse += throughput * direct_diffuse;
         }
@@ -359,10 +432,44 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
         }
         vec2 u_choice = rng_next(rng);
         vec2 u_dir = rng_next(rng);
+        if (cosine_by_light && u_choice.x < b.lobe_p.x) {
+            // The cosine lobes' turn: light sampling found the lights for them; only the
+            // sky is left for their ray, and then the path ends. The environment is a light
+            // like the others; the background, often a dim fill, takes Russian roulette by the
+            // most it can add to this vertex's light: that share at most, 1 / SKY_SHARE, rides
+            // on a traced ray's 1 / q (none where the vertex is dark).
+            float q = 1.0;
+            if (!env_enabled()) {
+                float cosine_albedo = max(max3(b.diffuse_color), s.layered ? max3(s.sheen_color) : 0.0);
+                float most = max3(frame.background) * cosine_albedo;
+                q = most > 0.0 ? clamp(SKY_SHARE * most / max(luminance(lit_here), 1e-8), SKY_MIN_Q, 1.0) : 0.0;
+            }
+            if (u_choice.y < q) {
+                vec3 seen_diffuse;
+                radiance += throughput * sky_seen(s, b, v, u_dir, seen_diffuse) / q;
+                if (splitting) {
+                    split_diffuse += throughput * seen_diffuse / q;
+                }
+            }
+            break;
+        }
         vec3 l, weight;
         uint lobe;
-        if (!bsdf_sample(s, b, v, u_choice.x, u_dir, l, weight, bsdf_pdf, lobe)) {
+        if (!bsdf_sample(s, b, v, u_choice.x, u_dir, !cosine_by_light, l, weight, bsdf_pdf, lobe)) {
             break;
+        }
+        if (cosine_by_light && b.lobe_p.x > 0.0) {
+            // Russian roulette on the other lobes' continuation from a surface that is mostly
+            // diffuse: their share of its light is about their share of the lobe choice,
+            // 1 - lobe_p.x, so a path survives with CONTINUE_SHARE times that (a rough
+            // dielectric wall's faint glossy inter-reflection then costs a ray in a few per
+            // cent of its pixels, not in every one that drew the lobe). Mirrors, metals and
+            // glass (lobe_p.x = 0) always continue.
+            float q = min(1.0, CONTINUE_SHARE * (1.0 - b.lobe_p.x));
+            if (rng_next(rng).x >= q) {
+                break;
+            }
+            weight /= q;
         }
         throughput *= weight;
         if (splitting && lobe == LOBE_DIFFUSE) {

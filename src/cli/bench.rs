@@ -183,7 +183,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             build["locality"] = json!(locality::measure(&data));
         }
         let setup = CameraSetup::new(&camera, args.width, args.height, renderer.scene_scale());
-        let frame = GpuFrame::new(&settings, &setup, renderer.scene_scale());
+        let frame = GpuFrame::new(&settings, &setup, renderer.scene_traits());
         let bench = RayBench::new(&ctx, &renderer.pass_context(), &frame)?;
         prepared.push(Prepared {
             bench,

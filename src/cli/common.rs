@@ -476,6 +476,11 @@ pub struct ImageArgs {
     /// surfaces, Cook's model; N: a path tracer with Russian roulette).
     #[arg(long, default_value_t = 0)]
     pub diffuse_bounces: u32,
+    /// Distributed shading: trace a diffuse ray where the diffuse bounces are spent even in a
+    /// scene without emissive triangles (where light sampling alone estimates that lobe, at
+    /// less cost, by default). Both estimators converge to the same image.
+    #[arg(long)]
+    pub trace_spent_diffuse: bool,
     /// Distributed shading: denoise each frame before tonemapping: `temporal` (accumulate the
     /// demodulated light on the reprojected history) or `svgf` (that, then an edge-aware
     /// à-trous filter; a single frame gets the filter alone).
@@ -545,6 +550,7 @@ impl ImageArgs {
             raster: Default::default(),
             shading: self.shading,
             diffuse_bounces: self.diffuse_bounces,
+            trace_spent_diffuse: self.trace_spent_diffuse,
             denoise: self.denoise,
             history_cap: self.history_cap,
         };

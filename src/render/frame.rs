@@ -10,9 +10,18 @@ pub use super::settings::RenderPath;
 pub(crate) use super::settings::{FilterKind, RenderSettings};
 
 pub use crate::interface::{
-    GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_ENV_BACKGROUND, FLAG_NO_SPECULAR, FLAG_SKY,
-    FLAG_WRITE_AOV,
+    GpuFrame, FLAG_ADAPTIVE_CORNERS, FLAG_DIFFUSE_LIGHT_SAMPLED, FLAG_ENV_BACKGROUND,
+    FLAG_NO_SPECULAR, FLAG_SKY, FLAG_WRITE_AOV,
 };
+
+/// What the frame uniform needs to know of the scene it renders.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneTraits {
+    /// Diagonal of the scene bounds (ray offsets).
+    pub scale: f32,
+    /// Whether an instanced triangle emits ([`crate::scene::GpuScene::emissive_geometry`]).
+    pub emissive_geometry: bool,
+}
 
 /// Near plane used when the camera has none that fits.
 const DEFAULT_ZNEAR: f32 = 0.01;
@@ -83,10 +92,16 @@ impl CameraSetup {
 }
 
 impl GpuFrame {
-    /// Fills the uniform for `settings` seen through `camera`.
-    pub fn new(settings: &RenderSettings, camera: &CameraSetup, scene_scale: f32) -> Self {
+    /// Fills the uniform for `settings` seen through `camera`, in a scene of `scene`'s traits.
+    pub fn new(settings: &RenderSettings, camera: &CameraSetup, scene: SceneTraits) -> Self {
+        let scene_scale = scene.scale;
         let view = camera.view();
         let mut flags = 0;
+        // Without emissive triangles every emitter is light-sampled, so a diffuse lobe with no
+        // bounces left needs no ray of its own (unless the settings ask for one).
+        if !scene.emissive_geometry && !settings.trace_spent_diffuse {
+            flags |= FLAG_DIFFUSE_LIGHT_SAMPLED;
+        }
         if settings.no_specular {
             flags |= FLAG_NO_SPECULAR;
         }

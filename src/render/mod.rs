@@ -33,7 +33,7 @@ use crate::scene::gpu::GpuScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{Context, DescriptorSet};
 pub use drivers::targets::FrameTargets;
-pub use frame::{CameraSetup, GpuFrame};
+pub use frame::{CameraSetup, GpuFrame, SceneTraits};
 pub use settings::{FilterKind, RenderPath, RenderSettings, SamplerKind, Shading, Tonemap};
 
 pub use crate::interface::Aov;
@@ -364,6 +364,15 @@ impl Renderer {
     /// Diagonal of the scene bounds.
     pub fn scene_scale(&self) -> f32 {
         self.scene_scale
+    }
+
+    /// What the frame uniform needs to know of the scene: its scale and whether it has
+    /// emissive triangles.
+    pub fn scene_traits(&self) -> SceneTraits {
+        SceneTraits {
+            scale: self.scene_scale,
+            emissive_geometry: self.gpu.emissive_geometry,
+        }
     }
 
     /// Renders one image with the pure ray-traced path. With `write_aov` it also fills

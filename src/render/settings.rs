@@ -161,6 +161,12 @@ pub struct RenderSettings {
     /// Distributed model: diffuse bounces a path may take (0: direct light only on diffuse
     /// surfaces, as in Cook's model; more: a path tracer with Russian roulette).
     pub diffuse_bounces: u32,
+    /// Distributed model: where a vertex's diffuse bounces are spent, still trace the diffuse
+    /// lobe's ray (it collects the emission, lights and environment it meets, weighted against
+    /// light sampling) even in a scene without emissive triangles, where light sampling alone
+    /// estimates that lobe by default at less cost. Both converge to one image; scenes with
+    /// emissive triangles always trace it (nothing else finds their light).
+    pub trace_spent_diffuse: bool,
     /// Denoiser run on each distributed frame before tonemapping.
     pub denoise: super::denoise::DenoiseMode,
     /// Frames of history a denoised pixel keeps at most (its blend weight's floor is the
@@ -195,6 +201,7 @@ impl Default for RenderSettings {
             raster: Default::default(),
             shading: Shading::Whitted,
             diffuse_bounces: 0,
+            trace_spent_diffuse: false,
             denoise: super::denoise::DenoiseMode::None,
             history_cap: super::denoise::DEFAULT_HISTORY_CAP,
         }

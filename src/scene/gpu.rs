@@ -33,6 +33,10 @@ pub struct GpuScene {
     pub refs_data: GpuSceneRefs,
     /// Bytes uploaded.
     pub bytes: u64,
+    /// Whether an instanced triangle's material emits (its emissive factor is not black):
+    /// emission then lights the scene beside the light sources, and only rays that meet it
+    /// find it.
+    pub emissive_geometry: bool,
     /// The previous frame's positions and instances of an animation (motion vectors), once
     /// [`Self::keep_previous_frame`] made them.
     previous: Option<PreviousFrame>,
@@ -170,6 +174,17 @@ pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
             }
         })
         .collect()
+}
+
+/// Whether some instance of `scene` draws a geometry whose material emits.
+pub fn has_emissive_geometry(scene: &Scene) -> bool {
+    scene.instances.iter().any(|i| {
+        scene
+            .geometries
+            .get(i.geometry as usize)
+            .and_then(|g| scene.materials.get(g.material as usize))
+            .is_some_and(|m| m.emissive.max_element() > 0.0)
+    })
 }
 
 impl GpuScene {
@@ -310,6 +325,7 @@ impl GpuScene {
             previous: None,
             refs_data,
             bytes,
+            emissive_geometry: has_emissive_geometry(scene),
         })
     }
 

@@ -16,7 +16,7 @@ use rqr::scene::procedural::{assemble, cornell, look_at, quad, sphere};
 use rqr::scene::{Camera, Instance, Light, LightKind, Material, MaterialLayers, Scene};
 use rqr::vk::Context;
 
-fn backends(ctx: &Context) -> Vec<Backend> {
+pub(super) fn backends(ctx: &Context) -> Vec<Backend> {
     let mut b = vec![Backend::Bvh];
     if ctx.features().ray_query {
         b.push(Backend::Hw);
@@ -25,7 +25,7 @@ fn backends(ctx: &Context) -> Vec<Backend> {
 }
 
 /// Renders `scene` through `camera` on `backend`, ray traced or hybrid, under `env` if any.
-fn render(
+pub(super) fn render(
     ctx: &Context,
     scene: &Scene,
     camera: &Camera,
@@ -49,7 +49,7 @@ fn render(
 }
 
 /// Lambert only (KHR_materials_specular with factor 0): no specular lobe to blur a profile.
-fn lambert(albedo: f32) -> Material {
+pub(super) fn lambert(albedo: f32) -> Material {
     Material {
         base_color: Vec4::new(albedo, albedo, albedo, 1.0),
         metallic: 0.0,
@@ -397,7 +397,7 @@ fn furnace_rough_metal_reflects_its_single_scattering_albedo() {
 }
 
 /// The built-in room with sphere lights.
-fn soft_cornell(radius: f32) -> Scene {
+pub(super) fn soft_cornell(radius: f32) -> Scene {
     let mut scene = cornell();
     for l in &mut scene.lights {
         l.size = radius;
@@ -590,7 +590,7 @@ fn estimates_converge_at_the_monte_carlo_rate() {
 }
 
 /// A sphere of `material` resting on a grey Lambert floor, with a checker of a second sphere.
-fn spheres_on_a_floor(material: Material) -> Scene {
+pub(super) fn spheres_on_a_floor(material: Material) -> Scene {
     assemble(
         vec![quad(0), sphere(1, 48, 24), sphere(2, 48, 24)],
         vec![

@@ -9,6 +9,7 @@ mod support;
 
 mod aovs;
 mod distributed;
+mod distributed_spent_diffuse;
 mod environment;
 mod environment_sky;
 mod golden;

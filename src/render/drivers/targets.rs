@@ -12,7 +12,9 @@
 use ash::vk;
 
 use crate::render::denoise::{self, Denoiser};
-use crate::render::frame::{CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings};
+use crate::render::frame::{
+    CameraSetup, FilterKind, GpuFrame, RenderPath, RenderSettings, SceneTraits,
+};
 use crate::render::passes::draw_list::Draw;
 use crate::render::passes::gbuffer::GbufferPass;
 use crate::render::passes::hybrid::{HybridPass, HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
@@ -56,6 +58,8 @@ pub struct FrameTargets {
     path: RenderPath,
     settings: RenderSettings,
     scene_scale: f32,
+    /// Whether the renderer's scene has emissive triangles (the frame uniform's flags).
+    emissive_geometry: bool,
     passes: PathPasses,
     tonemap: TonemapPass,
     /// One slot: what [`Self::render`] reads back.
@@ -267,6 +271,7 @@ impl FrameTargets {
             path,
             settings: settings.clone(),
             scene_scale: scale,
+            emissive_geometry: renderer.scene_traits().emissive_geometry,
             passes,
             tonemap,
             readback,
@@ -326,7 +331,11 @@ impl FrameTargets {
     pub fn gpu_frame(&self, camera: &Camera) -> GpuFrame {
         let s = &self.settings;
         let setup = CameraSetup::new(camera, s.width, s.height, self.scene_scale);
-        GpuFrame::new(s, &setup, self.scene_scale)
+        let scene = SceneTraits {
+            scale: self.scene_scale,
+            emissive_geometry: self.emissive_geometry,
+        };
+        GpuFrame::new(s, &setup, scene)
     }
 
     /// The frame uniform for frame `number` of a sequence through `camera`: its camera

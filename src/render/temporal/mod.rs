@@ -91,6 +91,8 @@ pub const SCOPES_PER_FRAME: u32 = 16;
 pub struct Reprojector {
     /// Diagonal of the scene bounds (ray offsets), as of the last [`Self::update_scene`].
     scene_scale: f32,
+    /// Whether the scene has emissive triangles (the frame uniform's flags).
+    emissive_geometry: bool,
     path: RenderPath,
     options: ReuseOptions,
     settings: RenderSettings,
@@ -146,6 +148,7 @@ impl Reprojector {
         )?;
         let mut reprojector = Self {
             scene_scale: renderer.scene_scale(),
+            emissive_geometry: renderer.scene_traits().emissive_geometry,
             path,
             options,
             settings: settings.clone(),
@@ -176,6 +179,7 @@ impl Reprojector {
     /// kept.
     pub fn update_scene(&mut self, renderer: &Renderer) {
         self.scene_scale = renderer.scene_scale();
+        self.emissive_geometry = renderer.scene_traits().emissive_geometry;
         self.pipes.rebind_scene(&renderer.pass_context());
     }
 

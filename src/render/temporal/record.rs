@@ -23,7 +23,11 @@ impl Reprojector {
         let s = &self.settings;
         let scale = self.scene_scale;
         let setup = CameraSetup::new(camera, s.width, s.height, scale);
-        let mut frame = GpuFrame::new(s, &setup, scale);
+        let scene = crate::render::SceneTraits {
+            scale,
+            emissive_geometry: self.emissive_geometry,
+        };
+        let mut frame = GpuFrame::new(s, &setup, scene);
         frame.sample_base = self.frames_recorded;
         self.frames_recorded = self.frames_recorded.wrapping_add(1);
         if let Some(prev) = self.prev_view_proj {
