@@ -379,19 +379,7 @@ fn burst_cost(
     camera: Camera,
     path: CameraPath,
 ) -> Result<(f64, f64, serde_json::Value)> {
-    let mut seq = Sequence::new(
-        ctx,
-        renderer,
-        scene,
-        settings,
-        camera,
-        path,
-        SequenceOptions {
-            path: RenderPath::RayTraced,
-            reuse: Default::default(),
-            reference: false,
-        },
-    )?;
+    let mut seq = ray_traced_sequence(ctx, renderer, scene, settings, camera, path)?;
     let contents = RingContents {
         rgba8: true,
         color: false,
@@ -417,6 +405,25 @@ fn burst_cost(
     Ok((frame_ms / n, denoise_ms / n, json!(frames[0].output.gpu_ms)))
 }
 
+/// A ray-traced sequence of `path` without temporal reuse.
+fn ray_traced_sequence(
+    ctx: &Context,
+    renderer: &Renderer,
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: Camera,
+    path: CameraPath,
+) -> Result<Sequence> {
+    let options = SequenceOptions {
+        path: RenderPath::RayTraced,
+        reuse: Default::default(),
+        reference: false,
+    };
+    Ok(Sequence::new(
+        ctx, renderer, scene, settings, camera, path, options,
+    )?)
+}
+
 /// `frames` frames of `path` (one by one).
 fn sequence(
     ctx: &Context,
@@ -427,19 +434,7 @@ fn sequence(
     path: CameraPath,
     frames: u32,
 ) -> Result<Vec<SequenceFrame>> {
-    let mut seq = Sequence::new(
-        ctx,
-        renderer,
-        scene,
-        settings,
-        camera,
-        path,
-        SequenceOptions {
-            path: RenderPath::RayTraced,
-            reuse: Default::default(),
-            reference: false,
-        },
-    )?;
+    let mut seq = ray_traced_sequence(ctx, renderer, scene, settings, camera, path)?;
     (0..frames).map(|k| Ok(seq.render_frame(ctx, k)?)).collect()
 }
 
