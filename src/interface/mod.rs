@@ -271,6 +271,7 @@ mod tests {
             [
                 "interface_bvh.glsl",
                 "interface_denoise.glsl",
+                "interface_distributed.glsl",
                 "interface_environment.glsl",
                 "interface_passes.glsl",
                 "interface_reproject.glsl",
