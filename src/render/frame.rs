@@ -19,7 +19,7 @@ pub use crate::interface::{
 pub struct SceneTraits {
     /// Diagonal of the scene bounds (ray offsets).
     pub scale: f32,
-    /// Whether an instanced triangle emits ([`crate::scene::GpuScene::emissive_geometry`]).
+    /// Whether an instanced triangle emits ([`crate::scene::gpu::GpuScene::emissive_geometry`]).
     pub emissive_geometry: bool,
 }
 
