@@ -93,10 +93,18 @@ fn decisions_follow_the_measured_numbers() {
     let mut no_rq = device.clone();
     no_rq.ray_query = false;
     assert_eq!(autotune::decide(&m, &no_rq).backend, Backend::Bvh);
-    // The feature rule: today's choice.
+    // The feature rule: a CPU device gets the compute BVH even with ray queries, a GPU
+    // with them gets hw.
     let r = autotune::rule(&device, "test");
-    assert_eq!((r.backend, r.raster), (Backend::Hw, RasterMode::Graphics));
+    assert_eq!((r.backend, r.raster), (Backend::Bvh, RasterMode::Graphics));
+    assert!(
+        r.backend_reason.contains("CPU device"),
+        "{}",
+        r.backend_reason
+    );
     assert!(r.measured.is_none());
+    let gpu_rule = autotune::rule(&discrete_gpu(&device), "test");
+    assert_eq!(gpu_rule.backend, Backend::Hw, "{}", gpu_rule.backend_reason);
     // Without a measurement lavapipe (a CPU device) keeps the host build.
     assert_eq!(r.bvh_build, BvhBuild::Host, "{}", r.bvh_build_reason);
 }
@@ -400,7 +408,7 @@ fn cli_auto_uses_the_cached_measurement_and_flags_still_force() {
     );
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let d = &doc["devices"][doc["selected"].as_u64().unwrap() as usize];
-    assert_eq!(d["backend"], "hw");
+    assert_eq!(d["backend"], "bvh", "the rule on a CPU device: {d}");
     assert_eq!(d["raster"], "graphics");
     assert_eq!(
         d["texture_format"], "rgba8",
