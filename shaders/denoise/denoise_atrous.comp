@@ -37,17 +37,22 @@ void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(pix)) return;
     uint i = pixel_index(pix);
-    vec4 d = pair_load(pc.source, i, 0u);
-    vec4 s = pair_load(pc.source, i, 1u);
-    EdgeCentre c = edge_centre(i);
     // The filter's reach shrinks as the history grows (an accumulation of f frames needs
     // less of the spatial footprint for the same variance, and every tap adds bias): taps up
     // to spatial_reach / f pixels apart, none at all for a converged pixel.
     float frames = Moments(params.moments).v[i].frames;
+    // A pixel's iterations are therefore a prefix of the five (misses take none). The first
+    // iteration it sits out copies its value into the other ping-pong buffer, so both hold
+    // it; from then on it writes nothing (a still view's pixels mostly stop after one pass).
+    bool first = pc.step == 1u;
+    if (!first && frames * float(pc.step / 2u) > params.spatial_reach) return;
+    EdgeCentre c = edge_centre(i);
+    if (!first && !c.hit) return;
+    vec4 d = pair_load(pc.source, i, 0u);
+    vec4 s = pair_load(pc.source, i, 1u);
     if (c.hit && frames * float(pc.step) <= params.spatial_reach) {
         // The first iteration smooths the variance estimate over 3x3 (SVGF); later ones take
         // the pixel's own, already filtered by the iterations before.
-        bool first = pc.step == 1u;
         float var_d = first ? blurred_variance(pix, 0u) : d.a;
         float var_s = first ? blurred_variance(pix, 1u) : s.a;
         float sigma_d = params.phi_color * sqrt(max(var_d, 0.0)) + 1e-10;
