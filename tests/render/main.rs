@@ -11,6 +11,7 @@ mod aovs;
 mod distributed;
 mod distributed_spent_diffuse;
 mod environment;
+mod environment_sampling;
 mod environment_sky;
 mod golden;
 mod paths;
