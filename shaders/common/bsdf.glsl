@@ -107,12 +107,13 @@ BsdfFrame bsdf_frame(Surface s, vec3 v) {
     if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
         f = vec3(0.0);
     }
+    vec3 f_dielectric = (frame.flags & FLAG_NO_SPECULAR) != 0u ? vec3(0.0) : dielectric_fresnel(s, fresnel_cosine(b.n_dot_v, b.etap));
     float base = 1.0 - b.coat;
     float sheen = s.layered ? max3(s.sheen_color) : 0.0;
     vec4 w = vec4(
-        (luminance(b.diffuse_color * (vec3(1.0) - f)) + sheen) * base,
+        (luminance(b.diffuse_color * (vec3(1.0) - f_dielectric)) + sheen) * base,
         luminance(f) * base,
-        b.transmission * luminance((vec3(1.0) - f) * s.base_color) * base,
+        b.transmission * luminance((vec3(1.0) - f_dielectric) * s.base_color) * base,
         b.coat);
     float total = w.x + w.y + w.z + w.w;
     b.lobe_p = total > 0.0 ? w / total : vec4(0.0);
@@ -150,7 +151,8 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
         float n_dot_h = max(dot(s.n, h), 0.0);
         float v_dot_h = max(dot(v, h), 0.0);
         vec3 f = no_specular ? vec3(0.0) : surface_fresnel(s, b.f0, fresnel_cosine(v_dot_h, b.etap));
-        vec3 lambert = (vec3(1.0) - f) * b.diffuse_color / PI;
+        vec3 f_dielectric = no_specular ? vec3(0.0) : dielectric_fresnel(s, fresnel_cosine(v_dot_h, b.etap));
+        vec3 lambert = (vec3(1.0) - f_dielectric) * b.diffuse_color / PI;
         bsdf_diffuse_part = lambert * n_dot_l * (1.0 - b.coat);
         vec3 specular = f * d_ggx(n_dot_h, b.alpha) * v_smith_ggx(n_dot_l, b.n_dot_v, b.alpha);
         vec3 base = lambert + specular;
@@ -194,7 +196,7 @@ vec3 bsdf_eval(Surface s, BsdfFrame b, vec3 v, vec3 l, out float pdf) {
             return vec3(0.0);
         }
         float n_dot_h = max(dot(s.n, h), 0.0);
-        vec3 f = surface_fresnel(s, b.f0, fresnel_cosine(v_dot_h, b.etap));
+        vec3 f = dielectric_fresnel(s, fresnel_cosine(v_dot_h, b.etap));
         float a = b.alpha;
         float denom = l_dot_h + v_dot_h / b.etap;
         float d = d_ggx(n_dot_h, a);

@@ -75,10 +75,9 @@ vec3 miss_radiance(vec3 dir, bool camera_ray) {
 }
 
 // Single- and multiple-scattering specular energy of a GGX layer with Fresnel F0 = f0 (and
-// F90 scaled by specular_weight, KHR_materials_specular), from the BRDF table:
-// ss = k_S A + B, ms = Ems ss F_avg / (1 - F_avg Ems) (Fdez-Agüera 2019).
-void env_specular_energy(vec3 f0, float specular_weight, float n_dot_v, float roughness, out vec3 ss, out vec3 ms) {
-    vec2 ab = env_brdf(n_dot_v, roughness);
+// F90 scaled by specular_weight, KHR_materials_specular), from the BRDF table's `ab` at
+// (n_dot_v, roughness): ss = k_S A + B, ms = Ems ss F_avg / (1 - F_avg Ems) (Fdez-Agüera 2019).
+void env_specular_energy(vec2 ab, vec3 f0, float specular_weight, float n_dot_v, float roughness, out vec3 ss, out vec3 ms) {
     vec3 fr = max(vec3(1.0 - roughness), f0) - f0;
     vec3 k_s = f0 + fr * pow(1.0 - n_dot_v, 5.0);
     ss = specular_weight * (k_s * ab.x + ab.y);

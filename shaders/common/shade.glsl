@@ -39,6 +39,18 @@ vec3 surface_fresnel(Surface s, vec3 f0, float c) {
     return mix(s.specular * fresnel_schlick(f0_dielectric, c), fresnel_schlick(s.base_color, c), s.metallic);
 }
 
+// Fresnel of the base layer's dielectric part alone: what the diffuse and transmission lobes
+// under it lose. glTF's BRDF mixes a dielectric (diffuse or transmission under a Fresnel-weighted
+// specular lobe) with a metal by `metallic`, so a half-metal's diffuse loses only the dielectric's
+// reflection, not the metal's (which the mixed F0 of surface_fresnel would take from it twice).
+vec3 dielectric_fresnel(Surface s, float c) {
+    vec3 f0_ior = vec3(pow((s.ior - 1.0) / (s.ior + 1.0), 2.0));
+    if (!s.layered) {
+        return fresnel_schlick(f0_ior, c);
+    }
+    return s.specular * fresnel_schlick(min(f0_ior * s.specular_color, vec3(1.0)), c);
+}
+
 // Fraction of light the clearcoat reflects at its normal (F0 = 0.04, i.e. ior 1.5), times
 // its strength: the base layer under it receives (1 - this).
 float clearcoat_reflectance(Surface s, vec3 v) {
@@ -58,7 +70,7 @@ vec3 layered_direct(Surface s, vec3 v, vec3 l) {
     float alpha = max(s.roughness * s.roughness, 1e-3);
     vec3 diffuse_color = s.base_color * (1.0 - s.metallic) * (1.0 - s.transmission);
     vec3 f = surface_fresnel(s, vec3(0.0), v_dot_h);
-    vec3 base = ((vec3(1.0) - f) * diffuse_color / PI + f * d_ggx(n_dot_h, alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha)) * n_dot_l;
+    vec3 base = ((vec3(1.0) - dielectric_fresnel(s, v_dot_h)) * diffuse_color / PI + f * d_ggx(n_dot_h, alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha)) * n_dot_l;
     if (max3(s.sheen_color) > 0.0) {
         base += s.sheen_color * d_charlie(s.sheen_roughness, n_dot_h) * v_sheen(n_dot_l, n_dot_v, s.sheen_roughness) * n_dot_l;
     }
@@ -105,7 +117,7 @@ vec3 direct_light(Surface s, vec3 v) {
         if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
             brdf = diffuse_color / PI;  // pure Lambert (energy tests)
         } else {
-            brdf = (vec3(1.0) - f) * diffuse_color / PI
+            brdf = (vec3(1.0) - dielectric_fresnel(s, dot(v, h))) * diffuse_color / PI
                 + f * d_ggx(max(dot(s.n, h), 0.0), alpha) * v_smith_ggx(n_dot_l, n_dot_v, alpha);
         }
         sum += brdf * e * n_dot_l;
@@ -159,6 +171,10 @@ PrimaryInfo primary_miss() {
 
 PathRay path_stack[STACK_SIZE];
 
+// Whether a continuation of weight `w` is traced: above `--min-weight`, and never at weight 0
+// (with `--min-weight 0` such rays cost traces and made NaN pixels under an environment).
+bool worth_tracing(vec3 w) { return max3(w) > 0.0 && max3(w) >= frame.min_weight; }
+
 // The environment's light on surface `s` seen from `v` in the Whitted model (split sum, no
 // shadows). `traced` and `coat_traced` are the shares of the base layer's and the clearcoat's
 // mirror lobes that their reflection rays carry (their gloss when the ray is traced, else 0):
@@ -170,18 +186,21 @@ vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_t
     float n_dot_v = clamp(dot(s.n, v), 1e-4, 1.0);
     float f0_ior = pow((s.ior - 1.0) / (s.ior + 1.0), 2.0);
     vec3 f0_dielectric = s.layered ? min(vec3(f0_ior) * s.specular_color, vec3(1.0)) : vec3(f0_ior);
-    vec3 f0 = mix(f0_dielectric, s.base_color, s.metallic);
-    float specular_weight = s.layered ? mix(s.specular, 1.0, s.metallic) : 1.0;
-    vec3 ss, ms;
-    env_specular_energy(f0, specular_weight, n_dot_v, s.roughness, ss, ms);
+    // glTF's mix of a dielectric and a metal: each layer's energy from one table lookup, the
+    // diffuse under the dielectric's alone.
+    vec2 ab = env_brdf(n_dot_v, s.roughness);
+    vec3 ss_dielectric, ms_dielectric, ss_metal, ms_metal;
+    env_specular_energy(ab, f0_dielectric, s.layered ? s.specular : 1.0, n_dot_v, s.roughness, ss_dielectric, ms_dielectric);
+    env_specular_energy(ab, s.base_color, 1.0, n_dot_v, s.roughness, ss_metal, ms_metal);
     if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
-        ss = vec3(0.0);
-        ms = vec3(0.0);
+        ss_dielectric = ms_dielectric = ss_metal = ms_metal = vec3(0.0);
     }
+    vec3 ss = mix(ss_dielectric, ss_metal, s.metallic);
+    vec3 ms = mix(ms_dielectric, ms_metal, s.metallic);
     single = ss;
     vec3 irradiance = env_irradiance(s.n);
     vec3 diffuse_color = s.base_color * (1.0 - s.metallic) * (1.0 - s.transmission);
-    vec3 light = diffuse_color * max(vec3(1.0) - ss - ms, vec3(0.0)) * irradiance + ms * irradiance;
+    vec3 light = diffuse_color * max(vec3(1.0) - ss_dielectric - ms_dielectric, vec3(0.0)) * irradiance + ms * irradiance;
     if (traced < 1.0) {
         light += ss * (1.0 - traced) * env_specular(reflect_dir(-v, s.n), s.roughness);
     }
@@ -189,7 +208,7 @@ vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_t
     if (coat > 0.0) {
         vec3 coat_ss, coat_ms;
         float c_dot_v = clamp(dot(s.clearcoat_n, v), 1e-4, 1.0);
-        env_specular_energy(vec3(0.04), 1.0, c_dot_v, s.clearcoat_roughness, coat_ss, coat_ms);
+        env_specular_energy(env_brdf(c_dot_v, s.clearcoat_roughness), vec3(0.04), 1.0, c_dot_v, s.clearcoat_roughness, coat_ss, coat_ms);
         light = light * (1.0 - coat)
             + s.clearcoat * coat_ss.x * (1.0 - coat_traced) * s.occlusion
                 * env_specular(reflect_dir(-v, s.clearcoat_n), s.clearcoat_roughness);
@@ -221,7 +240,7 @@ vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
     }
     if (coverage < 1.0 && sp < STACK_SIZE) {
         PathRay through = PathRay(s.position - s.ng * eps_offset(), r.dir, r.weight * (1.0 - coverage), r.depth, RAY_REFRACTION, cone);
-        if (max3(through.weight) >= frame.min_weight) {
+        if (worth_tracing(through.weight)) {
             path_stack[sp++] = through;
         }
     }
@@ -241,9 +260,8 @@ vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
         if (refract_dir(r.dir, s.n, eta, refracted)) {
             // Schlick uses the angle on the less dense side.
             float c = s.front_face ? cos_i : max(-dot(s.n, refracted), 0.0);
-            vec3 f = surface_fresnel(s, f0, c);
-            reflect_weight *= f;
-            refract_weight = w * transmission * (vec3(1.0) - f) * s.base_color;
+            reflect_weight *= surface_fresnel(s, f0, c);
+            refract_weight = w * transmission * (vec3(1.0) - dielectric_fresnel(s, c)) * s.base_color;
         } else {
             // Total internal reflection: all energy goes to the reflected ray.
             reflect_weight = w * (transmission + (1.0 - transmission) * gloss * surface_fresnel(s, f0, cos_i));
@@ -260,19 +278,19 @@ vec3 shade_and_spawn(Surface s, PathRay r, float t, inout int sp) {
         refract_weight *= 1.0 - coat;
         float coat_gloss = (1.0 - s.clearcoat_roughness) * (1.0 - s.clearcoat_roughness);
         vec3 coat_weight = w * coat * coat_gloss;
-        if (max3(coat_weight) >= frame.min_weight && sp < STACK_SIZE) {
+        if (worth_tracing(coat_weight) && sp < STACK_SIZE) {
             vec3 d = normalize(reflect_dir(r.dir, s.clearcoat_n));
             if (dot(d, s.ng) <= 0.0) d = normalize(reflect_dir(r.dir, s.ng));
             path_stack[sp++] = PathRay(s.position + s.ng * eps_offset(), d, coat_weight, r.depth + 1u, RAY_REFLECTION, cone);
         }
     }
-    if (max3(reflect_weight) >= frame.min_weight && sp < STACK_SIZE) {
+    if (worth_tracing(reflect_weight) && sp < STACK_SIZE) {
         vec3 d = normalize(reflect_dir(r.dir, s.n));
         // Keep reflected rays above the geometric surface (shading normals can tilt them under).
         if (dot(d, s.ng) <= 0.0) d = normalize(reflect_dir(r.dir, s.ng));
         path_stack[sp++] = PathRay(s.position + s.ng * eps_offset(), d, reflect_weight, r.depth + 1u, RAY_REFLECTION, cone);
     }
-    if (max3(refract_weight) >= frame.min_weight && sp < STACK_SIZE) {
+    if (worth_tracing(refract_weight) && sp < STACK_SIZE) {
         path_stack[sp++] = PathRay(s.position - s.ng * eps_offset(), normalize(refracted), refract_weight, r.depth + 1u, RAY_REFRACTION, cone);
     }
     return color * coverage;

@@ -125,6 +125,66 @@ fn white_furnace_lambert_sphere_shows_its_albedo() {
 }
 
 #[test]
+fn a_half_metal_shades_as_the_mean_of_its_dielectric_and_its_metal() {
+    // glTF's BRDF is mix(dielectric, metal, metallic): linear in `metallic`, so the half-metal's
+    // radiance is the mean of the two ends' under the map and a sun alike. Darkening its diffuse
+    // by the mixed F0's Fresnel (the metal's reflection taken from the dielectric's diffuse as
+    // well) would make it 20-40 % darker than that mean.
+    let ctx = support::gpu();
+    let sun = rqr::scene::Light {
+        kind: rqr::scene::LightKind::Directional,
+        color: Vec3::ONE,
+        intensity: 2.0,
+        range: f32::INFINITY,
+        position: Vec3::ZERO,
+        direction: Vec3::new(-0.3, -0.8, -0.5).normalize(),
+        size: 0.0,
+    };
+    let scene_of = |metallic: f32| {
+        let mut scene = sphere_scene(
+            Material {
+                base_color: Vec4::new(0.9, 0.6, 0.25, 1.0),
+                metallic,
+                roughness: 0.45,
+                ..Default::default()
+            },
+            Vec3::new(0.0, 0.0, 4.0),
+        );
+        scene.lights.push(sun);
+        scene
+    };
+    let map = direction_map(64);
+    // Every mirror ray traced, however weak: culling the dielectric's (weight 0.3 × 0.04)
+    // but not the half-metal's would break the linearity by itself. (Rays of weight 0 are
+    // still skipped, or they would turn pixels NaN.)
+    let every_ray = RenderSettings {
+        min_weight: 0.0,
+        ..settings()
+    };
+    each_path(&ctx, |backend, hybrid, label| {
+        let [dielectric, half, metal] =
+            [0.0, 0.5, 1.0].map(|m| render(&ctx, &scene_of(m), &map, backend, hybrid, &every_ray));
+        let mut hits = 0;
+        for i in 0..half.color.len() {
+            if !hit(&half, i) {
+                continue;
+            }
+            hits += 1;
+            for c in 0..3 {
+                let mean = 0.5 * (dielectric.color[i][c] + metal.color[i][c]);
+                let v = half.color[i][c];
+                assert!(
+                    (v - mean).abs() <= 0.01 * mean + 1e-4,
+                    "{label}: pixel {i} channel {c}: half-metal {v}, mean of the ends {mean}"
+                );
+            }
+        }
+        assert!(hits > 200, "{label}: the sphere covers {hits} pixels");
+    });
+    support::assert_validation_clean(&ctx);
+}
+
+#[test]
 fn rough_metal_under_a_constant_map_conserves_energy() {
     // GGX with F0 = 1 at roughness 0.5: with multiple-scattering compensation its directional
     // albedo is 1, so the sphere disappears into a constant map.
