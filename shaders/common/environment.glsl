@@ -18,8 +18,11 @@ vec3 env_map_direction(vec3 d) {
     return vec3(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
 }
 
+// The environment's textures are indexed without nonuniformEXT: scene.environment is the same
+// for every invocation of a dispatch (dynamically uniform), and the qualifier makes drivers
+// such as lavapipe wrap each fetch in a loop over the distinct indices of a subgroup.
 vec4 env_texture(uint which, vec3 d, float lod) {
-    return textureLod(textures[nonuniformEXT(uint(scene.environment) + which)], env_uv(env_map_direction(d)), lod);
+    return textureLod(textures[uint(scene.environment) + which], env_uv(env_map_direction(d)), lod);
 }
 
 // Radiance arriving along -d (seen looking towards d), at the map's full resolution.
@@ -30,9 +33,9 @@ vec3 env_radiance(vec3 d) { return frame.env_intensity * env_texture(ENV_TEX_RAD
 // a bright sun (a bilinear lookup spreads it into texels the sampler rarely draws).
 vec3 env_radiance_texel(vec3 d) {
     uint which = uint(scene.environment) + ENV_TEX_RADIANCE;
-    ivec2 size = textureSize(textures[nonuniformEXT(which)], 0);
+    ivec2 size = textureSize(textures[which], 0);
     ivec2 texel = clamp(ivec2(env_uv(env_map_direction(d)) * vec2(size)), ivec2(0), size - 1);
-    return frame.env_intensity * texelFetch(textures[nonuniformEXT(which)], texel, 0).rgb;
+    return frame.env_intensity * texelFetch(textures[which], texel, 0).rgb;
 }
 
 // Cosine-weighted mean radiance around normal n (irradiance / π).
@@ -45,7 +48,7 @@ vec3 env_specular(vec3 r, float roughness) {
 
 // Split-sum scale and bias of F0 at (n·v, roughness).
 vec2 env_brdf(float n_dot_v, float roughness) {
-    return textureLod(textures[nonuniformEXT(uint(scene.environment) + ENV_TEX_BRDF)], vec2(n_dot_v, roughness), 0.0).rg;
+    return textureLod(textures[uint(scene.environment) + ENV_TEX_BRDF], vec2(n_dot_v, roughness), 0.0).rg;
 }
 
 // From the map's frame to the world: the inverse of env_map_direction.
@@ -57,12 +60,12 @@ vec3 env_world_direction(vec3 d) {
 // A world direction towards the environment, drawn by luminance × solid angle, and its
 // density (the rotation does not change densities).
 vec3 env_sample(vec2 u, out float pdf) {
-    return env_world_direction(env_sample_map(textures[nonuniformEXT(uint(scene.environment) + ENV_TEX_SAMPLING)], u, pdf));
+    return env_world_direction(env_sample_map(textures[uint(scene.environment) + ENV_TEX_SAMPLING], u, pdf));
 }
 
 // The density env_sample draws world direction d with.
 float env_pdf(vec3 d) {
-    return env_pdf_map(textures[nonuniformEXT(uint(scene.environment) + ENV_TEX_SAMPLING)], env_map_direction(d));
+    return env_pdf_map(textures[uint(scene.environment) + ENV_TEX_SAMPLING], env_map_direction(d));
 }
 
 // What a ray that found nothing sees: the environment, or for camera rays under
@@ -79,7 +82,10 @@ vec3 miss_radiance(vec3 dir, bool camera_ray) {
 // (n_dot_v, roughness): ss = k_S A + B, ms = Ems ss F_avg / (1 - F_avg Ems) (Fdez-Agüera 2019).
 void env_specular_energy(vec2 ab, vec3 f0, float specular_weight, float n_dot_v, float roughness, out vec3 ss, out vec3 ms) {
     vec3 fr = max(vec3(1.0 - roughness), f0) - f0;
-    vec3 k_s = f0 + fr * pow(1.0 - n_dot_v, 5.0);
+    // (1 - n·v)^5 by multiplications: pow() is exp2(5 log2 x) on CPU devices, two polynomials.
+    float m = 1.0 - n_dot_v;
+    float m2 = m * m;
+    vec3 k_s = f0 + fr * (m2 * m2 * m);
     ss = specular_weight * (k_s * ab.x + ab.y);
     float e_ms = 1.0 - (ab.x + ab.y);
     vec3 f_avg = specular_weight * (f0 + (1.0 - f0) / 21.0);

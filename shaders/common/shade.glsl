@@ -198,10 +198,17 @@ vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_t
     vec3 ss = mix(ss_dielectric, ss_metal, s.metallic);
     vec3 ms = mix(ms_dielectric, ms_metal, s.metallic);
     single = ss;
-    vec3 irradiance = env_irradiance(s.n);
     vec3 diffuse_color = s.base_color * (1.0 - s.metallic) * (1.0 - s.transmission);
-    vec3 light = diffuse_color * max(vec3(1.0) - ss_dielectric - ms_dielectric, vec3(0.0)) * irradiance + ms * irradiance;
-    if (traced < 1.0) {
+    vec3 diffuse_share = max(vec3(1.0) - ss_dielectric - ms_dielectric, vec3(0.0));
+    // A lookup whose weight is exactly zero adds exactly zero (the maps are finite), so it is
+    // skipped: the irradiance of a black or metal surface without multiple scattering, the
+    // prefiltered specular of a traced mirror or of a surface without specular.
+    vec3 light = vec3(0.0);
+    if (max3(diffuse_color * diffuse_share) > 0.0 || max3(ms) > 0.0) {
+        vec3 irradiance = env_irradiance(s.n);
+        light = diffuse_color * diffuse_share * irradiance + ms * irradiance;
+    }
+    if (traced < 1.0 && max3(ss) > 0.0) {
         light += ss * (1.0 - traced) * env_specular(reflect_dir(-v, s.n), s.roughness);
     }
     light *= s.occlusion;
