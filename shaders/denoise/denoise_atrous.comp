@@ -17,16 +17,21 @@ layout(push_constant) uniform Push { DenoiseAtrousPush pc; };
 const float KERNEL[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
 const float SPECULAR_RADIUS = 48.0;
 
-// 3x3 Gaussian of the variance around p (alpha of the pair's `which` vec4).
-float blurred_variance(ivec2 p, uint which) {
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer Floats { float v[]; };
+
+// 3x3 Gaussian of the diffuse (x) and specular (y) variance around p (the alphas of the
+// pair, read alone: this is the first iteration's only 3x3 neighbourhood).
+vec2 blurred_variance(ivec2 p) {
     const float g[2] = float[2](1.0 / 4.0, 1.0 / 8.0);
-    float sum = 0.0, sum_w = 0.0;
+    vec2 sum = vec2(0.0);
+    float sum_w = 0.0;
     for (int y = -1; y <= 1; ++y) {
         for (int x = -1; x <= 1; ++x) {
             ivec2 q = p + ivec2(x, y);
             if (!inside(q)) continue;
             float w = g[abs(x)] * g[abs(y)];
-            sum += w * pair_load(pc.source, pixel_index(q), which).a;
+            uint at = 8u * pixel_index(q) + 3u;
+            sum += w * vec2(Floats(pc.source).v[at], Floats(pc.source).v[at + 4u]);
             sum_w += w;
         }
     }
@@ -53,8 +58,8 @@ void main() {
     if (c.hit && frames * float(pc.step) <= params.spatial_reach) {
         // The first iteration smooths the variance estimate over 3x3 (SVGF); later ones take
         // the pixel's own, already filtered by the iterations before.
-        float var_d = first ? blurred_variance(pix, 0u) : d.a;
-        float var_s = first ? blurred_variance(pix, 1u) : s.a;
+        vec2 var = first ? blurred_variance(pix) : vec2(d.a, s.a);
+        float var_d = var.x, var_s = var.y;
         float sigma_d = params.phi_color * sqrt(max(var_d, 0.0)) + 1e-10;
         float sigma_s = params.phi_color * sqrt(max(var_s, 0.0)) + 1e-10;
         float ld = luma(d.rgb), ls = luma(s.rgb);
@@ -69,21 +74,22 @@ void main() {
                 ivec2 q = pix + ivec2(x, y) * int(pc.step);
                 if (!inside(q)) continue;
                 uint j = pixel_index(q);
-                float wg = geometry_weight(c, j);
-                if (wg <= 0.0) continue;
-                float k = KERNEL[abs(x)] * KERNEL[abs(y)];
+                float plane;
+                float wn = geometry_terms(c, j, plane);
+                if (wn <= 0.0) continue;
+                float k = KERNEL[abs(x)] * KERNEL[abs(y)] * wn;
                 vec4 qd = pair_load(pc.source, j, 0u);
-                vec4 qs = pair_load(pc.source, j, 1u);
-                float wd = k * wg * exp(-abs(ld - luma(qd.rgb)) / sigma_d);
-                float ws = 0.0;
-                if (inv_two_r2 > 0.0) {
-                    float r2 = float(x * x + y * y) * float(pc.step * pc.step);
-                    ws = k * wg * exp(-abs(ls - luma(qs.rgb)) / sigma_s - r2 * inv_two_r2);
-                }
+                float wd = k * exp(-plane - abs(ld - luma(qd.rgb)) / sigma_d);
                 sum_d += vec4(wd * qd.rgb, wd * wd * qd.a);
-                sum_s += vec4(ws * qs.rgb, ws * ws * qs.a);
                 wd_sum += wd;
-                ws_sum += ws;
+                // A surface too smooth for the specular kernel reads no specular light.
+                if (inv_two_r2 > 0.0) {
+                    vec4 qs = pair_load(pc.source, j, 1u);
+                    float r2 = float(x * x + y * y) * float(pc.step * pc.step);
+                    float ws = k * exp(-plane - abs(ls - luma(qs.rgb)) / sigma_s - r2 * inv_two_r2);
+                    sum_s += vec4(ws * qs.rgb, ws * ws * qs.a);
+                    ws_sum += ws;
+                }
             }
         }
         d = vec4(sum_d.rgb / wd_sum, sum_d.a / (wd_sum * wd_sum));

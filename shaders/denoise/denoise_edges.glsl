@@ -28,17 +28,25 @@ float pow128(float x) {
     return x;
 }
 
-// Weight of neighbour j from the centre's geometry (0 for a miss on either side).
-float geometry_weight(EdgeCentre c, uint j) {
+// The geometry weight of neighbour j apart: the normal's factor (returned; 0 for a miss on
+// either side) and the plane test's exponent (its factor is exp(-plane)), so that a caller
+// with an exponent of its own pays one exp for both.
+float geometry_terms(EdgeCentre c, uint j, out float plane) {
+    plane = 0.0;
     EdgeCentre q = edge_centre(j);
     if (!c.hit || !q.hit) {
         return 0.0;
     }
-    float w_normal = pow128(max(dot(c.normal, q.normal), 0.0));
     vec3 offset = q.position - c.position;
-    float off_plane = abs(dot(offset, c.normal)) / max(length(offset), 1e-12);
-    float w_plane = exp(-off_plane / params.phi_plane);
-    return w_normal * w_plane;
+    plane = abs(dot(offset, c.normal)) * inversesqrt(max(dot(offset, offset), 1e-24)) / params.phi_plane;
+    return pow128(max(dot(c.normal, q.normal), 0.0));
+}
+
+// Weight of neighbour j from the centre's geometry (0 for a miss on either side).
+float geometry_weight(EdgeCentre c, uint j) {
+    float plane;
+    float w_normal = geometry_terms(c, j, plane);
+    return w_normal > 0.0 ? w_normal * exp(-plane) : 0.0;
 }
 
 #endif

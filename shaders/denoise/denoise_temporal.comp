@@ -117,14 +117,19 @@ void main() {
         vec2 f = p - vec2(base);
         moved = length(p - vec2(pix)) > 1e-3;
         int matched = 0;
-        vec3 lo_d = vec3(BIG), hi_d = vec3(0.0), lo_s = vec3(BIG), hi_s = vec3(0.0);
-        vec3 lo_u = vec3(BIG), hi_u = vec3(0.0);
-        vec3 lo_da = vec3(BIG), hi_da = vec3(0.0), lo_sa = vec3(BIG), hi_sa = vec3(0.0);
+        // Where the history sits exactly on a texel (a still view: every pixel), only that
+        // texel has weight and the Catmull-Rom resampling below does not run, so the other
+        // three are neither tested nor read. A zero-weight tap adds nothing to the sums, so
+        // it is not read either way (the Catmull-Rom branch reads the inner texels' bounds).
+        bool on_texel = f.x == 0.0 && f.y == 0.0;
         for (int k = 0; k < 4; ++k) {
             ivec2 q = base + ivec2(k & 1, k >> 1);
-            if (!history_matches(q, a.instance, hit, here)) continue;
-            uint j = pixel_index(q);
             float w = ((k & 1) != 0 ? f.x : 1.0 - f.x) * ((k >> 1) != 0 ? f.y : 1.0 - f.y);
+            if (w == 0.0 && on_texel) continue;
+            if (!history_matches(q, a.instance, hit, here)) continue;
+            matched += 1;
+            if (w == 0.0) continue;
+            uint j = pixel_index(q);
             DenoiseHistory h = Histories(params.prev_history).v[j];
             hd += w * h.diffuse.rgb;
             hs += w * h.specular.rgb;
@@ -135,12 +140,6 @@ void main() {
             hm += w * pm.moments;
             hl += w * pm.frames;
             taps += w;
-            matched += 1;
-            lo_d = min(lo_d, h.diffuse.rgb); hi_d = max(hi_d, h.diffuse.rgb);
-            lo_s = min(lo_s, h.specular.rgb); hi_s = max(hi_s, h.specular.rgb);
-            lo_u = min(lo_u, h.unfiltered.rgb); hi_u = max(hi_u, h.unfiltered.rgb);
-            lo_da = min(lo_da, h.diffuse_albedo.rgb); hi_da = max(hi_da, h.diffuse_albedo.rgb);
-            lo_sa = min(lo_sa, h.specular_albedo.rgb); hi_sa = max(hi_sa, h.specular_albedo.rgb);
         }
         // Where the history sits between texels (the view moved) and the whole 4x4
         // neighbourhood is the same surface, the light is resampled with Catmull-Rom instead
@@ -151,6 +150,9 @@ void main() {
         if (matched == 4 && (f.x != 0.0 || f.y != 0.0)) {
             vec4 wx = catmull_rom(f.x), wy = catmull_rom(f.y);
             vec3 cd = vec3(0.0), cs = vec3(0.0), cu = vec3(0.0), cda = vec3(0.0), csa = vec3(0.0);
+            vec3 lo_d = vec3(BIG), hi_d = vec3(0.0), lo_s = vec3(BIG), hi_s = vec3(0.0);
+            vec3 lo_u = vec3(BIG), hi_u = vec3(0.0);
+            vec3 lo_da = vec3(BIG), hi_da = vec3(0.0), lo_sa = vec3(BIG), hi_sa = vec3(0.0);
             bool all = true;
             for (int y = 0; y < 4 && all; ++y) {
                 for (int x = 0; x < 4; ++x) {
@@ -161,8 +163,16 @@ void main() {
                         break;
                     }
                     float w = wx[x] * wy[y];
-                    if (w == 0.0) continue;
+                    if (w == 0.0 && !inner) continue;
                     DenoiseHistory h = Histories(params.prev_history).v[pixel_index(q)];
+                    if (inner) {
+                        lo_d = min(lo_d, h.diffuse.rgb); hi_d = max(hi_d, h.diffuse.rgb);
+                        lo_s = min(lo_s, h.specular.rgb); hi_s = max(hi_s, h.specular.rgb);
+                        lo_u = min(lo_u, h.unfiltered.rgb); hi_u = max(hi_u, h.unfiltered.rgb);
+                        lo_da = min(lo_da, h.diffuse_albedo.rgb); hi_da = max(hi_da, h.diffuse_albedo.rgb);
+                        lo_sa = min(lo_sa, h.specular_albedo.rgb); hi_sa = max(hi_sa, h.specular_albedo.rgb);
+                    }
+                    if (w == 0.0) continue;
                     cd += w * h.diffuse.rgb;
                     cs += w * h.specular.rgb;
                     cu += w * h.unfiltered.rgb;
