@@ -104,10 +104,10 @@ BsdfFrame bsdf_frame(Surface s, vec3 v) {
     b.etap = b.transmission > 0.0 ? (s.front_face ? s.ior : 1.0 / s.ior) : 1.0;
     b.n_dot_v = max(dot(s.n, v), 1e-4);
     vec3 f = surface_fresnel(s, b.f0, fresnel_cosine(b.n_dot_v, b.etap));
+    vec3 f_dielectric = dielectric_fresnel(s, fresnel_cosine(b.n_dot_v, b.etap));
     if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
-        f = vec3(0.0);
+        f = f_dielectric = vec3(0.0);
     }
-    vec3 f_dielectric = (frame.flags & FLAG_NO_SPECULAR) != 0u ? vec3(0.0) : dielectric_fresnel(s, fresnel_cosine(b.n_dot_v, b.etap));
     float base = 1.0 - b.coat;
     float sheen = s.layered ? max3(s.sheen_color) : 0.0;
     vec4 w = vec4(

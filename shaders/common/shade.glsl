@@ -28,6 +28,13 @@ float max3(vec3 v) { return max(v.x, max(v.y, v.z)); }
 // Rays traced by this invocation, by kind; flushed once with atomics at the end.
 uint rays_by_kind[4] = uint[4](0u, 0u, 0u, 0u);
 
+// F0 of the base layer's dielectric part: from the ior, tinted by KHR_materials_specular's
+// colour on layered materials.
+vec3 dielectric_f0(Surface s) {
+    vec3 f0_ior = vec3(pow((s.ior - 1.0) / (s.ior + 1.0), 2.0));
+    return s.layered ? min(f0_ior * s.specular_color, vec3(1.0)) : f0_ior;
+}
+
 // Fresnel of the base layer at cosine `c`. Plain materials: Schlick with `f0`. Layered ones
 // (KHR_materials_specular): the dielectric part has F0 = min(F0(ior) * specularColor, 1) and
 // F90 = 1, both scaled by specularFactor; metals keep Schlick with F0 = base colour.
@@ -35,8 +42,7 @@ vec3 surface_fresnel(Surface s, vec3 f0, float c) {
     if (!s.layered) {
         return fresnel_schlick(f0, c);
     }
-    vec3 f0_dielectric = min(vec3(pow((s.ior - 1.0) / (s.ior + 1.0), 2.0)) * s.specular_color, vec3(1.0));
-    return mix(s.specular * fresnel_schlick(f0_dielectric, c), fresnel_schlick(s.base_color, c), s.metallic);
+    return mix(s.specular * fresnel_schlick(dielectric_f0(s), c), fresnel_schlick(s.base_color, c), s.metallic);
 }
 
 // Fresnel of the base layer's dielectric part alone: what the diffuse and transmission lobes
@@ -44,11 +50,8 @@ vec3 surface_fresnel(Surface s, vec3 f0, float c) {
 // specular lobe) with a metal by `metallic`, so a half-metal's diffuse loses only the dielectric's
 // reflection, not the metal's (which the mixed F0 of surface_fresnel would take from it twice).
 vec3 dielectric_fresnel(Surface s, float c) {
-    vec3 f0_ior = vec3(pow((s.ior - 1.0) / (s.ior + 1.0), 2.0));
-    if (!s.layered) {
-        return fresnel_schlick(f0_ior, c);
-    }
-    return s.specular * fresnel_schlick(min(f0_ior * s.specular_color, vec3(1.0)), c);
+    vec3 f = fresnel_schlick(dielectric_f0(s), c);
+    return s.layered ? s.specular * f : f;
 }
 
 // Fraction of light the clearcoat reflects at its normal (F0 = 0.04, i.e. ior 1.5), times
@@ -184,8 +187,7 @@ bool worth_tracing(vec3 w) { return max3(w) > 0.0 && max3(w) >= frame.min_weight
 // mirror ray is weighted by so the two shares add up to the split sum's total.
 vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_traced, out vec3 single) {
     float n_dot_v = clamp(dot(s.n, v), 1e-4, 1.0);
-    float f0_ior = pow((s.ior - 1.0) / (s.ior + 1.0), 2.0);
-    vec3 f0_dielectric = s.layered ? min(vec3(f0_ior) * s.specular_color, vec3(1.0)) : vec3(f0_ior);
+    vec3 f0_dielectric = dielectric_f0(s);
     // glTF's mix of a dielectric and a metal: each layer's energy from one table lookup, the
     // diffuse under the dielectric's alone.
     vec2 ab = env_brdf(n_dot_v, s.roughness);
