@@ -259,28 +259,29 @@ vec3 direct_light_sampled(Surface s, BsdfFrame b, vec3 v, bool last, bool cosine
 // lobe_p.x n.l / π, its radiance x their BSDF x |n.l| / density if a shadow ray there escapes,
 // weighted against the environment's light sampling (the background is not light-sampled).
 // This any-hit ray stands in for the closest-hit diffuse ray that met the sky before; the
-// lights that ray met are light-sampled alone. `diffuse_part`: the Lambert share.
-vec3 sky_seen(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 diffuse_part) {
+// lights that ray met are light-sampled alone. Returns whether the ray is worth tracing, with
+// its origin, direction, `seen` (what it adds if it escapes) and `diffuse_part` (the Lambert
+// share of that); the ray itself is traced by path_advance (PATH_SKY).
+bool sky_ray(Surface s, BsdfFrame b, vec3 v, vec2 u, out vec3 origin, out vec3 dir, out vec3 seen, out vec3 diffuse_part) {
+    seen = vec3(0.0);
     diffuse_part = vec3(0.0);
-    vec3 dir = to_world(sample_cosine(u), s.n);
+    origin = s.position + s.ng * eps_offset();
+    dir = to_world(sample_cosine(u), s.n);
     float pdf = b.lobe_p.x * dot(s.n, dir) / PI;
     if (!(pdf > 0.0) || dot(s.ng, dir) <= 0.0) {
-        return vec3(0.0);
+        return false;
     }
     float bsdf_pdf;
     bsdf_eval(s, b, v, dir, bsdf_pdf);
     if (max3(bsdf_cosine_part) <= 0.0) {
-        return vec3(0.0);
-    }
-    rays_by_kind[RAY_SHADOW] += 1u;
-    if (trace_any(s.position + s.ng * eps_offset(), dir, 0.0, BIG_FLOAT)) {
-        return vec3(0.0);
+        return false;
     }
     vec3 li = env_enabled()
         ? env_radiance_texel(dir) * power_heuristic(bsdf_cosine_pdf, env_pdf(dir)) / bsdf_cosine_pdf
         : background_radiance(dir) / bsdf_cosine_pdf;
     diffuse_part = bsdf_diffuse_part * li;
-    return bsdf_cosine_part * li;
+    seen = bsdf_cosine_part * li;
+    return true;
 }
 
 // Russian roulette on the background's ray (no environment): traced with probability
@@ -313,47 +314,75 @@ vec3 specular_albedo_fit(vec3 f0, float roughness, float n_dot_v) {
     return f0 * ab.x + ab.y;
 }
 
-// Radiance along a camera ray in the distributed model, for camera sample `sample_index` of
-// `pixel`. `primary` as whitted(): the hybrid path hands in what its raster pass saw.
-vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_hit, inout PrimaryInfo info, uvec2 pixel, uint sample_index) {
-    Rng rng = rng_new(pixel, sample_index);
-    split_diffuse = vec3(0.0);
-    split_diffuse_albedo = vec3(0.0);
-    split_specular_albedo = vec3(0.0);
-    split_roughness = 0.0;
-    bool split_vertex = true;      // the next shaded vertex is the first
-    bool split_done = false;       // the first shaded vertex was reached
-    vec3 diffuse_branch = vec3(-1.0);  // radiance when the first vertex chose its diffuse lobe
-    vec3 radiance = vec3(0.0);
-    vec3 throughput = vec3(1.0);
-    vec3 origin = camera.origin;
-    vec3 dir = camera.dir;
-    uint kind = RAY_PRIMARY;
-    float bsdf_pdf = 0.0;
-    float cone_width = 0.0;
-    uint diffuse_used = 0u;
-    uint passes = 0u;
-    bool collect_only = false;
-    bool first = true;
-    for (uint depth = 1u; depth <= frame.max_depth; ) {
+// What becomes of a path after a vertex.
+#define PATH_DONE 0u  // it ended
+#define PATH_NEXT 1u  // its next segment (origin, dir) is to be traced
+#define PATH_SKY 2u   // a sky ray (sky_ray) is to be traced, adding `throughput` if it escapes
+
+// A path between two shaded vertices: everything the next one needs, so that an invocation
+// can take its paths one vertex at a time (path regeneration, distributed/*.comp).
+struct PathState {
+    vec3 radiance;     // gathered so far
+    float bsdf_pdf;    // the density the next segment was drawn with; 0 for camera rays
+    vec3 throughput;   // PATH_SKY: what the sky ray adds
+    float cone_width;
+    vec3 origin;
+    uint status;       // PATH_*
+    vec3 dir;
+    uint kind;         // RAY_* of the next segment
+    vec3 sky_diffuse;  // PATH_SKY from the first shaded vertex: the denoiser's share of `throughput`
+    uint depth;        // segments so far, the next one included
+    uint diffuse_used;
+    uint passes;       // alpha-blended surfaces passed through
+    uint collect_only; // the next segment only collects light (a spent diffuse lobe)
+    Rng rng;
+};
+
+// The current path's camera segment (path_advance's first vertex) and its split state (an
+// invocation carries one path at a time).
+uint camera_primary;
+Surface camera_surface;
+Hit camera_hit;
+bool split_vertex;     // the next shaded vertex is the first
+bool split_done;       // the first shaded vertex was reached
+vec3 diffuse_branch;   // radiance when the first vertex chose its diffuse lobe
+
+// Carries path p on to its next shaded vertex: what its segment meets (passing through
+// alpha-blended surfaces), the light gathered there, and the continuation it chooses, or the
+// end (PATH_DONE). The camera segment (kind RAY_PRIMARY) records the primary hit in `info`,
+// and is traced or handed in by the hybrid path (camera_primary).
+void path_advance(inout PathState p, inout PrimaryInfo info) {
+    bool first = p.kind == RAY_PRIMARY;
+    if (p.status == PATH_SKY) {
+        rays_by_kind[RAY_SHADOW] += 1u;
+        if (trace_any(p.origin, p.dir, 0.0, BIG_FLOAT)) {
+            p.sky_diffuse = vec3(0.0);
+        } else {
+            p.radiance += p.throughput;
+        }
+        p.status = PATH_DONE;
+        return;
+    }
+    p.status = PATH_DONE;
+    while (p.depth <= frame.max_depth) {
         Surface s;
         float t;
         bool found;
-        if (first && primary == PRIMARY_SURFACE) {
-            s = primary_surface;
-            t = primary_hit.t;
+        if (first && camera_primary == PRIMARY_SURFACE) {
+            s = camera_surface;
+            t = camera_hit.t;
             found = true;
         } else {
             Hit h;
-            if (first && primary == PRIMARY_HIT) {
-                h = primary_hit;
+            if (first && camera_primary == PRIMARY_HIT) {
+                h = camera_hit;
             } else {
-                if (kind == RAY_DIFFUSE) {
+                if (p.kind == RAY_DIFFUSE) {
                     diffuse_rays += 1u;
                 } else {
-                    rays_by_kind[kind] += 1u;
+                    rays_by_kind[p.kind] += 1u;
                 }
-                h = trace_closest(origin, dir, 0.0, BIG_FLOAT);
+                h = trace_closest(p.origin, p.dir, 0.0, BIG_FLOAT);
             }
             found = hit_found(h);
             t = found ? h.t : BIG_FLOAT;
@@ -361,77 +390,77 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
                 record_primary_hit(info, h);
             }
             if (found) {
-                s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, dir, cone_width + frame.pixel_spread * h.t);
+                s = surface_at(uint(h.instance), uint(h.primitive), h.barycentrics, p.dir, p.cone_width + frame.pixel_spread * h.t);
                 if (first) {
                     record_primary_surface(info, s);
                 }
             }
         }
         first = false;
-        radiance += throughput * lights_met(origin, dir, t, bsdf_pdf);
+        p.radiance += p.throughput * lights_met(p.origin, p.dir, t, p.bsdf_pdf);
         if (!found) {
-            if (kind == RAY_PRIMARY) {
-                radiance += miss_radiance(dir, true);
+            if (p.kind == RAY_PRIMARY) {
+                p.radiance += miss_radiance(p.dir, true);
             } else if (env_enabled()) {
-                radiance += throughput * env_radiance_texel(dir) * power_heuristic(bsdf_pdf, env_pdf(dir));
+                p.radiance += p.throughput * env_radiance_texel(p.dir) * power_heuristic(p.bsdf_pdf, env_pdf(p.dir));
             } else {
-                radiance += throughput * background_radiance(dir);
+                p.radiance += p.throughput * background_radiance(p.dir);
             }
-            break;
+            return;
         }
-        cone_width += frame.pixel_spread * t;
-        throughput *= volume_absorption(s, t);
-        vec3 v = -dir;
-        if (s.alpha_mode == ALPHA_BLEND && passes < MAX_PASS_THROUGH) {
+        p.cone_width += frame.pixel_spread * t;
+        p.throughput *= volume_absorption(s, t);
+        vec3 v = -p.dir;
+        if (s.alpha_mode == ALPHA_BLEND && p.passes < MAX_PASS_THROUGH) {
             // Blending by coverage, stochastically: pass straight through with 1 - alpha.
-            if (rng_next(rng).x >= clamp(s.alpha, 0.0, 1.0)) {
-                passes += 1u;
-                origin = s.position - s.ng * eps_offset();
-                kind = RAY_REFRACTION;
+            if (rng_next(p.rng).x >= clamp(s.alpha, 0.0, 1.0)) {
+                p.passes += 1u;
+                p.origin = s.position - s.ng * eps_offset();
+                p.kind = RAY_REFRACTION;
                 continue;
             }
         }
         BsdfFrame b = bsdf_frame(s, v);
-        radiance += throughput * s.emissive * (1.0 - b.coat);
-        bool splitting = split_vertex && !collect_only;
+        p.radiance += p.throughput * s.emissive * (1.0 - b.coat);
+        bool splitting = split_vertex && p.collect_only == 0u;
         if (splitting) {
             split_vertex = false;
             split_done = true;
-            split_unfiltered = radiance;
+            split_unfiltered = p.radiance;
             split_diffuse_albedo = b.diffuse_color;
             split_roughness = s.roughness;
             split_specular_albedo = min(specular_albedo_fit(b.f0, s.roughness, b.n_dot_v) * (1.0 - b.coat)
                 + b.transmission * s.base_color * (1.0 - b.coat) + vec3(b.coat), vec3(1.0));
         }
-        if (collect_only) {
-            break;
+        if (p.collect_only != 0u) {
+            return;
         }
         vec3 lit_here = vec3(0.0);  // this vertex's light so far, before the throughput
         if (!env_enabled() && frame.diffuse_bounces == 0u) {
             // The Whitted model's ambient term stands in for the untraced diffuse
             // inter-reflection (a path tracer, with diffuse bounces, traces it instead).
             lit_here = frame.ambient * s.base_color * (1.0 - s.metallic) * s.occlusion * (1.0 - b.coat);
-            vec3 ambient = throughput * lit_here;
-            radiance += ambient;
+            vec3 ambient = p.throughput * lit_here;
+            p.radiance += ambient;
             if (splitting) {
                 split_diffuse += ambient;
             }
         }
-        bool last = depth >= frame.max_depth;
+        bool last = p.depth >= frame.max_depth;
         // A diffuse ray from here could only collect light, and light sampling finds all of it.
-        bool cosine_by_light = (frame.flags & FLAG_DIFFUSE_LIGHT_SAMPLED) != 0u && diffuse_used >= frame.diffuse_bounces;
+        bool cosine_by_light = (frame.flags & FLAG_DIFFUSE_LIGHT_SAMPLED) != 0u && p.diffuse_used >= frame.diffuse_bounces;
         vec3 direct_diffuse;
-        vec3 direct = direct_light_sampled(s, b, v, last, cosine_by_light, rng, direct_diffuse);
+        vec3 direct = direct_light_sampled(s, b, v, last, cosine_by_light, p.rng, direct_diffuse);
         lit_here += direct;
-        radiance += throughput * direct;
+        p.radiance += p.throughput * direct;
         if (splitting) {
-            split_diffuse += throughput * direct_diffuse;
+            split_diffuse += p.throughput * direct_diffuse;
         }
         if (last) {
-            break;
+            return;
         }
-        vec2 u_choice = rng_next(rng);
-        vec2 u_dir = rng_next(rng);
+        vec2 u_choice = rng_next(p.rng);
+        vec2 u_dir = rng_next(p.rng);
         if (cosine_by_light && u_choice.x < b.lobe_p.x) {
             // The cosine lobes' turn: light sampling found the lights for them; only the
             // sky is left for their ray, and then the path ends. The environment is a light
@@ -444,19 +473,19 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
                 float most = max3(frame.background) * cosine_albedo;
                 q = most > 0.0 ? clamp(SKY_SHARE * most / max(luminance(lit_here), 1e-8), SKY_MIN_Q, 1.0) : 0.0;
             }
-            if (u_choice.y < q) {
-                vec3 seen_diffuse;
-                radiance += throughput * sky_seen(s, b, v, u_dir, seen_diffuse) / q;
-                if (splitting) {
-                    split_diffuse += throughput * seen_diffuse / q;
-                }
+            vec3 seen, seen_diffuse;
+            if (u_choice.y < q && sky_ray(s, b, v, u_dir, p.origin, p.dir, seen, seen_diffuse)) {
+                vec3 carried = p.throughput;
+                p.status = PATH_SKY;
+                p.throughput = carried * seen / q;
+                p.sky_diffuse = splitting ? carried * seen_diffuse / q : vec3(0.0);
             }
-            break;
+            return;
         }
         vec3 l, weight;
         uint lobe;
-        if (!bsdf_sample(s, b, v, u_choice.x, u_dir, !cosine_by_light, l, weight, bsdf_pdf, lobe)) {
-            break;
+        if (!bsdf_sample(s, b, v, u_choice.x, u_dir, !cosine_by_light, l, weight, p.bsdf_pdf, lobe)) {
+            return;
         }
         if (cosine_by_light && b.lobe_p.x > 0.0) {
             // Russian roulette on the other lobes' continuation from a surface that is mostly
@@ -466,41 +495,90 @@ vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_
             // cent of its pixels, not in every one that drew the lobe). Mirrors, metals and
             // glass (lobe_p.x = 0) always continue.
             float q = min(1.0, CONTINUE_SHARE * (1.0 - b.lobe_p.x));
-            if (rng_next(rng).x >= q) {
-                break;
+            if (rng_next(p.rng).x >= q) {
+                return;
             }
             weight /= q;
         }
-        throughput *= weight;
+        p.throughput *= weight;
         if (splitting && lobe == LOBE_DIFFUSE) {
-            diffuse_branch = radiance;
+            diffuse_branch = p.radiance;
         }
         if (lobe == LOBE_DIFFUSE) {
-            kind = RAY_DIFFUSE;
-            if (diffuse_used >= frame.diffuse_bounces) {
-                collect_only = true;
+            p.kind = RAY_DIFFUSE;
+            if (p.diffuse_used >= frame.diffuse_bounces) {
+                p.collect_only = 1u;
             }
-            diffuse_used += 1u;
+            p.diffuse_used += 1u;
         } else {
-            kind = lobe == LOBE_TRANSMISSION ? RAY_REFRACTION : RAY_REFLECTION;
+            p.kind = lobe == LOBE_TRANSMISSION ? RAY_REFRACTION : RAY_REFLECTION;
         }
-        if (frame.diffuse_bounces > 0u && depth >= 3u) {
-            float q = min(max3(throughput), 0.95);
+        if (frame.diffuse_bounces > 0u && p.depth >= 3u) {
+            float q = min(max3(p.throughput), 0.95);
             if (u_choice.y >= q) {
-                break;
+                return;
             }
-            throughput /= q;
+            p.throughput /= q;
         }
-        origin = s.position + (dot(l, s.ng) > 0.0 ? s.ng : -s.ng) * eps_offset();
-        dir = l;
-        depth += 1u;
+        p.origin = s.position + (dot(l, s.ng) > 0.0 ? s.ng : -s.ng) * eps_offset();
+        p.dir = l;
+        p.depth += 1u;
+        p.status = PATH_NEXT;
+        return;
     }
+}
+
+// Starts the path of camera sample `sample_index` of `pixel`; `primary` as whitted(): the
+// hybrid path hands in what its raster pass saw.
+PathState path_start(Ray camera, uint primary, Surface primary_surface, Hit primary_hit, uvec2 pixel, uint sample_index) {
+    split_diffuse = vec3(0.0);
+    split_diffuse_albedo = vec3(0.0);
+    split_specular_albedo = vec3(0.0);
+    split_roughness = 0.0;
+    split_vertex = true;
+    split_done = false;
+    diffuse_branch = vec3(-1.0);
+    camera_primary = primary;
+    camera_surface = primary_surface;
+    camera_hit = primary_hit;
+    PathState p;
+    p.radiance = vec3(0.0);
+    p.bsdf_pdf = 0.0;
+    p.throughput = vec3(1.0);
+    p.cone_width = 0.0;
+    p.origin = camera.origin;
+    p.status = PATH_NEXT;
+    p.dir = camera.dir;
+    p.kind = RAY_PRIMARY;
+    p.sky_diffuse = vec3(0.0);
+    p.depth = 1u;
+    p.diffuse_used = 0u;
+    p.passes = 0u;
+    p.collect_only = 0u;
+    p.rng = rng_new(pixel, sample_index);
+    return p;
+}
+
+// The radiance of a finished path, and the last of its split for the denoiser.
+vec3 path_finish(PathState p) {
+    split_diffuse += p.sky_diffuse;
     if (!split_done) {
-        split_unfiltered = radiance;
+        split_unfiltered = p.radiance;
     } else if (diffuse_branch.x >= 0.0) {
-        split_diffuse += radiance - diffuse_branch;
+        split_diffuse += p.radiance - diffuse_branch;
     }
-    return radiance;
+    return p.radiance;
+}
+
+// Radiance along a camera ray in the distributed model, for camera sample `sample_index` of
+// `pixel`, the whole path at once. `primary` as whitted(): the hybrid path hands in what its
+// raster pass saw.
+vec3 distributed(Ray camera, uint primary, Surface primary_surface, Hit primary_hit, inout PrimaryInfo info, uvec2 pixel, uint sample_index) {
+    PathState p = path_start(camera, primary, primary_surface, primary_hit, pixel, sample_index);
+    while (p.status != PATH_DONE) {
+        path_advance(p, info);
+    }
+    return path_finish(p);
 }
 
 #endif

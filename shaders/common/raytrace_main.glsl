@@ -1,6 +1,6 @@
-// Pure ray-traced path (main of raytrace.comp and distributed/raytrace_distributed.comp): one
-// thread per pixel, all of its samples; the Whitted model, or with SHADING_DISTRIBUTED the
-// distributed one (distributed.glsl).
+// Pure ray-traced path: the bindings and, for raytrace.comp, the main: one thread per pixel, all
+// of its samples, in the Whitted model. With SHADING_DISTRIBUTED (distributed.glsl) the main is
+// distributed/raytrace_distributed.comp's.
 // Bindings (src/interface/passes.rs): the shared ones, BINDING_RT_AOV, _COUNTERS,
 // _CORNERS (adaptive corner samples, (w+1) x (h+1)); the colour out through a buffer reference
 // (RaytracePush::color).
@@ -30,16 +30,33 @@ layout(set = 0, binding = BINDING_RT_CORNERS, scalar) buffer Corners { vec4 corn
 Surface unused_surface;
 Hit unused_hit;
 
-// The pixel and camera sample being traced (the distributed model's random numbers).
-uvec2 current_pixel;
-uint current_sample;
-
-vec3 radiance_at(vec2 film, inout PrimaryInfo info) {
+void flush_counters(uint samples) {
+    for (uint k = 0u; k < 4u; ++k) {
+        COUNTER_ADD(counters[ray_counter_slot(k)], rays_by_kind[k]);
+    }
+    COUNTER_ADD(counters[ray_counter_slot(COUNTER_SAMPLES)], samples);
 #ifdef SHADING_DISTRIBUTED
-    return distributed(camera_ray(film), PRIMARY_TRACE, unused_surface, unused_hit, info, current_pixel, current_sample);
-#else
-    return whitted(camera_ray(film), PRIMARY_TRACE, unused_surface, unused_hit, info);
+    COUNTER_ADD(counters[ray_counter_slot(RAY_DIFFUSE)], diffuse_rays);
 #endif
+}
+
+// Where camera sample `job` of pixel `pix` lies on the film, and its filter weight.
+vec2 film_sample(uvec2 pix, uint job, out float w) {
+    w = 1.0;
+    uint index = (frame.flags & FLAG_SEQUENCE_JITTER) != 0u ? frame.sample_base + job : job;
+    vec2 u = sample_2d(frame.sampler_kind, pix, index, frame.spp, frame.seed);
+    if (frame.filter_kind == FILTER_TENT) {
+        // Tent of radius one pixel around the centre: positions span [-1, 1), weighted.
+        vec2 o = u * 2.0 - 1.0;
+        w = (1.0 - abs(o.x)) * (1.0 - abs(o.y));
+        return vec2(pix) + 0.5 + o;
+    }
+    return vec2(pix) + u;
+}
+
+#ifndef SHADING_DISTRIBUTED
+vec3 radiance_at(vec2 film, inout PrimaryInfo info) {
+    return whitted(camera_ray(film), PRIMARY_TRACE, unused_surface, unused_hit, info);
 }
 
 // The seed's adaptive quincunx supersampling. The pixel's corners come from the corner pass
@@ -58,16 +75,6 @@ float differ(vec3 x, vec3 y) {
     return max(d.x, max(d.y, d.z));
 }
 
-void flush_counters(uint samples) {
-    for (uint k = 0u; k < 4u; ++k) {
-        COUNTER_ADD(counters[ray_counter_slot(k)], rays_by_kind[k]);
-    }
-    COUNTER_ADD(counters[ray_counter_slot(COUNTER_SAMPLES)], samples);
-#ifdef SHADING_DISTRIBUTED
-    COUNTER_ADD(counters[ray_counter_slot(RAY_DIFFUSE)], diffuse_rays);
-#endif
-}
-
 void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;
     bool corner_pass = (pc.flags & FLAG_ADAPTIVE_CORNERS) != 0u;
@@ -78,11 +85,6 @@ void main() {
 
     PrimaryInfo info = primary_miss();
     vec3 sum = vec3(0.0);
-#ifdef SHADING_DISTRIBUTED
-    DenoiseGuide guide;
-    guide.diffuse = vec4(0.0);
-    guide.unfiltered = vec4(0.0);
-#endif
     float weight_sum = 0.0;
     uint samples = 0u;
 
@@ -128,32 +130,13 @@ void main() {
             }
         } else {
             if (job >= frame.spp) break;
-            uint index = (frame.flags & FLAG_SEQUENCE_JITTER) != 0u ? frame.sample_base + job : job;
-            vec2 u = sample_2d(frame.sampler_kind, pix, index, frame.spp, frame.seed);
-            if (frame.filter_kind == FILTER_TENT) {
-                // Tent of radius one pixel around the centre: positions span [-1, 1), weighted.
-                vec2 o = u * 2.0 - 1.0;
-                film = vec2(pix) + 0.5 + o;
-                w = (1.0 - abs(o.x)) * (1.0 - abs(o.y));
-            } else {
-                film = vec2(pix) + u;
-            }
+            film = film_sample(pix, job, w);
         }
 
         PrimaryInfo sample_info = primary_miss();
-        current_pixel = pix;
-        current_sample = frame.sample_base + job;
         vec3 c = radiance_at(film, sample_info);
         samples += 1u;
         if (job == 0u) info = sample_info;
-#ifdef SHADING_DISTRIBUTED
-        guide.diffuse += vec4(w * split_diffuse, w);
-        guide.unfiltered += vec4(w * split_unfiltered, w);
-        if (job == 0u) {
-            guide.diffuse_albedo = vec4(split_diffuse_albedo, 0.0);
-            guide.specular_albedo = vec4(split_specular_albedo, split_roughness);
-        }
-#endif
 
         if (corner_pass) {
             corners[pix.y * stride + pix.x] = vec4(c, 1.0);
@@ -187,21 +170,9 @@ void main() {
         uint index = pix.y * frame.width + pix.x;
         ColorOut(pc.color).v[index] = vec4(adaptive ? sum : (weight_sum > 0.0 ? sum / weight_sum : vec3(0.0)), 1.0);
         if ((pc.flags & FLAG_WRITE_AOV) != 0u) {
-#ifdef SHADING_DISTRIBUTED
-            if ((frame.flags & FLAG_SEQUENCE_JITTER) != 0u) {
-                info = pixel_centre_info(pix);
-            }
-#endif
             aov_out[index] = primary_aov(info, samples);
         }
-#ifdef SHADING_DISTRIBUTED
-        if (pc.guide != 0ul) {
-            float ws = guide.diffuse.w > 0.0 ? guide.diffuse.w : 1.0;
-            guide.diffuse = vec4(guide.diffuse.rgb / ws, 1.0);
-            guide.unfiltered = vec4(guide.unfiltered.rgb / ws, 1.0);
-            GuideOut(pc.guide).v[index] = guide;
-        }
-#endif
     }
     flush_counters(samples);
 }
+#endif

@@ -13,7 +13,7 @@
 //! | `reproject.rs` | `interface_reproject.glsl` | temporal reprojection |
 //! | `environment.rs` | `interface_environment.glsl` | image-based lighting: the environment's textures and preparation passes |
 //! | `denoise.rs` | `interface_denoise.glsl` | the denoiser: the shading passes' colour split, its uniform, records and push constant |
-//! | `distributed.rs` | `interface_distributed.glsl` | the distributed shading model's frame flags |
+//! | `distributed.rs` | `interface_distributed.glsl` | the distributed shading model's frame flags and pixels per invocation |
 //!
 //! **Adding a binding** (or a flag, a counter): add a `pub const` to the right file, use the
 //! name in the shader (`layout(set = 0, binding = BINDING_X)`) and in the pass

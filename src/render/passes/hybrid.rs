@@ -1,6 +1,7 @@
 //! Hybrid path, shading pass: reads the raster pass's images (visibility buffer or full
-//! G-buffer) and runs the shared Whitted loop for shadows, reflections and refractions
-//! (`shaders/hybrid_vis.comp`, `shaders/hybrid.comp`, both `shaders/common/hybrid_main.glsl`).
+//! G-buffer) and runs the shared Whitted loop, or the distributed paths, for shadows,
+//! reflections and refractions (`shaders/hybrid_vis.comp`, `shaders/hybrid.comp` and their
+//! `shaders/distributed/` variants, all `shaders/common/hybrid_main.glsl`).
 
 use std::sync::Arc;
 
@@ -8,6 +9,7 @@ use ash::vk;
 
 use super::gbuffer::{GbufferLayout, GbufferPass};
 use crate::accel::Backend;
+use crate::interface::distributed::PIXELS_PER_INVOCATION;
 use crate::interface::{self as io, bindings, push_bytes, scene_bindings, HybridPush};
 use crate::render::{PassContext, Shading};
 use crate::vk::{Binding, Buffer, ComputePipeline, Context, DescriptorSet, GpuProfiler, VkResult};
@@ -18,6 +20,8 @@ pub use crate::interface::{HYBRID_FIRST_SAMPLE, HYBRID_WRITE_AOV};
 pub struct HybridPass {
     pipeline: Arc<ComputePipeline>,
     set: DescriptorSet,
+    /// The shading model (the distributed pass lays its invocations out differently).
+    shading: Shading,
 }
 
 fn spirv(backend: Backend, layout: GbufferLayout, shading: Shading) -> &'static [u8] {
@@ -83,7 +87,11 @@ impl HybridPass {
         for (i, image) in (0u32..).zip(&gbuffer.images) {
             set.storage_image(io::BINDING_HYBRID_GBUFFER + i, image.view());
         }
-        Ok(Self { pipeline, set })
+        Ok(Self {
+            pipeline,
+            set,
+            shading,
+        })
     }
 
     /// Records the shading of one sample with filter weight `weight`; with a `guide` address
@@ -106,11 +114,17 @@ impl HybridPass {
         if let Some(p) = profiler.as_deref_mut() {
             p.begin(cmd, crate::render::PassScope::HybridShading.name());
         }
+        // The distributed pass's invocations take PIXELS_PER_INVOCATION pixels each, in turn.
+        let rows = if self.shading == Shading::Distributed {
+            extent.height.div_ceil(PIXELS_PER_INVOCATION)
+        } else {
+            extent.height
+        };
         self.pipeline.dispatch(
             cmd,
             Some(&self.set),
             push_bytes(&push),
-            [extent.width.div_ceil(8), extent.height.div_ceil(8), 1],
+            [extent.width.div_ceil(8), rows.div_ceil(8), 1],
         );
         if let Some(p) = profiler {
             p.end(cmd);

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::accel::Backend;
+use crate::interface::distributed::PIXELS_PER_INVOCATION;
 use crate::interface::{
     self as io, bindings, push_bytes, scene_bindings, RaytracePush, FLAG_ADAPTIVE_CORNERS,
     FLAG_WRITE_AOV,
@@ -59,6 +60,8 @@ pub struct RaytracedPass {
     _corners: Buffer,
     frame: Buffer,
     write_aov: bool,
+    /// The shading model (the distributed pass lays its invocations out differently).
+    shading: Shading,
     /// Device address of the denoiser's guide out (0: none).
     guide: vk::DeviceAddress,
 }
@@ -147,6 +150,7 @@ impl RaytracedPass {
             _corners: corners,
             frame: frame_buf,
             write_aov,
+            shading: settings.shading,
             guide: 0,
         })
     }
@@ -202,11 +206,17 @@ impl RaytracedPass {
             color: self.color.address(),
             guide: self.guide,
         };
+        // The distributed pass's invocations take PIXELS_PER_INVOCATION pixels each, in turn.
+        let rows = if self.shading == Shading::Distributed {
+            f.height.div_ceil(PIXELS_PER_INVOCATION)
+        } else {
+            f.height
+        };
         self.pipeline.dispatch(
             cmd,
             Some(&self.set),
             push_bytes(&push),
-            [f.width.div_ceil(8), f.height.div_ceil(8), 1],
+            [f.width.div_ceil(8), rows.div_ceil(8), 1],
         );
         if let Some(p) = profiler {
             p.end(cmd);
