@@ -419,9 +419,7 @@ impl GpuEnvironment {
         // The map with its mips twice (image and staging), the prepared texels twice.
         ctx.check_memory(
             "the environment map",
-            2 * map.device_bytes()
-                + 2 * l.total * 16
-                + 2 * table_bytes(map),
+            2 * map.device_bytes() + 2 * l.total * 16 + 2 * table_bytes(map),
         )?;
         let key = cache_dir.map(|_| cache_key(map));
         let cache_file = cache_dir

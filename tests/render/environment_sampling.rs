@@ -129,7 +129,11 @@ fn gpu_table(ctx: &Context, map: &EnvironmentMap) -> (Vec<f32>, f64) {
         let n = if row < h { w } else { h };
         assert_eq!((cdf[0], cdf[n]), (0.0, 1.0), "row {row} of {w}x{h}");
         if let Some(x) = (0..n).find(|&x| cdf[x] > cdf[x + 1]) {
-            panic!("row {row} of {w}x{h} decreases at {x}: {} {}", cdf[x], cdf[x + 1]);
+            panic!(
+                "row {row} of {w}x{h} decreases at {x}: {} {}",
+                cdf[x],
+                cdf[x + 1]
+            );
         }
         assert!(cdf[n + 1..].iter().all(|&v| v == 0.0), "row {row}");
     }
@@ -157,12 +161,18 @@ fn environment_sampling_table_built_on_the_gpu_equals_the_host_table() {
     for (name, map) in &maps {
         let (table, error) = gpu_table(&ctx, map);
         eprintln!("{name}: GPU table within {error:.2e} of the host's");
-        assert!(error <= 2e-6, "{name}: GPU table {error:.2e} from the host's");
+        assert!(
+            error <= 2e-6,
+            "{name}: GPU table {error:.2e} from the host's"
+        );
         if name.starts_with("crafted") {
             // The black row's CDF is the uniform one, exactly.
             let (w, h) = (map.width as usize, map.height as usize);
             let row = &table[(h / 7) * (w + 1)..][..w + 1];
-            assert!((0..=w).all(|x| row[x] == x as f32 / w as f32), "{name}: black row");
+            assert!(
+                (0..=w).all(|x| row[x] == x as f32 / w as f32),
+                "{name}: black row"
+            );
         }
     }
     // A black map samples uniformly: every row and the marginal are the uniform CDF.
@@ -171,7 +181,10 @@ fn environment_sampling_table_built_on_the_gpu_equals_the_host_table() {
     assert_eq!(error, 0.0, "black map");
     for (row, cdf) in table.chunks_exact(65).enumerate() {
         let n = if row < 32 { 64 } else { 32 };
-        assert!((0..=n).all(|x| cdf[x] == x as f32 / n as f32), "black map row {row}");
+        assert!(
+            (0..=n).all(|x| cdf[x] == x as f32 / n as f32),
+            "black map row {row}"
+        );
     }
     support::assert_validation_clean(&ctx);
 }
@@ -184,6 +197,20 @@ fn environment_sampling_on_the_gpu_matches_its_host_twin_and_its_density() {
     let map = shipped_map("sunrise");
     let env = GpuEnvironment::prepare(&ctx, &map).unwrap();
     let host = SamplingTables::new(&map);
+    // The host twin samples the GPU's own table: the two builds differ by a few ulp of 1
+    // (`gpu_table`), which is a relative difference of up to a percent in the probability of
+    // a row near the end of the marginal CDF, where entries are close to 1 (a row at a pole,
+    // of probability ~1e-5). Here the sampling code is compared, on one table.
+    let twin = SamplingTables {
+        table: env
+            .read(&ctx, rqr::environment::gpu::EnvTexture::Sampling, 0)
+            .unwrap()
+            .2
+            .iter()
+            .map(|t| t[0])
+            .collect(),
+        ..host.clone()
+    };
     let count = 1u32 << 20;
     let out = sampling_test(
         &ctx,
@@ -201,7 +228,7 @@ fn environment_sampling_on_the_gpu_matches_its_host_twin_and_its_density() {
     let (mut checked, mut off) = (0usize, 0usize);
     for k in (0..count as usize).step_by(997) {
         let (s, t) = (out[2 * k], out[2 * k + 1]);
-        let (d, p) = host.sample([t[0], t[1]]);
+        let (d, p) = twin.sample([t[0], t[1]]);
         let g = Vec3::new(s[0], s[1], s[2]);
         assert!(
             (g - d).length() < 1e-3,
@@ -228,7 +255,8 @@ fn environment_sampling_on_the_gpu_matches_its_host_twin_and_its_density() {
         off == 0,
         "pdf(sample(u)) differs from the drawn density for {off} of {checked} samples"
     );
-    // χ² over a 32×16 grid of (u, v) cells: expected probabilities from the tables.
+    // χ² over a 32×16 grid of (u, v) cells: expected probabilities from the host's table
+    // (the reference).
     let (cw, ch) = (32usize, 16usize);
     let (w, h) = (map.width as usize, map.height as usize);
     let stride = w + 1;
