@@ -1,7 +1,9 @@
-//! An environment map on the GPU: the map with its mip chain, and the textures the Whitted
-//! model's split-sum lighting reads, computed at load by the compute passes of
-//! `shaders/environment/` (one submission), or read from an on-disk cache keyed by the map's
-//! content and the preparation's settings.
+//! An environment map on the GPU: the map with its mip chain, the textures the Whitted
+//! model's split-sum lighting reads, and the importance-sampling table, all computed at load by
+//! the compute passes of `shaders/environment/` in one submission. The lighting textures can
+//! come from an on-disk cache keyed by the map's content and the preparation's settings; the
+//! sampling table is built on the GPU every time (`env_sampling_rows.comp`,
+//! `env_sampling_marginal.comp`; `super::sampling` is its host reference).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -69,6 +71,9 @@ pub enum EnvTexture {
     Irradiance,
     /// The split-sum BRDF table.
     Brdf,
+    /// The importance-sampling table (R32F: each texel's value in the first channel, the
+    /// others 0).
+    Sampling,
 }
 
 fn level_extent(width: u32, height: u32, level: u32) -> (u32, u32) {
@@ -305,6 +310,78 @@ impl Passes {
     }
 }
 
+/// Bytes of the importance-sampling table of `map`: `(width + 1) × (height + 1)` f32.
+fn table_bytes(map: &EnvironmentMap) -> u64 {
+    u64::from(map.width + 1) * u64::from(map.height + 1) * 4
+}
+
+/// The passes that build the importance-sampling table on the GPU (`env_sampling_rows.comp`,
+/// then `env_sampling_marginal.comp`; `super::sampling::SamplingTables` is their host
+/// reference). They run at every preparation, from the cache too, which keeps the cache files
+/// as they were: on lavapipe the passes take about 4 ms for a 1024×512 map and creating their
+/// pipelines about 3 ms a process (from the pipeline cache), within the cached preparation's
+/// 100 ms.
+struct TablePasses {
+    rows: std::sync::Arc<ComputePipeline>,
+    marginal: std::sync::Arc<ComputePipeline>,
+    rows_set: DescriptorSet,
+}
+
+impl TablePasses {
+    fn new(ctx: &Context, source: (vk::ImageView, vk::Sampler)) -> VkResult<Self> {
+        let push_size = std::mem::size_of::<EnvPreparePush>() as u32;
+        let rows = ComputePipeline::cached(
+            ctx,
+            "environment sampling rows",
+            crate::shaders::ENV_SAMPLING_ROWS_COMP,
+            &bindings(&[(BINDING_ENV_SOURCE, Binding::SampledImages(1))]),
+            push_size,
+        )?;
+        let marginal = ComputePipeline::cached(
+            ctx,
+            "environment sampling marginal",
+            crate::shaders::ENV_SAMPLING_MARGINAL_COMP,
+            &bindings(&[]),
+            push_size,
+        )?;
+        let rows_set = rows.allocate_set()?;
+        rows_set.sampled_images(BINDING_ENV_SOURCE, &[source]);
+        Ok(Self {
+            rows,
+            marginal,
+            rows_set,
+        })
+    }
+
+    /// Records both passes, writing the table of `map` to `table` (after the map's upload).
+    fn record(
+        &self,
+        device: &ash::Device,
+        cmd: vk::CommandBuffer,
+        table: &Buffer,
+        map: &EnvironmentMap,
+    ) {
+        let push = EnvPreparePush {
+            texels_out: table.address(),
+            width: map.width,
+            height: map.height,
+            ..Default::default()
+        };
+        // One workgroup per row (heights stay under the 65 535 groups a dimension allows:
+        // `map::MAX_WIDTH` / 2).
+        self.rows.dispatch(
+            cmd,
+            Some(&self.rows_set),
+            push_bytes(&push),
+            [map.height, 1, 1],
+        );
+        // The marginal pass scans the row weights the rows pass wrote.
+        memory_barrier(device, cmd);
+        self.marginal
+            .dispatch(cmd, None, push_bytes(&push), [1, 1, 1]);
+    }
+}
+
 fn sampler(ctx: &Context, mode_u: vk::SamplerAddressMode, mips: bool) -> VkResult<Sampler> {
     Sampler::new(
         ctx,
@@ -344,9 +421,7 @@ impl GpuEnvironment {
         // The map with its mips twice (image and staging), the prepared texels twice.
         ctx.check_memory(
             "the environment map",
-            2 * map.device_bytes()
-                + 2 * l.total * 16
-                + 2 * u64::from((map.width + 1) * (map.height + 1)) * 4,
+            2 * map.device_bytes() + 2 * l.total * 16 + 2 * table_bytes(map),
         )?;
         let key = cache_dir.map(|_| cache_key(map));
         let cache_file = cache_dir
@@ -387,7 +462,6 @@ impl GpuEnvironment {
         )?;
         let irradiance = image("environment irradiance", irr_w, irr_w / 2, 1)?;
         let brdf = image("environment BRDF table", ENV_BRDF_SIZE, ENV_BRDF_SIZE, 1)?;
-        let tables = super::sampling::SamplingTables::new(map);
         let sampling = Image::new(
             ctx,
             "environment sampling tables",
@@ -399,14 +473,13 @@ impl GpuEnvironment {
             usage,
             1,
         )?;
-        let mut table_staging = Buffer::new(
+        let table = Buffer::new(
             ctx,
-            "environment sampling staging",
-            tables.table.len() as u64 * 4,
+            "environment sampling table",
+            table_bytes(map),
             vk::BufferUsageFlags::empty(),
-            MemoryLocation::CpuToGpu,
+            MemoryLocation::GpuOnly,
         )?;
-        table_staging.write(bytemuck::cast_slice(&tables.table))?;
         let map_sampler = sampler(ctx, vk::SamplerAddressMode::REPEAT, true)?;
         let table_sampler = sampler(ctx, vk::SamplerAddressMode::CLAMP_TO_EDGE, false)?;
 
@@ -438,6 +511,7 @@ impl GpuEnvironment {
             }
             None => Some(Passes::new(ctx, (radiance.view(), map_sampler.raw()))?),
         };
+        let table_passes = TablePasses::new(ctx, (radiance.view(), map_sampler.raw()))?;
 
         let device = ctx.device();
         ctx.run("environment preparation", |cmd| {
@@ -452,18 +526,6 @@ impl GpuEnvironment {
                     barrier(sampling.raw(), 0..1, NONE, TRANSFER_DST),
                 ],
             );
-            let table_copy = level_region(0, 0, map.width + 1, map.height + 1);
-            // SAFETY: the staging buffer holds the whole (width + 1) × (height + 1) R32F table;
-            // the image is TRANSFER_DST.
-            unsafe {
-                device.cmd_copy_buffer_to_image(
-                    cmd,
-                    table_staging.raw(),
-                    sampling.raw(),
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[table_copy],
-                )
-            };
             let copies = level_copies(&radiance, levels, 0);
             // SAFETY: the staging buffer holds every level back to back, 16 bytes a texel, at
             // the offsets `level_copies` computes from the same extents; TRANSFER_DST layout.
@@ -489,7 +551,20 @@ impl GpuEnvironment {
             if let Some(passes) = &passes {
                 passes.record(cmd, &out, map, levels);
             }
+            table_passes.record(device, cmd, &table, map);
             memory_barrier(device, cmd);
+            let table_copy = level_region(0, 0, map.width + 1, map.height + 1);
+            // SAFETY: `table` holds the whole (width + 1) × (height + 1) R32F table, written by
+            // the table passes and made visible by the barrier; the image is TRANSFER_DST.
+            unsafe {
+                device.cmd_copy_buffer_to_image(
+                    cmd,
+                    table.raw(),
+                    sampling.raw(),
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[table_copy],
+                )
+            };
             for (image, levels, first) in [
                 (&specular, ENV_SPECULAR_LEVELS, 0),
                 (&irradiance, 1, l.irradiance),
@@ -578,13 +653,15 @@ impl GpuEnvironment {
             EnvTexture::Specular => &self.specular,
             EnvTexture::Irradiance => &self.irradiance,
             EnvTexture::Brdf => &self.brdf,
+            EnvTexture::Sampling => &self.sampling,
         };
+        let texel_bytes = if which == EnvTexture::Sampling { 4 } else { 16 };
         let (w, h) = level_extent(image.extent.width, image.extent.height, level);
         let count = (w * h) as usize;
         let staging = Buffer::new(
             ctx,
             "environment readback",
-            count as u64 * 16,
+            count as u64 * texel_bytes,
             vk::BufferUsageFlags::empty(),
             MemoryLocation::GpuToCpu,
         )?;
@@ -621,9 +698,13 @@ impl GpuEnvironment {
             crate::vk::host_read_barrier(device, cmd);
             Ok(())
         })?;
-        let texels = staging.mapped_read(0, count).ok_or_else(|| {
-            crate::vk::VkError::Invalid("readback buffer is not host-visible".into())
-        })?;
+        let invalid = || crate::vk::VkError::Invalid("readback buffer is not host-visible".into());
+        let texels = if which == EnvTexture::Sampling {
+            let values: Vec<f32> = staging.mapped_read(0, count).ok_or_else(invalid)?;
+            values.into_iter().map(|v| [v, 0.0, 0.0, 0.0]).collect()
+        } else {
+            staging.mapped_read(0, count).ok_or_else(invalid)?
+        };
         Ok((w, h, texels))
     }
 }

@@ -1,6 +1,9 @@
 //! Importance sampling of an environment map by luminance × solid angle: the tables the GPU
 //! samples from (`shaders/common/env_sampling.glsl`), and the same sampler on the host as its
-//! reference.
+//! reference. The renderer's table is built on the GPU at load
+//! (`shaders/environment/env_sampling_rows.comp` and `env_sampling_marginal.comp`, from
+//! `environment::gpu`); [`SamplingTables::new`] builds the same table on the host, in f64,
+//! for the tests and the host sampler.
 //!
 //! The density is piecewise constant over the map's texels: texel `(x, y)` gets
 //! `lum(x, y) · sin θ_y`, normalised. A direction is drawn by inverting the marginal CDF of the
@@ -31,7 +34,8 @@ pub struct SamplingTables {
 }
 
 impl SamplingTables {
-    /// Builds the tables of `map` (accumulated in f64, stored as f32).
+    /// Builds the tables of `map` on the host (accumulated in f64, stored as f32): the
+    /// reference of the GPU's table (`GpuEnvironment`'s `EnvTexture::Sampling`).
     pub fn new(map: &EnvironmentMap) -> Self {
         let (w, h) = (map.width as usize, map.height as usize);
         let stride = w + 1;

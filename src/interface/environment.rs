@@ -30,7 +30,10 @@ pub const ENV_BRDF_SIZE: u32 = 64;
 /// Binding of the preparation passes' input: the radiance map (a combined image sampler).
 pub const BINDING_ENV_SOURCE: u32 = 0;
 
-/// Push constant of `env_specular.comp`, `env_irradiance.comp` and `env_brdf.comp`.
+/// Push constant of `env_specular.comp`, `env_irradiance.comp`, `env_brdf.comp`, and of the
+/// sampling table's `env_sampling_rows.comp` and `env_sampling_marginal.comp` (which read
+/// `texels_out` as the table's address, one float per entry, and `width` × `height` as the
+/// map's size).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct EnvPreparePush {
