@@ -1,7 +1,7 @@
 // Image-based lighting, shared by every path, backend and the temporal passes: the map's
 // radiance for rays that miss, and the Whitted model's split-sum environment light
 // (prefiltered specular, irradiance, BRDF table with Fdez-Agüera's multiple-scattering
-// compensation), unshadowed as in the Khronos glTF Sample Viewer. Include after scene.glsl and
+// compensation, Charlie-prefiltered sheen), unshadowed as in the Khronos glTF Sample Viewer. Include after scene.glsl and
 // frame.glsl. The textures are prepared by src/environment/gpu.rs.
 #ifndef RQR_ENVIRONMENT_GLSL
 #define RQR_ENVIRONMENT_GLSL
@@ -49,6 +49,17 @@ vec3 env_specular(vec3 r, float roughness) {
 // Split-sum scale and bias of F0 at (n·v, roughness).
 vec2 env_brdf(float n_dot_v, float roughness) {
     return textureLod(textures[uint(scene.environment) + ENV_TEX_BRDF], vec2(n_dot_v, roughness), 0.0).rg;
+}
+
+// Charlie-prefiltered radiance around d at `sheen_roughness`: the sheen lobe's mean radiance
+// with n = v = d (env_sheen.comp).
+vec3 env_sheen(vec3 d, float sheen_roughness) {
+    return frame.env_intensity * env_texture(ENV_TEX_SHEEN, d, clamp(sheen_roughness, 0.0, 1.0) * float(ENV_SPECULAR_LEVELS - 1u)).rgb;
+}
+
+// Directional albedo of the sheen lobe (Charlie, V_sheen) at (n·v, sheen roughness).
+float env_sheen_albedo(float n_dot_v, float sheen_roughness) {
+    return textureLod(textures[uint(scene.environment) + ENV_TEX_BRDF], vec2(n_dot_v, sheen_roughness), 0.0).b;
 }
 
 // From the map's frame to the world: the inverse of env_map_direction.

@@ -9,8 +9,8 @@
 // A path stops at frame.max_depth segments or when its weight's largest channel falls below
 // frame.min_weight. Alpha BLEND continues the ray straight through with weight (1 - alpha).
 // Layered materials (KHR_materials_specular / clearcoat / sheen, Surface.layered) add the
-// specular extension's Fresnel, a sheen lobe in direct light, and a clearcoat lobe with its
-// own mirror ray; other materials never enter that code.
+// specular extension's Fresnel, a sheen lobe in direct and environment light, and a clearcoat
+// lobe with its own mirror ray; other materials never enter that code.
 #ifndef RQR_SHADE_GLSL
 #define RQR_SHADE_GLSL
 #include "surface.glsl"
@@ -212,6 +212,17 @@ vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_t
     }
     if (traced < 1.0 && max3(ss) > 0.0) {
         light += ss * (1.0 - traced) * env_specular(reflect_dir(-v, s.n), s.roughness);
+    }
+    if (s.layered && max3(s.sheen_color) > 0.0 && (frame.flags & FLAG_NO_SPECULAR) == 0u) {
+        // The sheen lobe's split sum: its directional albedo times the Charlie-prefiltered map.
+        // The map is looked up at n, not at the mirror direction as the Sample Viewer's
+        // getIBLRadianceCharlie does: its texel at d averages the lobe at n = v = d, a band at
+        // the horizon of d, and the horizon of n is where the sheen's light comes from at every
+        // view (against the distributed model under interior.hdr: 0.25 mean relative difference
+        // at n, 0.41 at the mirror direction). Added on top of the base layer without albedo
+        // scaling, as in direct light (layered_direct) and the distributed BSDF (bsdf.glsl).
+        light += s.sheen_color * env_sheen_albedo(n_dot_v, s.sheen_roughness)
+            * env_sheen(s.n, s.sheen_roughness);
     }
     light *= s.occlusion;
     if (coat > 0.0) {

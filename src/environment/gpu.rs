@@ -13,8 +13,8 @@ use ash::vk;
 use super::EnvironmentMap;
 use crate::interface::bindings;
 use crate::interface::environment::{
-    EnvPreparePush, BINDING_ENV_SOURCE, ENV_BRDF_SIZE, ENV_IRRADIANCE_WIDTH, ENV_SPECULAR_LEVELS,
-    ENV_SPECULAR_WIDTH, ENV_TEXTURES,
+    EnvPreparePush, BINDING_ENV_SOURCE, ENV_BRDF_SIZE, ENV_IRRADIANCE_WIDTH, ENV_SHEEN_WIDTH,
+    ENV_SPECULAR_LEVELS, ENV_SPECULAR_WIDTH, ENV_TEXTURES,
 };
 use crate::interface::push_bytes;
 use crate::scene::textures::{barrier, pipeline_barrier};
@@ -25,12 +25,15 @@ use crate::vk::{
 
 /// GGX samples per texel of the prefiltered levels (filtered importance sampling).
 const SPECULAR_SAMPLES: u32 = 256;
-/// Samples per texel of the BRDF table.
+/// Samples per texel of the Charlie-prefiltered sheen levels (uniform over the hemisphere,
+/// filtered importance sampling; the Sample Viewer takes 64 Charlie samples).
+const SHEEN_SAMPLES: u32 = 128;
+/// Samples per texel of the BRDF table (GGX and sheen albedo each).
 const BRDF_SAMPLES: u32 = 1024;
 /// The irradiance pass integrates over the first source level at most this many rows high.
 const IRRADIANCE_SOURCE_ROWS: u32 = 32;
 /// Version of the cache files' contents: bump when a preparation pass changes its output.
-const CACHE_VERSION: u32 = 1;
+const CACHE_VERSION: u32 = 2;
 
 /// The textures of an environment (`ENV_TEX_*` order) and how long preparing took.
 pub struct GpuEnvironment {
@@ -39,6 +42,7 @@ pub struct GpuEnvironment {
     irradiance: Image,
     brdf: Image,
     sampling: Image,
+    sheen: Image,
     map_sampler: Sampler,
     table_sampler: Sampler,
     /// Width of the map.
@@ -69,11 +73,13 @@ pub enum EnvTexture {
     Specular,
     /// Irradiance / π.
     Irradiance,
-    /// The split-sum BRDF table.
+    /// The split-sum BRDF table (and the sheen albedo in `.b`).
     Brdf,
     /// The importance-sampling table (R32F: each texel's value in the first channel, the
     /// others 0).
     Sampling,
+    /// The Charlie-prefiltered sheen levels.
+    Sheen,
 }
 
 fn level_extent(width: u32, height: u32, level: u32) -> (u32, u32) {
@@ -84,21 +90,30 @@ fn level_extent(width: u32, height: u32, level: u32) -> (u32, u32) {
 struct Layout {
     irradiance: u64,
     brdf: u64,
+    sheen: u64,
     total: u64,
 }
 
-fn layout() -> Layout {
-    let specular: u64 = (0..ENV_SPECULAR_LEVELS)
+/// Texels of a `width` × `width / 2` texture with ENV_SPECULAR_LEVELS levels.
+fn levels_texels(width: u32) -> u64 {
+    (0..ENV_SPECULAR_LEVELS)
         .map(|l| {
-            let (w, h) = level_extent(ENV_SPECULAR_WIDTH, ENV_SPECULAR_WIDTH / 2, l);
+            let (w, h) = level_extent(width, width / 2, l);
             u64::from(w * h)
         })
-        .sum();
+        .sum()
+}
+
+fn layout() -> Layout {
+    let specular = levels_texels(ENV_SPECULAR_WIDTH);
     let irradiance = u64::from(ENV_IRRADIANCE_WIDTH * ENV_IRRADIANCE_WIDTH / 2);
+    let brdf = u64::from(ENV_BRDF_SIZE * ENV_BRDF_SIZE);
+    let sheen = specular + irradiance + brdf;
     Layout {
         irradiance: specular,
         brdf: specular + irradiance,
-        total: specular + irradiance + u64::from(ENV_BRDF_SIZE * ENV_BRDF_SIZE),
+        sheen,
+        total: sheen + levels_texels(ENV_SHEEN_WIDTH),
     }
 }
 
@@ -121,12 +136,14 @@ fn cache_key(map: &EnvironmentMap) -> u64 {
         map.width,
         map.height,
         SPECULAR_SAMPLES,
+        SHEEN_SAMPLES,
         BRDF_SAMPLES,
         IRRADIANCE_SOURCE_ROWS,
         ENV_SPECULAR_WIDTH,
         ENV_SPECULAR_LEVELS,
         ENV_IRRADIANCE_WIDTH,
         ENV_BRDF_SIZE,
+        ENV_SHEEN_WIDTH,
     ] {
         eat(&v.to_le_bytes());
     }
@@ -222,8 +239,10 @@ struct Passes {
     specular: std::sync::Arc<ComputePipeline>,
     irradiance: std::sync::Arc<ComputePipeline>,
     brdf: std::sync::Arc<ComputePipeline>,
+    sheen: std::sync::Arc<ComputePipeline>,
     specular_set: DescriptorSet,
     irradiance_set: DescriptorSet,
+    sheen_set: DescriptorSet,
 }
 
 impl Passes {
@@ -248,16 +267,25 @@ impl Passes {
             crate::shaders::ENV_BRDF_COMP,
             &bindings(&[]),
         )?;
+        let sheen = pipeline(
+            "environment sheen",
+            crate::shaders::ENV_SHEEN_COMP,
+            &source_binding,
+        )?;
         let specular_set = specular.allocate_set()?;
         specular_set.sampled_images(BINDING_ENV_SOURCE, &[source]);
         let irradiance_set = irradiance.allocate_set()?;
         irradiance_set.sampled_images(BINDING_ENV_SOURCE, &[source]);
+        let sheen_set = sheen.allocate_set()?;
+        sheen_set.sampled_images(BINDING_ENV_SOURCE, &[source]);
         Ok(Self {
             specular,
             irradiance,
             brdf,
+            sheen,
             specular_set,
             irradiance_set,
+            sheen_set,
         })
     }
 
@@ -307,6 +335,19 @@ impl Passes {
             push_bytes(&push),
             groups(ENV_BRDF_SIZE, ENV_BRDF_SIZE),
         );
+        push.samples = SHEEN_SAMPLES;
+        let mut first = l.sheen;
+        for level in 0..ENV_SPECULAR_LEVELS {
+            let (w, h) = level_extent(ENV_SHEEN_WIDTH, ENV_SHEEN_WIDTH / 2, level);
+            push.texels_out = at(first);
+            push.width = w;
+            push.height = h;
+            push.roughness = level as f32 / (ENV_SPECULAR_LEVELS - 1) as f32;
+            let bytes = push_bytes(&push);
+            self.sheen
+                .dispatch(cmd, Some(&self.sheen_set), bytes, groups(w, h));
+            first += u64::from(w * h);
+        }
     }
 }
 
@@ -462,6 +503,12 @@ impl GpuEnvironment {
         )?;
         let irradiance = image("environment irradiance", irr_w, irr_w / 2, 1)?;
         let brdf = image("environment BRDF table", ENV_BRDF_SIZE, ENV_BRDF_SIZE, 1)?;
+        let sheen = image(
+            "environment sheen",
+            ENV_SHEEN_WIDTH,
+            ENV_SHEEN_WIDTH / 2,
+            ENV_SPECULAR_LEVELS,
+        )?;
         let sampling = Image::new(
             ctx,
             "environment sampling tables",
@@ -524,6 +571,7 @@ impl GpuEnvironment {
                     barrier(irradiance.raw(), 0..1, NONE, TRANSFER_DST),
                     barrier(brdf.raw(), 0..1, NONE, TRANSFER_DST),
                     barrier(sampling.raw(), 0..1, NONE, TRANSFER_DST),
+                    barrier(sheen.raw(), 0..ENV_SPECULAR_LEVELS, NONE, TRANSFER_DST),
                 ],
             );
             let copies = level_copies(&radiance, levels, 0);
@@ -569,6 +617,7 @@ impl GpuEnvironment {
                 (&specular, ENV_SPECULAR_LEVELS, 0),
                 (&irradiance, 1, l.irradiance),
                 (&brdf, 1, l.brdf),
+                (&sheen, ENV_SPECULAR_LEVELS, l.sheen),
             ] {
                 let copies = level_copies(image, levels, first);
                 // SAFETY: `out` holds each texture's levels back to back from `first`,
@@ -597,6 +646,12 @@ impl GpuEnvironment {
                     barrier(irradiance.raw(), 0..1, TRANSFER_DST, SHADER_READ),
                     barrier(brdf.raw(), 0..1, TRANSFER_DST, SHADER_READ),
                     barrier(sampling.raw(), 0..1, TRANSFER_DST, SHADER_READ),
+                    barrier(
+                        sheen.raw(),
+                        0..ENV_SPECULAR_LEVELS,
+                        TRANSFER_DST,
+                        SHADER_READ,
+                    ),
                 ],
             );
             Ok(())
@@ -617,6 +672,7 @@ impl GpuEnvironment {
             irradiance,
             brdf,
             sampling,
+            sheen,
             map_sampler,
             table_sampler,
             width: map.width,
@@ -638,6 +694,7 @@ impl GpuEnvironment {
             (self.irradiance.view(), map),
             (self.brdf.view(), self.table_sampler.raw()),
             (self.sampling.view(), self.table_sampler.raw()),
+            (self.sheen.view(), map),
         ]
     }
 
@@ -654,6 +711,7 @@ impl GpuEnvironment {
             EnvTexture::Irradiance => &self.irradiance,
             EnvTexture::Brdf => &self.brdf,
             EnvTexture::Sampling => &self.sampling,
+            EnvTexture::Sheen => &self.sheen,
         };
         let texel_bytes = if which == EnvTexture::Sampling { 4 } else { 16 };
         let (w, h) = level_extent(image.extent.width, image.extent.height, level);

@@ -10,18 +10,25 @@ pub const ENV_TEX_RADIANCE: u32 = 0;
 pub const ENV_TEX_SPECULAR: u32 = 1;
 /// `+ ENV_TEX_IRRADIANCE`: cosine-weighted mean radiance (irradiance / π) per normal.
 pub const ENV_TEX_IRRADIANCE: u32 = 2;
-/// `+ ENV_TEX_BRDF`: the split-sum BRDF table, (scale, bias) of F0 by (n·v, roughness).
+/// `+ ENV_TEX_BRDF`: the split-sum BRDF table, (scale, bias) of F0 by (n·v, roughness) in
+/// `.rg`, and the sheen lobe's directional albedo by (n·v, sheen roughness) in `.b`.
 pub const ENV_TEX_BRDF: u32 = 3;
 /// `+ ENV_TEX_SAMPLING`: the importance-sampling CDFs (R32F, (width + 1) × (height + 1):
 /// each row's conditional CDF, then the rows' marginal CDF; `environment::sampling`).
 pub const ENV_TEX_SAMPLING: u32 = 4;
+/// `+ ENV_TEX_SHEEN`: Charlie-prefiltered radiance for the sheen lobe, mip `m` at sheen
+/// roughness `m / (ENV_SPECULAR_LEVELS - 1)` (`env_sheen.comp`).
+pub const ENV_TEX_SHEEN: u32 = 5;
 /// Textures an environment adds to the bindless array.
-pub const ENV_TEXTURES: u32 = 5;
+pub const ENV_TEXTURES: u32 = 6;
 
 /// Mip levels of the prefiltered specular map (roughness 0, 0.25, 0.5, 0.75, 1).
 pub const ENV_SPECULAR_LEVELS: u32 = 5;
 /// Width of the prefiltered specular map's mip 0 (its height is half).
 pub const ENV_SPECULAR_WIDTH: u32 = 256;
+/// Width of the Charlie-prefiltered sheen map's mip 0 (its height is half): half the specular
+/// map's, as the sheen lobe is broad at every roughness (a band at the horizon of n).
+pub const ENV_SHEEN_WIDTH: u32 = 128;
 /// Width of the irradiance map (its height is half).
 pub const ENV_IRRADIANCE_WIDTH: u32 = 32;
 /// Side of the BRDF table.
@@ -30,10 +37,10 @@ pub const ENV_BRDF_SIZE: u32 = 64;
 /// Binding of the preparation passes' input: the radiance map (a combined image sampler).
 pub const BINDING_ENV_SOURCE: u32 = 0;
 
-/// Push constant of `env_specular.comp`, `env_irradiance.comp`, `env_brdf.comp`, and of the
-/// sampling table's `env_sampling_rows.comp` and `env_sampling_marginal.comp` (which read
-/// `texels_out` as the table's address, one float per entry, and `width` × `height` as the
-/// map's size).
+/// Push constant of `env_specular.comp`, `env_sheen.comp`, `env_irradiance.comp`,
+/// `env_brdf.comp`, and of the sampling table's `env_sampling_rows.comp` and
+/// `env_sampling_marginal.comp` (which read `texels_out` as the table's address, one float per
+/// entry, and `width` × `height` as the map's size).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct EnvPreparePush {
@@ -43,9 +50,9 @@ pub struct EnvPreparePush {
     pub width: u32,
     /// Output height.
     pub height: u32,
-    /// GGX roughness of this level (specular pass).
+    /// GGX roughness of this level (specular pass), sheen roughness (sheen pass).
     pub roughness: f32,
-    /// Samples per output texel (specular and BRDF passes).
+    /// Samples per output texel (specular, sheen and BRDF passes).
     pub samples: u32,
     /// Width of the source map's mip 0.
     pub source_width: u32,

@@ -16,7 +16,7 @@ use rqr::vk::Context;
 
 const SIZE: u32 = 48;
 
-fn backends(ctx: &Context) -> Vec<Backend> {
+pub(super) fn backends(ctx: &Context) -> Vec<Backend> {
     let mut b = vec![Backend::Bvh];
     if ctx.features().ray_query {
         b.push(Backend::Hw);
@@ -26,7 +26,7 @@ fn backends(ctx: &Context) -> Vec<Backend> {
 
 /// A unit sphere of `material` at the origin, seen from +Z (the map's centre behind the
 /// camera, -Z, its seam, ahead), no lights.
-fn sphere_scene(material: Material, camera_from: Vec3) -> Scene {
+pub(super) fn sphere_scene(material: Material, camera_from: Vec3) -> Scene {
     assemble(
         vec![sphere(0, 96, 48)],
         vec![Instance {
@@ -41,7 +41,7 @@ fn sphere_scene(material: Material, camera_from: Vec3) -> Scene {
 }
 
 /// Renders `scene` under `map` with `settings` on `backend`, ray traced or hybrid.
-fn render(
+pub(super) fn render(
     ctx: &Context,
     scene: &Scene,
     map: &EnvironmentMap,
@@ -62,7 +62,7 @@ fn render(
     }
 }
 
-fn settings() -> RenderSettings {
+pub(super) fn settings() -> RenderSettings {
     RenderSettings {
         width: SIZE,
         height: SIZE,
@@ -72,12 +72,12 @@ fn settings() -> RenderSettings {
     }
 }
 
-fn hit(out: &RenderOutput, i: usize) -> bool {
+pub(super) fn hit(out: &RenderOutput, i: usize) -> bool {
     out.aov[i].hit()
 }
 
 /// Every combination of backend and path, with a label.
-fn each_path(ctx: &Context, mut f: impl FnMut(Backend, bool, &str)) {
+pub(super) fn each_path(ctx: &Context, mut f: impl FnMut(Backend, bool, &str)) {
     for backend in backends(ctx) {
         for hybrid in [false, true] {
             let label = format!(
@@ -474,6 +474,7 @@ fn prepared_textures_come_back_from_the_cache_and_a_corrupt_file_is_rebuilt() {
         let mut all = Vec::new();
         for level in 0..5 {
             all.extend(env.read(&ctx, EnvTexture::Specular, level).unwrap().2);
+            all.extend(env.read(&ctx, EnvTexture::Sheen, level).unwrap().2);
         }
         all.extend(env.read(&ctx, EnvTexture::Irradiance, 0).unwrap().2);
         all.extend(env.read(&ctx, EnvTexture::Brdf, 0).unwrap().2);

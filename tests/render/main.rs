@@ -12,6 +12,7 @@ mod distributed;
 mod distributed_spent_diffuse;
 mod environment;
 mod environment_sampling;
+mod environment_sheen;
 mod environment_sky;
 mod golden;
 mod paths;
