@@ -1,8 +1,9 @@
 // Image-based lighting, shared by every path, backend and the temporal passes: the map's
 // radiance for rays that miss, and the Whitted model's split-sum environment light
 // (prefiltered specular, irradiance, BRDF table with Fdez-Agüera's multiple-scattering
-// compensation, Charlie-prefiltered sheen), unshadowed as in the Khronos glTF Sample Viewer. Include after scene.glsl and
-// frame.glsl. The textures are prepared by src/environment/gpu.rs.
+// compensation, Charlie-prefiltered sheen), unshadowed as in the Khronos glTF Sample Viewer.
+// Include after scene.glsl and frame.glsl. The textures are prepared by
+// src/environment/gpu.rs.
 #ifndef RQR_ENVIRONMENT_GLSL
 #define RQR_ENVIRONMENT_GLSL
 #include "interface_environment.glsl"
