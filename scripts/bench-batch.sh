@@ -44,7 +44,7 @@ timed() { # name command...: wall seconds into $out/name.s
   t0=$(date +%s.%N)
   "$@" > "$out/$name.log" 2>&1 || true
   t1=$(date +%s.%N)
-  echo "$t1 - $t0" | bc > "$out/$name.s"
+  python3 -c 'import sys; print(float(sys.argv[1]) - float(sys.argv[2]))' "$t1" "$t0" > "$out/$name.s"
 }
 timed batch_cold "$rqr" batch "$out/manifest.jsonl" --out "$out/batch"
 cp "$out/batch/results-0-of-1.jsonl" "$out/results_cold.jsonl"

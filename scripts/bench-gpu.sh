@@ -25,6 +25,8 @@
 #   BVH build     GPU vs host build of the 1M and 100k bumpy spheres (build ms per phase, trace
 #                 Mrays/s); `rqr render` of the 1M mesh end to end.
 #   animation     per-frame animation update of CesiumMan (skin/morph + acceleration structures).
+#   batch         `rqr batch` views per minute, cold and warm caches, against one `rqr render`
+#                 process per view (scripts/bench-batch.sh on assets/gltf).
 #   textures      the autotune measurement of BC7 against RGBA8 sampling, in a cache of its
 #                 own (`rqr probe --json`: texture_block_ms, texture_rgba8_ms, texture_format).
 set -u
@@ -39,7 +41,7 @@ if [ -n "${DRY_RUN:-}" ]; then
   . scripts/env.sh
   RQR=${RQR:-target/release/rqr}; W=${W:-96}; H=${H:-64}; W4=${W4:-128}; H4=${H4:-72}
   MESHES=${MESHES:-../shared/meshes}; KAJIYA=${KAJIYA:-../shared/gltf/CornellBox_kajiya/scene.gltf}
-  FRAMES=${FRAMES:-4}; REPEAT=${REPEAT:-3}
+  FRAMES=${FRAMES:-4}; REPEAT=${REPEAT:-3}; BATCH_SIZE=${BATCH_SIZE:-32}; BATCH_MODELS=${BATCH_MODELS:-4}
 else
   . .gpu/nvidia-env.sh
   nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv,noheader || true
@@ -117,6 +119,10 @@ step render_1m_auto 60 "$RQR" render "$MESHES/bumpy_sphere_1m.glb" $CAM --width 
 
 # Animation: animated frames (per-pass animation cost is in the JSON lines).
 step anim_cesiumman 120 "$RQR" render assets/gltf/CesiumMan/CesiumMan.glb --width "$W" --height "$H" --frames "$FRAMES" --json -o /tmp/bench-gpu-images/cm.png
+
+# Batch: `rqr batch` cold and warm against a process per view (assets/gltf, 4 views, 512²).
+step batch 300 env RQR_BIN="$RQR" bash scripts/bench-batch.sh assets/gltf 4 "${BATCH_SIZE:-512}" "${BATCH_MODELS:-0}"
+grep -E '^\||x views per minute' "$R/batch.out" || true
 
 # Texture format: a first run in an empty cache measures (BC7 vs RGBA8 sampling among the rest).
 step texture_measure 180 env RQR_NO_AUTOTUNE=0 XDG_CACHE_HOME="$R/autotune-cache" "$RQR" render --width 64 --height 64 -o /tmp/gic/tex.png
