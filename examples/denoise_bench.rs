@@ -245,6 +245,11 @@ fn main() -> Result<()> {
         flip_raw += f64::from(
             metrics::compare(side, side, &r.rgba8, &moving_raw[k as usize].output.rgba8).flip_mean,
         );
+        if k + 10 >= ORBIT_FRAMES {
+            write(&args.out, "orbit-reference", &r)?;
+            write(&args.out, "orbit-denoised", &moving[k as usize].output)?;
+            write(&args.out, "orbit-raw", &moving_raw[k as usize].output)?;
+        }
         n += 1.0;
     }
     let motion_report = json!({

@@ -68,6 +68,37 @@ vec4 catmull_rom(float f) {
 
 const float BIG = 3.0e38;
 
+// The unfiltered light of pixel j this frame (a miss's whole colour).
+vec3 unfiltered_light(uint j) {
+    if (pixel_hit(j)) {
+        vec4 u = Guides(params.guide).v[j].unfiltered;
+        return u.rgb / (u.a > 0.0 ? u.a : 1.0);
+    }
+    vec4 c = Vec4s(params.color).v[j];
+    return (params.flags & DN_WEIGHTED_COLOR) != 0u ? (c.a > 0.0 ? c.rgb / c.a : vec3(0.0)) : c.rgb;
+}
+
+// The range of this frame's specular and unfiltered light over the pixel's 3x3 neighbourhood
+// (as temporal anti-aliasing clamps its history): under motion, reflections and lights seen
+// directly move otherwise than the surface the history follows, so their history is clamped
+// to what the neighbourhood shows now instead of being dropped. A surface's 1-spp specular
+// light is noisy, so the range is wide where nothing moved and the history mostly survives.
+void neighbourhood_range(ivec2 pix, out vec3 lo_s, out vec3 hi_s, out vec3 lo_u, out vec3 hi_u) {
+    lo_s = vec3(BIG); hi_s = vec3(0.0); lo_u = vec3(BIG); hi_u = vec3(0.0);
+    for (int y = -1; y <= 1; ++y) {
+        for (int x = -1; x <= 1; ++x) {
+            ivec2 q = pix + ivec2(x, y);
+            if (!inside(q)) continue;
+            uint j = pixel_index(q);
+            vec3 dj, sj;
+            reflected(j, dj, sj);
+            vec3 uj = unfiltered_light(j);
+            lo_s = min(lo_s, sj); hi_s = max(hi_s, sj);
+            lo_u = min(lo_u, uj); hi_u = max(hi_u, uj);
+        }
+    }
+}
+
 void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(pix)) return;
@@ -191,23 +222,26 @@ void main() {
     }
     DenoiseMoments out_m;
     out_m.pad = vec3(0.0);
-    float frames_s = 1.0;
     if (taps > 0.01) {
         hd /= taps;
         hs /= taps;
         hm /= taps;
         // A history resampled between texels blurs a little more every frame (even through
-        // Catmull-Rom), so a moving view keeps a shorter one. Reflections move with what they
-        // show, not with the surface that the motion follows: under motion the specular
-        // history shortens further with the sharpness of the lobe, to a single frame on a
-        // mirror.
+        // Catmull-Rom), so a moving view keeps a shorter one. Reflections and lights seen
+        // directly move otherwise than the surface that the motion follows: under motion
+        // their history is clamped to this frame's neighbourhood.
         float cap = moved ? min(float(params.history_cap), params.moving_history_cap) : float(params.history_cap);
         float frames = min(floor(hl / taps + 0.5) + 1.0, cap);
-        frames_s = moved ? min(frames, 1.0 + (cap - 1.0) * guide.specular_albedo.a) : frames;
+        if (moved) {
+            vec3 lo_s, hi_s, lo_u, hi_u;
+            neighbourhood_range(pix, lo_s, hi_s, lo_u, hi_u);
+            hs = clamp(hs, lo_s, hi_s);
+            hu.rgb = clamp(hu.rgb / taps, lo_u, hi_u) * taps;
+        }
         float alpha = 1.0 / frames;
         float alpha_m = max(alpha, params.moments_alpha);
         d = mix(hd, d, alpha);
-        s = mix(hs, s, 1.0 / frames_s);
+        s = mix(hs, s, alpha);
         acc.diffuse_albedo = mix(hda / taps, acc.diffuse_albedo, alpha);
         acc.specular_albedo = mix(hsa / taps, acc.specular_albedo, alpha);
         acc.unfiltered = mix(hu / taps, acc.unfiltered, alpha);
@@ -224,7 +258,7 @@ void main() {
     // The variance pass replaces it for young pixels.
     float frames_behind = max(out_m.frames, 1.0);
     float var_d = max(m.y - m.x * m.x, 0.0) / frames_behind;
-    float var_s = max(m.w - m.z * m.z, 0.0) / frames_s;
+    float var_s = max(m.w - m.z * m.z, 0.0) / frames_behind;
     pair_store(params.accumulated, i, vec4(d / acc.diffuse_albedo.rgb, var_d), vec4(s / acc.specular_albedo.rgb, var_s));
     // The accumulation itself, not its filtered image, is what the next frame blends with
     // (SVGF feeds the first à-trous iteration back; that blurs a static view a little more

@@ -2,8 +2,8 @@
 //! history it changes nothing it should not (demodulation multiplies back exactly), the
 //! spatial filter lowers the error and keeps a depth edge, a static view accumulates the plain
 //! mean of its frames and holds still, 30 accumulated frames beat 16 samples per pixel, the hybrid path and both backends agree, runs repeat bit for bit (in bursts or
-//! frame by frame), a camera cut drops the history and a disoccluded pixel starts again within
-//! one frame.
+//! frame by frame), a camera cut drops the history, a disoccluded pixel starts again within
+//! one frame, and a light seen directly leaves no trail when the view moves.
 
 use crate::support;
 
@@ -682,6 +682,73 @@ fn a_disoccluded_pixel_starts_again_within_one_frame() {
     assert!(
         continued * 10 >= kept * 8,
         "{continued} of {kept} visible pixels kept their history"
+    );
+    support::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn a_light_seen_directly_leaves_no_trail_when_the_view_moves() {
+    let ctx = support::gpu();
+    let scene = soft_cornell();
+    let a = scene.cameras[0];
+    let renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let side = 96;
+    let s = sized(DenoiseMode::Temporal, 1, side);
+    let mut t = targets(&ctx, &renderer, &scene, RenderPath::RayTraced, &s);
+    for _ in 0..6 {
+        t.render(&ctx, &a).unwrap();
+    }
+    // A sideways step (not a cut): the ceiling light, 2 units in front of the wall behind it,
+    // moves some 5 pixels further across the image than that wall, whose motion the history
+    // follows.
+    let mut b = a;
+    b.camera_to_world = a.camera_to_world * Mat4::from_translation(Vec3::new(1.5, 0.0, 0.0));
+    let moved = t.render(&ctx, &b).unwrap();
+    let converged = renderer
+        .render_rt(
+            &ctx,
+            &RenderSettings {
+                seed: 99,
+                ..sized(DenoiseMode::None, 64, side)
+            },
+            &b,
+            false,
+        )
+        .unwrap();
+    let luminance = |c: [f32; 4]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    let n = side as i32;
+    // Within 2 pixels of a light (a pixel its edge covers in part is lit by some frames'
+    // samples and not by others).
+    let lit_near = |x: i32, y: i32| {
+        (-2..=2).any(|dy| {
+            (-2..=2).any(|dx| {
+                let (qx, qy) = (x + dx, y + dy);
+                (0..n).contains(&qx)
+                    && (0..n).contains(&qy)
+                    && luminance(converged.color[(qy * n + qx) as usize]) > 2.0
+            })
+        })
+    };
+    let light_pixels = converged
+        .color
+        .iter()
+        .filter(|&&c| luminance(c) > 2.0)
+        .count();
+    assert!(
+        light_pixels >= 4,
+        "the light covers only {light_pixels} pixels"
+    );
+    // A pixel brighter than any surface in the room with no light near it now: the light's
+    // history, reprojected with the wall behind it.
+    let trail: Vec<i32> = (0..n * n)
+        .filter(|&i| luminance(moved.color[i as usize]) > 2.0 && !lit_near(i % n, i / n))
+        .collect();
+    assert!(
+        trail.is_empty(),
+        "{} pixels keep the light's history (first {:?}); see {}",
+        trail.len(),
+        &trail[..trail.len().min(8)],
+        save_failure("light-trail", &moved, &converged)
     );
     support::assert_validation_clean(&ctx);
 }
