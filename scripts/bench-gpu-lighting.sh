@@ -27,13 +27,9 @@
 #   denoise       the denoiser's passes (`denoise *`) against the ray-tracing pass, still and
 #                 orbiting camera (target: <= 2 ms).
 set -u
-OUT=${OUT:-/tmp/gpu-out}
-mkdir -p "$OUT"
-R=/tmp/bench-gpu-lighting-r
-rm -rf "$R"
+NAME=bench-gpu-lighting
+. scripts/bench-gpu-steps.sh
 mkdir -p "$R/images"
-exec > >(tee -a "$OUT/bench-gpu-lighting-log.txt") 2>&1
-T0=$(date +%s)
 if [ -n "${DRY_RUN:-}" ]; then
   . scripts/env.sh
   RQR=${RQR:-target/debug/rqr}; W=${W:-96}; H=${H:-64}
@@ -49,19 +45,6 @@ ENV_DIR=assets/environments
 # The preparation's caches stay out of the results archive (a prepared map is megabytes).
 CACHES=/tmp/bench-gpu-lighting-caches
 rm -rf "$CACHES"
-pack() { tar czf "$OUT/bench-gpu-lighting-results.tgz" -C "$R" . 2>/dev/null; }
-step() {
-  local name=$1 to=$2
-  shift 2
-  local s
-  s=$(date +%s.%N)
-  timeout "$to" "$@" > "$R/$name.out" 2> "$R/$name.err"
-  local rc=$?
-  printf '=== %-20s rc=%-3s %7.2fs wall [t+%ss] %s\n' "$name" "$rc" \
-    "$(awk -v a="$(date +%s.%N)" -v b="$s" 'BEGIN{print a-b}')" "$(( $(date +%s) - T0 ))" "$*"
-  [ "$rc" != 0 ] && tail -c 800 "$R/$name.err"
-  pack
-}
 # The JSON document a command printed (render prints one object; sequences end with a line).
 json_of() { python3 -c '
 import json, sys

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# GPU benchmarks in one run of about 6-8 minutes on an NVIDIA H200 (after the machine starts):
+# GPU benchmarks in one run of about 8-10 minutes on an NVIDIA H200 (after the machine starts):
 # reuse between frames against full frames, `rqr compare` frame-time stability and wall time
 # (1080p and 4K), the hybrid visibility pass with the compute rasterizer against the graphics
 # pipeline, GPU against host BVH builds, a 1M-triangle render end to end, and the per-frame
@@ -30,13 +30,8 @@
 #   textures      the autotune measurement of BC7 against RGBA8 sampling, in a cache of its
 #                 own (`rqr probe --json`: texture_block_ms, texture_rgba8_ms, texture_format).
 set -u
-OUT=${OUT:-/tmp/gpu-out}
-mkdir -p "$OUT"
-R=/tmp/bench-gpu-r
-rm -rf "$R"
-mkdir -p "$R"
-exec > >(tee -a "$OUT/bench-gpu-log.txt") 2>&1
-T0=$(date +%s)
+NAME=bench-gpu
+. scripts/bench-gpu-steps.sh
 if [ -n "${DRY_RUN:-}" ]; then
   . scripts/env.sh
   RQR=${RQR:-target/release/rqr}; W=${W:-96}; H=${H:-64}; W4=${W4:-128}; H4=${H4:-72}
@@ -51,19 +46,6 @@ else
 fi
 CAM="--look-from 0,0,2.5 --look-at 0,0,0 --fov 45"
 export RQR_NO_AUTOTUNE=${RQR_NO_AUTOTUNE:-}
-pack() { tar czf "$OUT/bench-gpu-results.tgz" -C "$R" . 2>/dev/null; }
-step() {
-  local name=$1 to=$2
-  shift 2
-  local s
-  s=$(date +%s.%N)
-  timeout "$to" "$@" > "$R/$name.out" 2> "$R/$name.err"
-  local rc=$?
-  printf '=== %-18s rc=%-3s %7.2fs wall [t+%ss] %s\n' "$name" "$rc" \
-    "$(awk -v a="$(date +%s.%N)" -v b="$s" 'BEGIN{print a-b}')" "$(( $(date +%s) - T0 ))" "$*"
-  [ "$rc" != 0 ] && tail -c 800 "$R/$name.err"
-  pack
-}
 # Summary line of a sequence run: rays, FLIP and GPU time against the full renders.
 summary() {
   tail -n 1 "$R/$1.out" | python3 -c '
@@ -120,12 +102,12 @@ step render_1m_auto 60 "$RQR" render "$MESHES/bumpy_sphere_1m.glb" $CAM --width 
 # Animation: animated frames (per-pass animation cost is in the JSON lines).
 step anim_cesiumman 120 "$RQR" render assets/gltf/CesiumMan/CesiumMan.glb --width "$W" --height "$H" --frames "$FRAMES" --json -o /tmp/bench-gpu-images/cm.png
 
-# Batch: `rqr batch` cold and warm against a process per view (assets/gltf, 4 views, 512²).
-step batch 300 env RQR_BIN="$RQR" bash scripts/bench-batch.sh assets/gltf 4 "${BATCH_SIZE:-512}" "${BATCH_MODELS:-0}"
+# Batch: `rqr batch` cold and warm against a process per view (assets/gltf, 2 views, 512²).
+step batch 300 env RQR_BIN="$RQR" bash scripts/bench-batch.sh assets/gltf "${BATCH_VIEWS:-2}" "${BATCH_SIZE:-512}" "${BATCH_MODELS:-0}"
 grep -E '^\||x views per minute' "$R/batch.out" || true
 
 # Texture format: a first run in an empty cache measures (BC7 vs RGBA8 sampling among the rest).
-step texture_measure 180 env RQR_NO_AUTOTUNE=0 XDG_CACHE_HOME="$R/autotune-cache" "$RQR" render --width 64 --height 64 -o /tmp/gic/tex.png
+step texture_measure 180 env RQR_NO_AUTOTUNE=0 XDG_CACHE_HOME="$R/autotune-cache" "$RQR" render --width 64 --height 64 -o /tmp/bench-gpu-images/tex.png
 step texture_probe 30 env RQR_NO_AUTOTUNE=0 XDG_CACHE_HOME="$R/autotune-cache" "$RQR" probe --json
 grep -E '"texture_(format|block_ms|rgba8_ms)' "$R/texture_probe.out" || true
 
