@@ -68,7 +68,8 @@ vec4 catmull_rom(float f) {
 
 const float BIG = 3.0e38;
 
-// The unfiltered light of pixel j this frame (a miss's whole colour).
+// The unfiltered light of pixel j this frame: a miss's whole colour (with several samples,
+// some may have hit).
 vec3 unfiltered_light(uint j) {
     if (pixel_hit(j)) {
         vec4 u = Guides(params.guide).v[j].unfiltered;
@@ -114,16 +115,10 @@ void main() {
     Vec4s(params.edges).v[i] = hit ? vec4(here.position, uintBitsToFloat(encode_normal(a.normal_depth.xyz)))
                                    : vec4(0.0, 0.0, 0.0, uintBitsToFloat(EDGE_MISS));
     DenoiseGuide guide = Guides(params.guide).v[i];
-    float gw = guide.unfiltered.a > 0.0 ? guide.unfiltered.a : 1.0;
     DenoiseHistory acc;
     acc.diffuse_albedo = vec4(max(guide.diffuse_albedo.rgb, vec3(MIN_ALBEDO)), 0.0);
     acc.specular_albedo = vec4(max(guide.specular_albedo.rgb, vec3(MIN_ALBEDO)), guide.specular_albedo.a);
-    acc.unfiltered = vec4(guide.unfiltered.rgb / gw, 0.0);
-    if (!hit) {
-        // All of a miss's colour is unfiltered (with several samples, some may have hit).
-        vec4 c = Vec4s(params.color).v[i];
-        acc.unfiltered = vec4((params.flags & DN_WEIGHTED_COLOR) != 0u ? (c.a > 0.0 ? c.rgb / c.a : vec3(0.0)) : c.rgb, 0.0);
-    }
+    acc.unfiltered = vec4(unfiltered_light(i), 0.0);
 
     // What is accumulated is reflected light, and what is filtered is its quotient by the
     // accumulated albedo: the mean of products, not the product of means, so that with no

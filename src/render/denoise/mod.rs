@@ -16,9 +16,8 @@
 //!    history moves between texels, when the specular and unfiltered history is also
 //!    clamped to the range of this frame's 3×3 neighbourhood); a disoccluded pixel starts
 //!    again, and so does every pixel after a camera cut ([`is_camera_cut`]). The accumulated
-//!    light is then divided by
-//!    the accumulated albedos (demodulated): the mean of products, so that with no spatial
-//!    filter the output is exactly the mean of the frames.
+//!    light is then divided by the accumulated albedos (demodulated): the mean of products,
+//!    so that with no spatial filter the output is exactly the mean of the frames.
 //! 3. **Variance** (`denoise_variance.comp`): from the accumulated luminance moments, or a 7×7
 //!    spatial estimate for pixels with under 4 frames of history.
 //! 4. **À-trous** (`denoise_atrous.comp`): [`ATROUS_ITERATIONS`] iterations, taps 1, 2, 4, 8
