@@ -65,6 +65,10 @@ struct Args {
     /// Folder for the PFM images.
     #[arg(long)]
     out: PathBuf,
+    /// Folder that keeps the references between runs (keyed by scene, options, camera, size
+    /// and samples), so that a run that changes only the denoiser renders none again.
+    #[arg(long)]
+    reference_cache: Option<PathBuf>,
 }
 
 const STATIC_FRAMES: u32 = 30;
@@ -124,6 +128,14 @@ fn main() -> Result<()> {
         renderer.set_environment(&ctx, Some(GpuEnvironment::prepare(&ctx, map)?))?;
     }
     let side = args.size;
+    let scene_key = format!(
+        "{:?}|{:?}|{:?}|{}",
+        args.scene, args.environment, args.light_radius, args.add_rough_sphere
+    );
+    let cache = args
+        .reference_cache
+        .as_deref()
+        .map(|dir| (dir, scene_key.as_str()));
 
     // Static camera: the reference, raw 16 spp, and the denoised and raw sequences.
     let reference = render_reference(
@@ -132,6 +144,7 @@ fn main() -> Result<()> {
         &settings(DenoiseMode::None, 1, side),
         &camera,
         args.reference_spp,
+        cache,
     )?;
     let sixteen =
         renderer.render_rt(&ctx, &settings(DenoiseMode::None, 16, side), &camera, false)?;
@@ -238,6 +251,7 @@ fn main() -> Result<()> {
             &settings(DenoiseMode::None, 1, side),
             &cam,
             args.reference_spp / 4,
+            cache,
         )?;
         flip_denoised += f64::from(
             metrics::compare(side, side, &r.rgba8, &moving[k as usize].output.rgba8).flip_mean,
@@ -466,7 +480,75 @@ fn render_reference(
     settings: &RenderSettings,
     camera: &Camera,
     spp: u32,
+    cache: Option<(&Path, &str)>,
 ) -> Result<RenderOutput> {
+    let cached = cache.map(|(dir, scene_key)| {
+        // FNV-1a of everything the image depends on: stable across runs and builds.
+        let key = format!(
+            "{scene_key}|{:?}|{}x{}|{spp}|{:?}",
+            camera.camera_to_world.to_cols_array(),
+            settings.width,
+            settings.height,
+            (
+                camera.projection,
+                settings.max_depth,
+                settings.shading,
+                settings.tonemap,
+                settings.exposure
+            )
+        );
+        let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+        });
+        dir.join(format!("{hash:016x}.f32"))
+    });
+    let color = match cached.as_deref().and_then(|f| std::fs::read(f).ok()) {
+        Some(bytes) if bytes.len() == settings.pixels() as usize * 16 => bytes
+            .chunks_exact(16)
+            .map(|c| {
+                std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))
+            })
+            .collect(),
+        _ => {
+            let color = accumulate_reference(ctx, renderer, settings, camera, spp)?;
+            if let Some(f) = &cached {
+                std::fs::create_dir_all(f.parent().unwrap())?;
+                let bytes: Vec<u8> = color
+                    .iter()
+                    .flatten()
+                    .flat_map(|v| v.to_le_bytes())
+                    .collect();
+                std::fs::write(f, bytes)?;
+            }
+            color
+        }
+    };
+    let rgba8 = color
+        .iter()
+        .flat_map(|c| {
+            tonemap::tonemap_rgba8([c[0], c[1], c[2]], settings.tonemap, settings.exposure)
+        })
+        .collect();
+    Ok(RenderOutput {
+        width: settings.width,
+        height: settings.height,
+        color,
+        rgba8,
+        aov: Vec::new(),
+        rays: Default::default(),
+        samples: 0,
+        gpu_ms: Vec::new(),
+    })
+}
+
+/// The linear colour of [`render_reference`], rendered.
+fn accumulate_reference(
+    ctx: &Context,
+    renderer: &Renderer,
+    settings: &RenderSettings,
+    camera: &Camera,
+    spp: u32,
+) -> Result<Vec<[f32; 4]>> {
     let pixels = settings.pixels() as usize;
     let mut sum = vec![[0.0f64; 3]; pixels];
     let mut done = 0;
@@ -498,22 +580,7 @@ fn render_reference(
             ]
         })
         .collect();
-    let rgba8 = color
-        .iter()
-        .flat_map(|c| {
-            tonemap::tonemap_rgba8([c[0], c[1], c[2]], settings.tonemap, settings.exposure)
-        })
-        .collect();
-    Ok(RenderOutput {
-        width: settings.width,
-        height: settings.height,
-        color,
-        rgba8,
-        aov: Vec::new(),
-        rays: Default::default(),
-        samples: 0,
-        gpu_ms: Vec::new(),
-    })
+    Ok(color)
 }
 
 fn write(dir: &Path, name: &str, out: &RenderOutput) -> Result<()> {
@@ -613,6 +680,8 @@ fn ghosting(
                 &settings(DenoiseMode::None, 1, side),
                 &camera,
                 args.reference_spp / 4,
+                // Each frame's pose differs: no cache (the key names the camera only).
+                None,
             )?;
             let d = metrics::compare(side, side, &r.rgba8, &frame.output.rgba8);
             let now = &covered[k as usize];

@@ -90,7 +90,7 @@ pub const SPATIAL_REACH: f32 = 16.0;
 /// Longest history a pixel keeps while its history is resampled between texels (a moving
 /// view or object): each resampling blurs it a little, and the blur compounds over the
 /// history's length.
-pub const MOVING_HISTORY_CAP: u32 = 8;
+pub const MOVING_HISTORY_CAP: u32 = 4;
 /// Smallest blend weight of the luminance moments (Falcor's SVGF pass).
 pub const MOMENTS_ALPHA: f32 = 0.2;
 /// Luminance edge-stopping scale (Falcor's φ_colour).
