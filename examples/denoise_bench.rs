@@ -66,7 +66,8 @@ struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Folder that keeps the references between runs (keyed by scene, options, camera, size
-    /// and samples), so that a run that changes only the denoiser renders none again.
+    /// and samples), so that a run that changes only the denoiser renders none again. The key
+    /// does not cover the shading code: empty the folder when that changes.
     #[arg(long)]
     reference_cache: Option<PathBuf>,
 }

@@ -6,8 +6,10 @@
 #   SIZE=192 REF_SPP=1024 COST_SIZE=512 OIDN_PYTHON=/tmp/oidn-venv/bin/python \
 #     scripts/bench-denoise.sh ../shared
 # (OIDN: python3 -m venv /tmp/oidn-venv && /tmp/oidn-venv/bin/pip install pyoidn numpy.)
-# REF_CACHE=DIR keeps the references between runs (a run that changes only the denoiser then
-# renders none: at 512², 9 minutes a scene become 1–2).
+# REF_CACHE=DIR keeps the three scenes' references between runs (a run that changes only the
+# denoiser then renders none: at 512², 9 minutes a scene become 1–2). Empty it when the
+# shading changes: the key names the scene and settings, not the code. Ghosting's per-pose
+# references are not kept.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=${1:?usage: scripts/bench-denoise.sh SHARED_DIR (with gltf/ and env/)}
@@ -35,6 +37,6 @@ run helmet "$shared/gltf/DamagedHelmet/DamagedHelmet.glb" --environment "$shared
 run cornell "$shared/gltf/CornellBox_kajiya/scene.gltf" --add-rough-sphere
 echo "== ghosting" >&2
 "$bench" --size "$SIZE" --reference-spp "$((REF_SPP / 4))" --ghosting \
-  --environment "$shared/env/sunrise.hdr" ${REF_CACHE:+--reference-cache "$REF_CACHE"} --out "$OUT/ghosting" \
+  --environment "$shared/env/sunrise.hdr" --out "$OUT/ghosting" \
   "$shared/gltf/CesiumMan/CesiumMan.glb" > "$OUT/ghosting.json"
 echo "results in $OUT" >&2
