@@ -6,8 +6,11 @@
 #   2. `sbatch --array=0-3 --wait` of `rqr batch --shard auto`: the union of the four shards'
 #      outputs must be byte-identical to the reference;
 #   3. submits the array again into a fresh directory, cancels it once shard 0 has finished
-#      a job, resubmits it: finished jobs must be skipped, and the outputs must again be
-#      byte-identical to the reference.
+#      its first job, resubmits it: finished jobs must be skipped, and the outputs must again
+#      be byte-identical to the reference. The kill cannot race the renders: during that
+#      run, shard 0's second scene is a named pipe nobody writes, so the shard's loader waits
+#      on it until the kill (without the pipe, a fast machine can finish all 6 jobs before
+#      scancel lands).
 # Stops the daemons it started on exit. Prints PASS or FAIL lines; exits 1 on any failure.
 # Usage: scripts/test-slurm.sh   (RQR_BIN=path to use a built binary; default target/debug/rqr)
 set -euo pipefail
@@ -88,11 +91,16 @@ done
   k=0
   for r in 0 1 2 3 4 5; do
     for m in Box BoxTextured AnimatedMorphCube AttenuationTest; do
-      echo "{\"id\": \"$m-$r\", \"scene\": \"$m.glb\", \"cameras\": {\"orbit\": {\"n\": 4, \"elevation_deg\": [0, 30], \"seed\": $k}}}"
+      scene=$m.glb
+      # Line 8 is shard 0's second job (line 0 holds the defaults): a file of its own, which
+      # the kill below swaps for a pipe.
+      [ "$k" -eq 7 ] && scene=held.glb
+      echo "{\"id\": \"$m-$r\", \"scene\": \"$scene\", \"cameras\": {\"orbit\": {\"n\": 4, \"elevation_deg\": [0, 30], \"seed\": $k}}}"
       k=$((k + 1))
     done
   done
 } > "$work/data/manifest.jsonl"
+cp "$work/data/AttenuationTest.glb" "$work/data/held.glb"
 manifest=$work/data/manifest.jsonl
 
 
@@ -114,21 +122,31 @@ check "sbatch --array=0-3 wrote results-{0..3}-of-4.jsonl" \
   test "$(ls "$work/sharded"/results-*-of-4.jsonl 2> /dev/null | wc -l)" -eq 4
 check "union of 4 shards is byte-identical to one process ($array_s s)" same_outputs "$work/sharded"
 
-# Kill midway and resubmit.
-job=$(sbatch --parsable --array=0-3 -o "$work/killed-%a.out" \
+# Kill midway and resubmit. While the killed array runs, shard 0's second scene is a pipe
+# with no writer: the shard renders its first job, then its loader blocks until the kill.
+# --time bounds the array should scancel fail.
+mv "$work/data/held.glb" "$work/held.glb"
+mkfifo "$work/data/held.glb"
+job=$(sbatch --parsable --array=0-3 --time=3 -o "$work/killed-%a.out" \
   --wrap "$rqr batch $manifest --out $work/resumed --shard auto")
 for _ in $(seq 600); do
   [ -s "$work/resumed/results-0-of-4.jsonl" ] && break
   sleep 0.1
 done
+sleep 1 # shard 0 now waits on the pipe; give shards 1-3 a moment more of work to lose
 scancel "$job"
-sleep 2
+for _ in $(seq 60); do
+  [ -z "$(squeue -h -j "$job" 2> /dev/null)" ] && break
+  sleep 0.5
+done
+rm "$work/data/held.glb"
+mv "$work/held.glb" "$work/data/held.glb"
 before=$(grep -c '"status":"ok"' "$work/resumed/results-0-of-4.jsonl" 2> /dev/null || true)
 sbatch --array=0-3 --wait -o "$work/resubmitted-%a.out" \
   --wrap "$rqr batch $manifest --out $work/resumed --shard auto" > /dev/null || true
 skipped=$(cat "$work/resumed"/results-*-of-4.jsonl | grep -c '"status":"skipped"' || true)
 echo "killed after shard 0 finished ${before:-0} of its 6 jobs; the resubmission skipped $skipped jobs"
-check "the kill landed midway through shard 0" test "${before:-0}" -lt 6
+check "the kill landed after shard 0's first job" test "${before:-0}" -eq 1
 check "the resubmission skipped the finished jobs" test "$skipped" -ge 1
 check "killed + resubmitted outputs are byte-identical to one process" same_outputs "$work/resumed"
 echo "slurm test: $(($(date +%s) - started)) s, work directory $work"
