@@ -14,7 +14,8 @@
 //!    (Catmull-Rom where the whole 4×4 neighbourhood matches), and blended with weight
 //!    1 / history length, never below 1 / `--history-cap` ([`MOVING_HISTORY_CAP`] while the
 //!    history moves between texels, when the specular and unfiltered history is also
-//!    clamped to the range of this frame's 3×3 neighbourhood); a disoccluded pixel starts
+//!    clamped to the range of this frame's 3×3 neighbourhood, and the diffuse history too
+//!    while anything in the scene moves: a moving shadow); a disoccluded pixel starts
 //!    again, and so does every pixel after a camera cut ([`is_camera_cut`]). The accumulated
 //!    light is then divided by the accumulated albedos (demodulated): the mean of products,
 //!    so that with no spatial filter the output is exactly the mean of the frames.
