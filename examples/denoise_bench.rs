@@ -32,7 +32,7 @@ use rqr::render::readback::RingContents;
 use rqr::render::{
     FrameTargets, RenderOutput, RenderPath, RenderSettings, Renderer, SamplerKind, Shading,
 };
-use rqr::scene::{Camera, Instance, Material, Scene};
+use rqr::scene::{Camera, Material, Scene};
 use rqr::vk::{Context, ContextOptions};
 use serde_json::json;
 
@@ -317,33 +317,6 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// Adds `geometry` made of `material` to `scene` at `transform`, under a node of its own that
-/// no scene root reaches (posing an animated scene leaves it where it is).
-fn add_object(
-    scene: &mut Scene,
-    material: Material,
-    geometry: impl FnOnce(u32) -> rqr::scene::Geometry,
-    transform: Mat4,
-) {
-    let material_index = scene.materials.len() as u32;
-    scene.materials.push(material);
-    let geometry_index = scene.geometries.len() as u32;
-    scene.geometries.push(geometry(material_index));
-    let node = scene.rig.nodes.len();
-    scene.rig.nodes.push(rqr::scene::pose::RigNode {
-        parent: None,
-        rest: rqr::scene::pose::LocalTransform::Matrix(Mat4::IDENTITY),
-        skin: None,
-        weights: Vec::new(),
-    });
-    scene.rig.instance_local.push(transform);
-    scene.instances.push(Instance {
-        geometry: geometry_index,
-        transform,
-        node,
-    });
-}
-
 /// A rough metal sphere (roughness 0.35) on the floor of the scene's bounds, a fifth of their
 /// width across.
 fn add_rough_sphere(scene: &mut Scene) {
@@ -363,8 +336,7 @@ fn add_rough_sphere(scene: &mut Scene) {
         ..Default::default()
     };
     let transform = Mat4::from_translation(centre) * Mat4::from_scale(Vec3::splat(radius));
-    add_object(
-        scene,
+    scene.add_still_object(
         metal,
         |m| rqr::scene::procedural::sphere(m, 64, 32),
         transform,
@@ -385,7 +357,7 @@ fn add_floor(scene: &mut Scene) {
     };
     let transform = Mat4::from_translation(Vec3::new(centre.x, b.min.y, centre.z))
         * Mat4::from_scale(Vec3::new(size, 1.0, size));
-    add_object(scene, floor, rqr::scene::procedural::quad, transform);
+    scene.add_still_object(floor, rqr::scene::procedural::quad, transform);
 }
 
 /// GPU ms per frame over the second burst of 8 frames of `path` (after a warm-up and a first

@@ -95,6 +95,34 @@ fn blend(mats: &[Mat4], joints: &[u32; 8], weights: &[f32; 8]) -> Mat4 {
 }
 
 impl Scene {
+    /// Adds `geometry` (built for the index of `material`) made of `material` at `transform`,
+    /// under a rig node of its own that no scene root reaches, so that posing an animated
+    /// scene leaves it where it is (a floor or a prop added to a loaded file).
+    pub fn add_still_object(
+        &mut self,
+        material: super::types::Material,
+        geometry: impl FnOnce(u32) -> Geometry,
+        transform: Mat4,
+    ) {
+        let material_index = self.materials.len() as u32;
+        self.materials.push(material);
+        let geometry_index = self.geometries.len() as u32;
+        self.geometries.push(geometry(material_index));
+        let node = self.rig.nodes.len();
+        self.rig.nodes.push(super::pose::RigNode {
+            parent: None,
+            rest: super::pose::LocalTransform::Matrix(Mat4::IDENTITY),
+            skin: None,
+            weights: Vec::new(),
+        });
+        self.rig.instance_local.push(transform);
+        self.instances.push(super::types::Instance {
+            geometry: geometry_index,
+            transform,
+            node,
+        });
+    }
+
     /// Indices of the animations `selection` plays, or an error naming the file.
     pub fn select_animations(
         &self,

@@ -853,30 +853,16 @@ fn a_moving_shadow_leaves_no_trail() {
     let centre = 0.5 * (b.min + b.max);
     let size = (b.max - b.min).max_element();
     // A floor of its own node (posing leaves it where it is), ten times the figure's size.
-    let material = rest.materials.len() as u32;
-    rest.materials.push(Material {
+    let floor_material = Material {
         name: "floor".into(),
         base_color: Vec4::new(0.6, 0.6, 0.6, 1.0),
         metallic: 0.0,
         roughness: 1.0,
         ..Default::default()
-    });
-    rest.geometries.push(quad(material));
+    };
     let transform = Mat4::from_translation(Vec3::new(centre.x, b.min.y, centre.z))
         * Mat4::from_scale(Vec3::new(10.0 * size, 1.0, 10.0 * size));
-    let node = rest.rig.nodes.len();
-    rest.rig.nodes.push(rqr::scene::pose::RigNode {
-        parent: None,
-        rest: rqr::scene::pose::LocalTransform::Matrix(Mat4::IDENTITY),
-        skin: None,
-        weights: Vec::new(),
-    });
-    rest.rig.instance_local.push(transform);
-    rest.instances.push(Instance {
-        geometry: rest.geometries.len() as u32 - 1,
-        transform,
-        node,
-    });
+    rest.add_still_object(floor_material, quad, transform);
     rest.lights = vec![Light {
         kind: LightKind::Directional,
         color: Vec3::ONE,
