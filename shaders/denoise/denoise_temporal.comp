@@ -230,7 +230,7 @@ void main() {
         // moves, so is the diffuse history (a moving shadow would otherwise leave a trail
         // that fades over the history's length); the specular and unfiltered history of a
         // still view are not (a pixel partly covered by the background would lose the light
-        // of its samples that missed: 1 in 20 of a floor's far edge darkened).
+        // of its samples that missed: the far edge of a floor went dark).
         float cap = moved ? min(float(params.history_cap), params.moving_history_cap) : float(params.history_cap);
         float frames = min(floor(hl / taps + 0.5) + 1.0, cap);
         bool animated = scene.prev_positions != scene.positions || scene.prev_instances != scene.instances;

@@ -97,7 +97,8 @@ fn blend(mats: &[Mat4], joints: &[u32; 8], weights: &[f32; 8]) -> Mat4 {
 impl Scene {
     /// Adds `geometry` (built for the index of `material`) made of `material` at `transform`,
     /// under a rig node of its own that no scene root reaches, so that posing an animated
-    /// scene leaves it where it is (a floor or a prop added to a loaded file).
+    /// scene leaves it where it is (a floor or a prop added to a loaded file). `bounds` stays
+    /// the file's, which callers place the object by.
     pub fn add_still_object(
         &mut self,
         material: super::types::Material,
