@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# The environment lookup's cost as instructions per frame, which repeat exactly where this
+# machine's timestamps wander by ±6 %: single-threaded lavapipe (LP_NUM_THREADS=0) under
+# cachegrind, per frame = (instructions of FRAMES_HI frames − of FRAMES_LO) / (HI − LO), so
+# start-up, loading and pipeline compiles cancel. Prints the Whitted frame without and with
+# the map for each path, and the lookup's share.
+#
+#   scripts/bench-lookup-instructions.sh [MAP.hdr]      # default assets/environments/studio.hdr
+#   SIZE=512 PATHS="rt hybrid" RQR=path/to/rqr scripts/bench-lookup-instructions.sh
+#
+# Uses rqr's release build (built if missing; RQR=BINARY measures another, e.g. an older
+# commit's for a before/after). Needs valgrind (Debian: valgrind).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+. scripts/ensure-setup.sh
+MAP="${1:-assets/environments/studio.hdr}"
+SIZE="${SIZE:-128}"
+PATHS="${PATHS:-rt hybrid}"
+FRAMES_LO="${FRAMES_LO:-1}"
+FRAMES_HI="${FRAMES_HI:-3}"
+command -v valgrind >/dev/null || { echo "needs valgrind (apt-get install valgrind)" >&2; exit 1; }
+if [ -z "${RQR:-}" ]; then
+  cargo build --release --bin rqr -q
+  RQR=target/release/rqr
+fi
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+
+# Instructions executed by one `rqr render` run (lavapipe runs the shaders on the calling
+# thread when LP_NUM_THREADS=0).
+instructions() {
+  LP_NUM_THREADS=0 valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file="$work/cg.out" \
+    "$RQR" render --backend bvh --width "$SIZE" --height "$SIZE" -o "$work/img.png" "$@" >/dev/null 2>&1
+  awk '/^summary:/ { print $2 }' "$work/cg.out"
+}
+
+per_frame() {
+  local lo hi frames
+  # Each run once first, under valgrind too: Mesa's shader cache is keyed by the CPU's
+  # features, which valgrind reports otherwise, and a cold compile costs billions of
+  # instructions that would not cancel. rqr's environment cache fills at the same time.
+  for frames in "$FRAMES_LO" "$FRAMES_HI"; do
+    LP_NUM_THREADS=0 valgrind --tool=none "$RQR" render --backend bvh --width "$SIZE" --height "$SIZE" \
+      -o "$work/img.png" --frames "$frames" "$@" >/dev/null 2>&1
+  done
+  lo=$(instructions --frames "$FRAMES_LO" "$@")
+  hi=$(instructions --frames "$FRAMES_HI" "$@")
+  echo $(((hi - lo) / (FRAMES_HI - FRAMES_LO)))
+}
+
+for path in $PATHS; do
+  plain=$(per_frame --mode "$path")
+  lit=$(per_frame --mode "$path" --environment "$MAP")
+  awk -v p="$path" -v a="$plain" -v b="$lit" -v s="$SIZE" 'BEGIN {
+    printf "%s %dx%d: %.1f M -> %.1f M instructions per frame (%+.2f %%)\n", p, s, s, a / 1e6, b / 1e6, (b / a - 1) * 100 }'
+done
