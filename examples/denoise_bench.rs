@@ -11,7 +11,9 @@
 //! - cost: the denoised 1-spp frame's GPU time over the raw one's at `--cost-size`², with a
 //!   still and an orbiting camera (bursts after a warm-up), and the denoiser's passes apart;
 //! - with `--ghosting` (an animated scene, static camera): mean FLIP, against per-frame
-//!   references, of the pixels the moving object left 4 frames earlier, and the lag.
+//!   references, of the pixels the moving object left 4 frames earlier, and the lag; and the
+//!   FLIP between two independent halves of each reference on the same pixels, the floor
+//!   below which a FLIP against that reference measures the reference's own noise.
 //!
 //! It writes the raw frame 30 with its albedo and normal guides, the reference and rqr's
 //! outputs as PFM into `--out`, for `scripts/oidn_denoise.py` to run OIDN on the same frame,
@@ -483,7 +485,7 @@ fn render_reference(
             })
             .collect(),
         _ => {
-            let color = accumulate_reference(ctx, renderer, settings, camera, spp)?;
+            let color = accumulate_reference(ctx, renderer, settings, camera, spp, 1000)?;
             if let Some(f) = &cached {
                 std::fs::create_dir_all(f.parent().unwrap())?;
                 let bytes: Vec<u8> = color
@@ -496,13 +498,18 @@ fn render_reference(
             color
         }
     };
+    Ok(linear_output(settings, color))
+}
+
+/// An image of linear colours, tonemapped as `settings` say.
+fn linear_output(settings: &RenderSettings, color: Vec<[f32; 4]>) -> RenderOutput {
     let rgba8 = color
         .iter()
         .flat_map(|c| {
             tonemap::tonemap_rgba8([c[0], c[1], c[2]], settings.tonemap, settings.exposure)
         })
         .collect();
-    Ok(RenderOutput {
+    RenderOutput {
         width: settings.width,
         height: settings.height,
         color,
@@ -511,7 +518,37 @@ fn render_reference(
         rays: Default::default(),
         samples: 0,
         gpu_ms: Vec::new(),
-    })
+    }
+}
+
+/// A reference of `spp` samples rendered as two independent halves: the reference (their
+/// mean) and the FLIP map between the halves. Each half has twice the variance of the
+/// whole, so their difference has four times the reference's own error variance: a FLIP
+/// against the reference that is not clearly above this floor measures the reference's noise.
+fn reference_with_floor(
+    ctx: &Context,
+    renderer: &Renderer,
+    settings: &RenderSettings,
+    camera: &Camera,
+    spp: u32,
+) -> Result<(RenderOutput, Vec<f32>)> {
+    let half = (spp / 2).max(1);
+    let a = accumulate_reference(ctx, renderer, settings, camera, half, 1000)?;
+    let b = accumulate_reference(ctx, renderer, settings, camera, half, 1_000_000)?;
+    let mean: Vec<[f32; 4]> = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| std::array::from_fn(|k| 0.5 * (x[k] + y[k])))
+        .collect();
+    let (w, h) = (settings.width, settings.height);
+    let floor = metrics::compare(
+        w,
+        h,
+        &linear_output(settings, a).rgba8,
+        &linear_output(settings, b).rgba8,
+    )
+    .error_map;
+    Ok((linear_output(settings, mean), floor))
 }
 
 /// The linear colour of [`render_reference`], rendered.
@@ -521,6 +558,7 @@ fn accumulate_reference(
     settings: &RenderSettings,
     camera: &Camera,
     spp: u32,
+    first_seed: u32,
 ) -> Result<Vec<[f32; 4]>> {
     let pixels = settings.pixels() as usize;
     let mut sum = vec![[0.0f64; 3]; pixels];
@@ -530,7 +568,7 @@ fn accumulate_reference(
         let n = 16.min(spp - done);
         let s = RenderSettings {
             spp: n,
-            seed: 1000 + batch,
+            seed: first_seed + batch,
             ..settings.clone()
         };
         let out = renderer.render_rt(ctx, &s, camera, false)?;
@@ -579,6 +617,8 @@ fn ghosting(
     let fps = 30.0;
     let animations = vec![0usize];
     let mut results = Vec::new();
+    let mut references: Vec<Option<(RenderOutput, Vec<f32>)>> =
+        (0..GHOST_FRAMES).map(|_| None).collect();
     for mode in [DenoiseMode::Svgf, DenoiseMode::None] {
         let mut anim = AnimatedFrames::new(
             ctx,
@@ -608,6 +648,10 @@ fn ghosting(
         )?;
         let mut covered: Vec<Vec<bool>> = Vec::new();
         let mut flips: Vec<(u32, f64, usize)> = Vec::new();
+        // Per compared frame: the FLIP between the reference's two halves on the same pixels.
+        let mut floors: Vec<f64> = Vec::new();
+        // Left pixels next to the figure's outline and away from it: FLIP sum, pixels.
+        let mut outline = ((0.0f64, 0usize), (0.0f64, 0usize));
         // By frames since uncovered (1..=MAX_LAG): FLIP sum, pixels, pixels whose history
         // reaches back past their uncovering (a ghost of the figure).
         let mut by_age = vec![(0.0f64, 0usize, 0usize); MAX_LAG as usize + 1];
@@ -647,15 +691,19 @@ fn ghosting(
             if k < GHOST_LAG {
                 continue;
             }
-            let r = render_reference(
-                ctx,
-                anim.renderer(),
-                &settings(DenoiseMode::None, 1, side),
-                &camera,
-                args.reference_spp / 4,
-                // Each frame's pose differs: no cache (the key names the camera only).
-                None,
-            )?;
+            // Each frame's pose differs, so no disk cache (its key names the camera only);
+            // both modes see the same poses and share the frame's reference.
+            let slot = &mut references[k as usize];
+            if slot.is_none() {
+                *slot = Some(reference_with_floor(
+                    ctx,
+                    anim.renderer(),
+                    &settings(DenoiseMode::None, 1, side),
+                    &camera,
+                    args.reference_spp / 4,
+                )?);
+            }
+            let (r, floor) = slot.as_ref().unwrap();
             let d = metrics::compare(side, side, &r.rgba8, &frame.output.rgba8);
             let now = &covered[k as usize];
             // Frames since each pixel was last covered (None: covered now, or never in view).
@@ -679,9 +727,52 @@ fn ghosting(
             if left.is_empty() {
                 continue;
             }
-            let flip =
-                left.iter().map(|&i| f64::from(d.error_map[i])).sum::<f64>() / left.len() as f64;
-            flips.push((k, flip, left.len()));
+            let mean_over_left = |map: &[f32]| {
+                left.iter().map(|&i| f64::from(map[i])).sum::<f64>() / left.len() as f64
+            };
+            flips.push((k, mean_over_left(&d.error_map), left.len()));
+            // The same away from the figure's outline: left pixels none of whose 8
+            // neighbours it covers now. At the outline the reference is a mix of figure
+            // and floor (its samples cover the whole pixel), which a history a few samples
+            // long cannot match: that is anti-aliasing, not history kept from the figure.
+            let w = side as usize;
+            let near_outline = |i: usize| {
+                let (x, y) = ((i % w) as i64, (i / w) as i64);
+                (-1..=1).any(|dy| {
+                    (-1..=1).any(|dx| {
+                        let (qx, qy) = (x + dx, y + dy);
+                        qx >= 0
+                            && qy >= 0
+                            && qx < w as i64
+                            && qy < w as i64
+                            && now[(qy * w as i64 + qx) as usize]
+                    })
+                })
+            };
+            for &i in &left {
+                let slot = if near_outline(i) {
+                    &mut outline.0
+                } else {
+                    &mut outline.1
+                };
+                slot.0 += f64::from(d.error_map[i]);
+                slot.1 += 1;
+            }
+            if k == GHOST_FRAMES - 1 {
+                let tag = mode.as_str();
+                write(&args.out, &format!("ghosting-{tag}"), &frame.output)?;
+                write(&args.out, "ghosting-reference", r)?;
+                // The pixels compared (white) over the FLIP map.
+                let mut marked = linear_output(
+                    &settings(DenoiseMode::None, 1, side),
+                    d.error_map.iter().map(|&e| [e, e, e, 1.0]).collect(),
+                );
+                for &i in &left {
+                    marked.rgba8[4 * i..4 * i + 3].copy_from_slice(&[255, 0, 255]);
+                }
+                output::write_png(&args.out.join(format!("ghosting-{tag}-flip.png")), &marked)?;
+            }
+            floors.push(mean_over_left(floor));
         }
         let mean = flips.iter().map(|f| f.1).sum::<f64>() / flips.len().max(1) as f64;
         let ages: Vec<_> = (1..=MAX_LAG as usize)
@@ -695,6 +786,11 @@ fn ghosting(
         results.push(json!({
             "denoise": mode.as_str(),
             "mean_flip_left_pixels": mean,
+            "mean_flip_left_pixels_at_outline": outline.0.0 / outline.0.1.max(1) as f64,
+            "left_pixels_at_outline": outline.0.1,
+            "mean_flip_left_pixels_off_outline": outline.1.0 / outline.1.1.max(1) as f64,
+            "left_pixels_off_outline": outline.1.1,
+            "reference_halves_flip_left_pixels": floors.iter().sum::<f64>() / floors.len().max(1) as f64,
             "by_frames_since_uncovered": ages,
             "per_frame": flips,
         }));
