@@ -2,8 +2,8 @@
 # The environment lookup's cost as instructions per frame, which repeat exactly where this
 # machine's timestamps wander by ±6 %: single-threaded lavapipe (LP_NUM_THREADS=0) under
 # cachegrind, per frame = (instructions of FRAMES_HI frames − of FRAMES_LO) / (HI − LO), so
-# start-up, loading and pipeline compiles cancel. Prints the Whitted frame without and with
-# the map for each path, and the lookup's share.
+# start-up, loading and pipeline compiles cancel. Prints the device's instructions for a Whitted
+# frame without and with the map, for each path, and the lookup's share.
 #
 #   scripts/bench-lookup-instructions.sh [MAP.hdr]      # default assets/environments/studio.hdr
 #   SIZE=512 PATHS="rt hybrid" RQR=path/to/rqr scripts/bench-lookup-instructions.sh
@@ -27,12 +27,16 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 
 
-# Instructions executed by one `rqr render` run (lavapipe runs the shaders on the calling
-# thread when LP_NUM_THREADS=0).
+# Instructions the device executed in one `rqr render` run: lavapipe runs the shaders on the
+# calling thread when LP_NUM_THREADS=0, as JIT code without symbols, so the device's share is
+# what cachegrind attributes to no file and no function (the host's PNG encoding, which grows
+# with the frame count too, is left out).
 instructions() {
   LP_NUM_THREADS=0 valgrind --tool=cachegrind --cache-sim=no --cachegrind-out-file="$work/cg.out" \
     "$RQR" render --backend bvh --width "$SIZE" --height "$SIZE" -o "$work/img.png" "$@" >/dev/null 2>&1
-  awk '/^summary:/ { print $2 }' "$work/cg.out"
+  awk '/^fl=/ { fl = substr($0, 4) } /^fn=/ { fn = substr($0, 4) }
+       /^[0-9]/ && fl == "???" && fn == "???" { sum += $2 }
+       END { printf "%d\n", sum }' "$work/cg.out"
 }
 
 per_frame() {

@@ -1,6 +1,6 @@
 #version 460
 // Environment importance sampling on the device for tests/environment.rs: directions drawn
-// from random u (ENV_TEST_SAMPLE), or irradiance estimates at +Y by one strategy
+// from random u with their densities and map coordinates (ENV_TEST_SAMPLE), or irradiance estimates at +Y by one strategy
 // (ENV_TEST_IRRADIANCE) with radiance read texel by texel (the density's own model).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_buffer_reference : require
@@ -45,8 +45,10 @@ void main() {
         vec2 u = vec2(unit(state), unit(state));
         float pdf;
         vec3 d = env_sample_map(cdf, u, pdf);
-        Out(pc.texels_out).v[2u * i] = vec4(d, pdf);
-        Out(pc.texels_out).v[2u * i + 1u] = vec4(u, env_pdf_map(cdf, d), 0.0);
+        Out(pc.texels_out).v[3u * i] = vec4(d, pdf);
+        Out(pc.texels_out).v[3u * i + 1u] = vec4(u, env_pdf_map(cdf, d), 0.0);
+        // The filtered lookups' mapping and the built-in one, for the host to check both.
+        Out(pc.texels_out).v[3u * i + 2u] = vec4(env_uv_filtered(d), env_uv(d));
         return;
     }
     // Irradiance at +Y (luminance): E = ∫ L cos⁺ dω.

@@ -64,7 +64,8 @@ pub struct EnvPreparePush {
     pub pad0: u32,
 }
 
-/// `shaders/test/env_sampling.comp` mode: draw directions (`u`, direction, pdf, pdf again).
+/// `shaders/test/env_sampling.comp` mode: draw directions (`u`, direction, pdf, pdf again,
+/// and the filtered lookups' mapping's distance from the exact one).
 pub const ENV_TEST_SAMPLE: u32 = 0;
 /// `shaders/test/env_sampling.comp` mode: estimates of the irradiance at +Y, one per
 /// invocation, from `samples` samples of `strategy`.
