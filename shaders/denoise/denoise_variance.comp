@@ -19,7 +19,6 @@ void main() {
     if (frames > 0.0 && frames < 4.0) {
         EdgeCentre c = edge_centre(i);
         vec4 sum_m = vec4(0.0);
-        vec3 sum_d = vec3(0.0), sum_s = vec3(0.0);
         float sum_w = 0.0;
         for (int y = -3; y <= 3; ++y) {
             for (int x = -3; x <= 3; ++x) {
@@ -29,8 +28,6 @@ void main() {
                 float w = (x == 0 && y == 0) ? 1.0 : geometry_weight(c, j);
                 if (w <= 0.0) continue;
                 sum_m += w * Moments(params.moments).v[j].moments;
-                sum_d += w * pair_load(params.accumulated, j, 0u).rgb;
-                sum_s += w * pair_load(params.accumulated, j, 1u).rgb;
                 sum_w += w;
             }
         }
