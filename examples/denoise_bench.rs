@@ -650,6 +650,8 @@ fn ghosting(
         let mut flips: Vec<(u32, f64, usize)> = Vec::new();
         // Per compared frame: the FLIP between the reference's two halves on the same pixels.
         let mut floors: Vec<f64> = Vec::new();
+        // Per compared frame: the whole image's mean FLIP (what the rest of the frame pays).
+        let mut whole: Vec<f64> = Vec::new();
         // Left pixels next to the figure's outline and away from it: FLIP sum, pixels.
         let mut outline = ((0.0f64, 0usize), (0.0f64, 0usize));
         // By frames since uncovered (1..=MAX_LAG): FLIP sum, pixels, pixels whose history
@@ -705,6 +707,7 @@ fn ghosting(
             }
             let (r, floor) = slot.as_ref().unwrap();
             let d = metrics::compare(side, side, &r.rgba8, &frame.output.rgba8);
+            whole.push(f64::from(d.flip_mean));
             let now = &covered[k as usize];
             // Frames since each pixel was last covered (None: covered now, or never in view).
             let age = |i: usize| -> Option<u32> {
@@ -786,6 +789,7 @@ fn ghosting(
         results.push(json!({
             "denoise": mode.as_str(),
             "mean_flip_left_pixels": mean,
+            "mean_flip_whole_frame": whole.iter().sum::<f64>() / whole.len().max(1) as f64,
             "mean_flip_left_pixels_at_outline": outline.0.0 / outline.0.1.max(1) as f64,
             "left_pixels_at_outline": outline.0.1,
             "mean_flip_left_pixels_off_outline": outline.1.0 / outline.1.1.max(1) as f64,
