@@ -895,6 +895,28 @@ fn a_moving_shadow_leaves_no_trail() {
     .unwrap();
     let frames = 16;
     let mut last = None;
+    let mut before_last = None;
+    // Pixels whose 3x3 neighbourhood is all floor in the current pose (away from the figure's
+    // outline, where its motion restarts histories by disocclusion).
+    let floor_mask = |anim: &AnimatedFrames| -> Vec<bool> {
+        let r = anim
+            .renderer()
+            .render_rt(&ctx, &settings(DenoiseMode::None, 1), &camera, true)
+            .unwrap();
+        let (w, h) = (r.width as i64, r.height as i64);
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                (-1..=1).all(|dy| {
+                    (-1..=1).all(|dx| {
+                        let (qx, qy) = ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1));
+                        let a = &r.aov[(qy * w + qx) as usize];
+                        a.hit() && a.instance() == floor
+                    })
+                })
+            })
+            .collect()
+    };
     for k in 0..frames {
         if k > 0 {
             let (posed, _) = anim
@@ -904,8 +926,29 @@ fn a_moving_shadow_leaves_no_trail() {
                 .unwrap();
         }
         last = Some(seq.render_frame(&ctx, k).unwrap().output);
+        if k == frames - 2 {
+            before_last = Some(floor_mask(&anim));
+        }
     }
     let denoised = last.unwrap();
+    // Floor, away from the figure, in both of the last two frames, so the history matched:
+    // only the clamp moving a history far (the shadow came or went) restarts it to one frame.
+    let lengths = seq
+        .full_targets()
+        .denoiser()
+        .expect("a denoised sequence has a denoiser")
+        .history_lengths(&ctx)
+        .unwrap();
+    let (before_last, now) = (before_last.unwrap(), floor_mask(&anim));
+    let restarted = (0..lengths.len())
+        .filter(|&i| before_last[i] && now[i] && lengths[i] == 1.0)
+        .count();
+    println!("{restarted} floor pixels restarted their history in the last frame");
+    // 133 pixels along the shadow's edges; none without the restart.
+    assert!(
+        restarted >= 40,
+        "only {restarted} still floor pixels restarted under the moving shadow"
+    );
     let plain = anim
         .renderer()
         .render_rt(&ctx, &settings(DenoiseMode::None, 16), &camera, true)
