@@ -23,7 +23,7 @@ vec3 env_map_direction(vec3 d) {
 // for every invocation of a dispatch (dynamically uniform), and the qualifier makes drivers
 // such as lavapipe wrap each fetch in a loop over the distinct indices of a subgroup.
 vec4 env_texture(uint which, vec3 d, float lod) {
-    return textureLod(textures[uint(scene.environment) + which], env_uv_filtered(env_map_direction(d)), lod);
+    return textureLod(textures[uint(scene.environment) + which], env_uv(env_map_direction(d)), lod);
 }
 
 // Radiance arriving along -d (seen looking towards d), at the map's full resolution.

@@ -33,7 +33,7 @@ const BRDF_SAMPLES: u32 = 1024;
 /// The irradiance pass integrates over the first source level at most this many rows high.
 const IRRADIANCE_SOURCE_ROWS: u32 = 32;
 /// Version of the cache files' contents: bump when a preparation pass changes its output.
-const CACHE_VERSION: u32 = 2;
+const CACHE_VERSION: u32 = 3;
 
 /// The textures of an environment (`ENV_TEX_*` order) and how long preparing took.
 pub struct GpuEnvironment {

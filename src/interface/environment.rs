@@ -65,7 +65,7 @@ pub struct EnvPreparePush {
 }
 
 /// `shaders/test/env_sampling.comp` mode: draw directions (`u`, direction, pdf, pdf again,
-/// and the filtered lookups' mapping's distance from the exact one).
+/// and the direction's map coordinates).
 pub const ENV_TEST_SAMPLE: u32 = 0;
 /// `shaders/test/env_sampling.comp` mode: estimates of the irradiance at +Y, one per
 /// invocation, from `samples` samples of `strategy`.
