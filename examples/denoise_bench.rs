@@ -765,7 +765,7 @@ fn ghosting(
                 let tag = mode.as_str();
                 write(&args.out, &format!("ghosting-{tag}"), &frame.output)?;
                 write(&args.out, "ghosting-reference", r)?;
-                // The pixels compared (white) over the FLIP map.
+                // The FLIP map, with the pixels compared in magenta.
                 let mut marked = linear_output(
                     &settings(DenoiseMode::None, 1, side),
                     d.error_map.iter().map(|&e| [e, e, e, 1.0]).collect(),

@@ -896,13 +896,9 @@ fn a_moving_shadow_leaves_no_trail() {
     let frames = 16;
     let mut last = None;
     let mut before_last = None;
-    // Pixels whose 3x3 neighbourhood is all floor in the current pose (away from the figure's
+    // Pixels whose 3x3 neighbourhood is all floor in a render's AOV (away from the figure's
     // outline, where its motion restarts histories by disocclusion).
-    let floor_mask = |anim: &AnimatedFrames| -> Vec<bool> {
-        let r = anim
-            .renderer()
-            .render_rt(&ctx, &settings(DenoiseMode::None, 1), &camera, true)
-            .unwrap();
+    let floor_mask = |r: &rqr::render::RenderOutput| -> Vec<bool> {
         let (w, h) = (r.width as i64, r.height as i64);
         (0..w * h)
             .map(|i| {
@@ -927,10 +923,18 @@ fn a_moving_shadow_leaves_no_trail() {
         }
         last = Some(seq.render_frame(&ctx, k).unwrap().output);
         if k == frames - 2 {
-            before_last = Some(floor_mask(&anim));
+            let r = anim
+                .renderer()
+                .render_rt(&ctx, &settings(DenoiseMode::None, 1), &camera, true)
+                .unwrap();
+            before_last = Some(floor_mask(&r));
         }
     }
     let denoised = last.unwrap();
+    let plain = anim
+        .renderer()
+        .render_rt(&ctx, &settings(DenoiseMode::None, 16), &camera, true)
+        .unwrap();
     // Floor, away from the figure, in both of the last two frames, so the history matched:
     // only the clamp moving a history far (the shadow came or went) restarts it to one frame.
     let lengths = seq
@@ -939,7 +943,7 @@ fn a_moving_shadow_leaves_no_trail() {
         .expect("a denoised sequence has a denoiser")
         .history_lengths(&ctx)
         .unwrap();
-    let (before_last, now) = (before_last.unwrap(), floor_mask(&anim));
+    let (before_last, now) = (before_last.unwrap(), floor_mask(&plain));
     let restarted = (0..lengths.len())
         .filter(|&i| before_last[i] && now[i] && lengths[i] == 1.0)
         .count();
@@ -949,10 +953,6 @@ fn a_moving_shadow_leaves_no_trail() {
         restarted >= 40,
         "only {restarted} still floor pixels restarted under the moving shadow"
     );
-    let plain = anim
-        .renderer()
-        .render_rt(&ctx, &settings(DenoiseMode::None, 16), &camera, true)
-        .unwrap();
     let luma = |c: &[f32; 4]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
     let lit: Vec<usize> = (0..plain.color.len())
         .filter(|&i| plain.aov[i].hit() && plain.aov[i].instance() == floor)
