@@ -187,15 +187,18 @@ bool worth_tracing(vec3 w) { return max3(w) > 0.0 && max3(w) >= frame.min_weight
 // mirror ray is weighted by so the two shares add up to the split sum's total.
 vec3 environment_light(Surface s, vec3 v, float traced, float coat, float coat_traced, out vec3 single) {
     float n_dot_v = clamp(dot(s.n, v), 1e-4, 1.0);
-    vec3 f0_dielectric = dielectric_f0(s);
     // glTF's mix of a dielectric and a metal: each layer's energy from one table lookup, the
     // diffuse under the dielectric's alone.
     vec2 ab = env_brdf(n_dot_v, s.roughness);
-    vec3 ss_dielectric, ms_dielectric, ss_metal, ms_metal;
-    env_specular_energy(ab, f0_dielectric, s.layered ? s.specular : 1.0, n_dot_v, s.roughness, ss_dielectric, ms_dielectric);
-    env_specular_energy(ab, s.base_color, 1.0, n_dot_v, s.roughness, ss_metal, ms_metal);
-    if ((frame.flags & FLAG_NO_SPECULAR) != 0u) {
-        ss_dielectric = ms_dielectric = ss_metal = ms_metal = vec3(0.0);
+    // A layer whose share is 0 is left at 0: mix() then returns the other exactly, and a
+    // plain dielectric or metal pays for one layer.
+    vec3 ss_dielectric = vec3(0.0), ms_dielectric = vec3(0.0), ss_metal = vec3(0.0), ms_metal = vec3(0.0);
+    bool specular = (frame.flags & FLAG_NO_SPECULAR) == 0u;
+    if (specular && s.metallic < 1.0) {
+        env_specular_energy(ab, dielectric_f0(s), s.layered ? s.specular : 1.0, n_dot_v, s.roughness, ss_dielectric, ms_dielectric);
+    }
+    if (specular && s.metallic > 0.0) {
+        env_specular_energy(ab, s.base_color, 1.0, n_dot_v, s.roughness, ss_metal, ms_metal);
     }
     vec3 ss = mix(ss_dielectric, ss_metal, s.metallic);
     vec3 ms = mix(ms_dielectric, ms_metal, s.metallic);
