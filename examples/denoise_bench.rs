@@ -655,8 +655,9 @@ fn ghosting(
         // Left pixels next to the figure's outline and away from it: FLIP sum, pixels.
         let mut outline = ((0.0f64, 0usize), (0.0f64, 0usize));
         // By frames since uncovered (1..=MAX_LAG): FLIP sum, pixels, pixels whose history
-        // reaches back past their uncovering (a ghost of the figure).
-        let mut by_age = vec![(0.0f64, 0usize, 0usize); MAX_LAG as usize + 1];
+        // reaches back past their uncovering (a ghost of the figure), and the FLIP sum
+        // between the reference's halves on the same pixels (its noise floor).
+        let mut by_age = vec![(0.0f64, 0usize, 0usize, 0.0f64); MAX_LAG as usize + 1];
         for k in 0..GHOST_FRAMES {
             if k > 0 {
                 let (posed, _) = anim.update_with(ctx, k as f32 / fps, AnimationUpdate::Refit)?;
@@ -722,6 +723,7 @@ fn ghosting(
                     let slot = &mut by_age[j as usize];
                     slot.0 += f64::from(d.error_map[i]);
                     slot.1 += 1;
+                    slot.3 += f64::from(floor[i]);
                     if lengths.as_ref().is_some_and(|l| l[i] > j as f32) {
                         slot.2 += 1;
                     }
@@ -781,9 +783,10 @@ fn ghosting(
         let ages: Vec<_> = (1..=MAX_LAG as usize)
             .filter(|&j| by_age[j].1 > 0)
             .map(|j| {
-                let (f, n, stale) = by_age[j];
+                let (f, n, stale, halves) = by_age[j];
                 json!({ "frames_since_uncovered": j, "pixels": n, "mean_flip": f / n as f64,
-                        "stale_history_fraction": stale as f64 / n as f64 })
+                        "stale_history_fraction": stale as f64 / n as f64,
+                        "reference_halves_flip": halves / n as f64 })
             })
             .collect();
         results.push(json!({
