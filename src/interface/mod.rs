@@ -158,6 +158,24 @@ mod tests {
     }
 
     #[test]
+    fn frame_flags_are_distinct_bits() {
+        assert_contiguous(
+            "frame flags",
+            &[
+                FLAG_NO_SPECULAR,
+                FLAG_SKY,
+                FLAG_WRITE_AOV,
+                FLAG_ADAPTIVE_CORNERS,
+                FLAG_ENV_BACKGROUND,
+                FLAG_SEQUENCE_JITTER,
+                distributed::FLAG_DIFFUSE_LIGHT_SAMPLED,
+            ],
+            1,
+            true,
+        );
+    }
+
+    #[test]
     fn temporal_ids_have_no_gaps() {
         use reproject::*;
         assert_contiguous(
