@@ -418,6 +418,12 @@ fn ray_traced_sequence(
     )?)
 }
 
+/// Rec. 709 luminance of pixel `i` of 8-bit RGBA display values, in [0, 1].
+fn display_luma(rgba8: &[u8], i: usize) -> f64 {
+    let c = |k: usize| f64::from(rgba8[4 * i + k]) / 255.0;
+    0.2126 * c(0) + 0.7152 * c(1) + 0.0722 * c(2)
+}
+
 /// `frames` frames of `path` (one by one).
 fn sequence(
     ctx: &Context,
@@ -658,6 +664,10 @@ fn ghosting(
         // reaches back past their uncovering (a ghost of the figure), and the FLIP sum
         // between the reference's halves on the same pixels (its noise floor).
         let mut by_age = vec![(0.0f64, 0usize, 0usize, 0.0f64); MAX_LAG as usize + 1];
+        // By frames since uncovered: the sum of the display luminance's error and of its
+        // square (a history kept from the figure would show as a bias, noise and blur as
+        // spread around none).
+        let mut signed = vec![(0.0f64, 0.0f64); MAX_LAG as usize + 1];
         for k in 0..GHOST_FRAMES {
             if k > 0 {
                 let (posed, _) = anim.update_with(ctx, k as f32 / fps, AnimationUpdate::Refit)?;
@@ -724,6 +734,9 @@ fn ghosting(
                     slot.0 += f64::from(d.error_map[i]);
                     slot.1 += 1;
                     slot.3 += f64::from(floor[i]);
+                    let e = display_luma(&frame.output.rgba8, i) - display_luma(&r.rgba8, i);
+                    signed[j as usize].0 += e;
+                    signed[j as usize].1 += e * e;
                     if lengths.as_ref().is_some_and(|l| l[i] > j as f32) {
                         slot.2 += 1;
                     }
@@ -786,7 +799,9 @@ fn ghosting(
                 let (f, n, stale, halves) = by_age[j];
                 json!({ "frames_since_uncovered": j, "pixels": n, "mean_flip": f / n as f64,
                         "stale_history_fraction": stale as f64 / n as f64,
-                        "reference_halves_flip": halves / n as f64 })
+                        "reference_halves_flip": halves / n as f64,
+                        "mean_luma_error": signed[j].0 / n as f64,
+                        "rms_luma_error": (signed[j].1 / n as f64).sqrt() })
             })
             .collect();
         results.push(json!({
