@@ -95,10 +95,10 @@ pub const MOVING_HISTORY_CAP: u32 = 4;
 /// Smallest blend weight of the luminance moments (Falcor's SVGF pass).
 pub const MOMENTS_ALPHA: f32 = 0.2;
 /// Luminance edge-stopping scale: a neighbour whose luminance differs by this many standard
-/// deviations of the pixel's estimate keeps 1/e of its weight. Falcor's SVGF pass uses 10 and
-/// the SVGF paper 4; 2 gave the lowest error on every denoising benchmark (one frame, orbit,
-/// ghosting; BENCHMARKS.md).
-pub const PHI_COLOR: f32 = 2.0;
+/// deviations of the pixel's estimate keeps 1/e of its weight. The SVGF paper's σ_l; against
+/// Falcor's 10 it lowers or keeps every denoising benchmark's error (one frame, orbit,
+/// ghosting: BENCHMARKS.md), where 2 helps some scenes and hurts the built-in room's orbit.
+pub const PHI_COLOR: f32 = 4.0;
 /// Normal edge-stopping exponent (Falcor's φ_normal).
 pub const PHI_NORMAL: f32 = 128.0;
 /// Depth edge-stopping scale: a neighbour this far off the pixel's tangent plane, relative to
