@@ -99,7 +99,9 @@ pub const MOMENTS_ALPHA: f32 = 0.2;
 /// Falcor's 10 it lowers or keeps every denoising benchmark's error (one frame, orbit,
 /// ghosting: BENCHMARKS.md), where 2 helps some scenes and hurts the built-in room's orbit.
 pub const PHI_COLOR: f32 = 4.0;
-/// Normal edge-stopping exponent (Falcor's φ_normal).
+/// Normal edge-stopping exponent (Falcor's φ_normal). The spatial passes raise to it by seven
+/// squarings (`pow128` in `denoise_edges.glsl`), not through the uniform: changing it means
+/// changing them.
 pub const PHI_NORMAL: f32 = 128.0;
 /// Depth edge-stopping scale: a neighbour this far off the pixel's tangent plane, relative to
 /// its distance from the pixel (the sine of the angle), keeps 1/e of its weight.
