@@ -68,8 +68,9 @@ struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Folder that keeps the references between runs (keyed by scene, options, camera, size
-    /// and samples), so that a run that changes only the denoiser renders none again. The key
-    /// does not cover the shading code: empty the folder when that changes.
+    /// and samples; the ghosting run's by frame too), so that a run that changes only the
+    /// denoiser renders none again. The key does not cover the shading code: empty the folder
+    /// when that changes.
     #[arg(long)]
     reference_cache: Option<PathBuf>,
 }
@@ -463,10 +464,30 @@ fn render_reference(
     spp: u32,
     cache: Option<(&Path, &str)>,
 ) -> Result<RenderOutput> {
+    let color = cached_accumulation(ctx, renderer, settings, camera, spp, 1000, cache)?;
+    Ok(linear_output(settings, color))
+}
+
+/// [`accumulate_reference`], kept in the folder of `cache` (with the scene's key) between runs.
+fn cached_accumulation(
+    ctx: &Context,
+    renderer: &Renderer,
+    settings: &RenderSettings,
+    camera: &Camera,
+    spp: u32,
+    first_seed: u32,
+    cache: Option<(&Path, &str)>,
+) -> Result<Vec<[f32; 4]>> {
     let cached = cache.map(|(dir, scene_key)| {
         // FNV-1a of everything the image depends on: stable across runs and builds.
+        // The first seed only where it is not the default, so that older caches still apply.
+        let seed = if first_seed == 1000 {
+            String::new()
+        } else {
+            format!("|seed {first_seed}")
+        };
         let key = format!(
-            "{scene_key}|{:?}|{}x{}|{spp}|{:?}",
+            "{scene_key}{seed}|{:?}|{}x{}|{spp}|{:?}",
             camera.camera_to_world.to_cols_array(),
             settings.width,
             settings.height,
@@ -483,28 +504,29 @@ fn render_reference(
         });
         dir.join(format!("{hash:016x}.f32"))
     });
-    let color = match cached.as_deref().and_then(|f| std::fs::read(f).ok()) {
-        Some(bytes) if bytes.len() == settings.pixels() as usize * 16 => bytes
-            .chunks_exact(16)
-            .map(|c| {
-                std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))
-            })
-            .collect(),
-        _ => {
-            let color = accumulate_reference(ctx, renderer, settings, camera, spp, 1000)?;
-            if let Some(f) = &cached {
-                std::fs::create_dir_all(f.parent().unwrap())?;
-                let bytes: Vec<u8> = color
-                    .iter()
-                    .flatten()
-                    .flat_map(|v| v.to_le_bytes())
-                    .collect();
-                std::fs::write(f, bytes)?;
-            }
-            color
+    if let Some(bytes) = cached.as_deref().and_then(|f| std::fs::read(f).ok()) {
+        if bytes.len() == settings.pixels() as usize * 16 {
+            return Ok(bytes
+                .chunks_exact(16)
+                .map(|c| {
+                    std::array::from_fn(|k| {
+                        f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())
+                    })
+                })
+                .collect());
         }
-    };
-    Ok(linear_output(settings, color))
+    }
+    let color = accumulate_reference(ctx, renderer, settings, camera, spp, first_seed)?;
+    if let Some(f) = &cached {
+        std::fs::create_dir_all(f.parent().unwrap())?;
+        let bytes: Vec<u8> = color
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        std::fs::write(f, bytes)?;
+    }
+    Ok(color)
 }
 
 /// An image of linear colours, tonemapped as `settings` say.
@@ -537,10 +559,11 @@ fn reference_with_floor(
     settings: &RenderSettings,
     camera: &Camera,
     spp: u32,
+    cache: Option<(&Path, &str)>,
 ) -> Result<(RenderOutput, Vec<f32>)> {
     let half = (spp / 2).max(1);
-    let a = accumulate_reference(ctx, renderer, settings, camera, half, 1000)?;
-    let b = accumulate_reference(ctx, renderer, settings, camera, half, 1_000_000)?;
+    let a = cached_accumulation(ctx, renderer, settings, camera, half, 1000, cache)?;
+    let b = cached_accumulation(ctx, renderer, settings, camera, half, 1_000_000, cache)?;
     let mean: Vec<[f32; 4]> = a
         .iter()
         .zip(&b)
@@ -704,16 +727,23 @@ fn ghosting(
             if k < GHOST_LAG {
                 continue;
             }
-            // Each frame's pose differs, so no disk cache (its key names the camera only);
-            // both modes see the same poses and share the frame's reference.
+            // Both modes see the same poses and share the frame's reference; on disk, the
+            // frame's number joins the key, since each frame's pose differs.
             let slot = &mut references[k as usize];
             if slot.is_none() {
+                let frame_key = format!(
+                    "{:?}|{:?}|ghosting frame {k} at {fps} fps",
+                    args.scene, args.environment
+                );
                 *slot = Some(reference_with_floor(
                     ctx,
                     anim.renderer(),
                     &settings(DenoiseMode::None, 1, side),
                     &camera,
                     args.reference_spp / 4,
+                    args.reference_cache
+                        .as_deref()
+                        .map(|d| (d, frame_key.as_str())),
                 )?);
             }
             let (r, floor) = slot.as_ref().unwrap();
