@@ -346,6 +346,7 @@ Hit camera_hit;
 bool split_vertex;     // the next shaded vertex is the first
 bool split_done;       // the first shaded vertex was reached
 vec3 diffuse_branch;   // radiance when the first vertex chose its diffuse lobe
+uvec2 camera_pixel;    // the pixel the path's camera ray goes through
 
 // Carries path p on to its next shaded vertex: what its segment meets (passing through
 // alpha-blended surfaces), the light gathered there, and the continuation it chooses, or the
@@ -400,7 +401,7 @@ void path_advance(inout PathState p, inout PrimaryInfo info) {
         p.radiance += p.throughput * lights_met(p.origin, p.dir, t, p.bsdf_pdf);
         if (!found) {
             if (p.kind == RAY_PRIMARY) {
-                p.radiance += miss_radiance(p.dir, true);
+                p.radiance += camera_miss_radiance(camera_pixel, p.dir);
             } else if (env_enabled()) {
                 p.radiance += p.throughput * env_radiance_texel(p.dir) * power_heuristic(p.bsdf_pdf, env_pdf(p.dir));
             } else {
@@ -541,6 +542,7 @@ PathState path_start(Ray camera, uint primary, Surface primary_surface, Hit prim
     camera_primary = primary;
     camera_surface = primary_surface;
     camera_hit = primary_hit;
+    camera_pixel = pixel;
     PathState p;
     p.radiance = vec3(0.0);
     p.bsdf_pdf = 0.0;

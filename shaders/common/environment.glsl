@@ -89,6 +89,27 @@ vec3 miss_radiance(vec3 dir, bool camera_ray) {
     return background_radiance(dir);
 }
 
+// What a camera ray through `pixel` along `dir` shows where it finds nothing. In a denoised
+// sequence (FLAG_SEQUENCE_JITTER), the background at the pixel's centre, and the environment
+// averaged over the pixel's cone (the map's mip of that width), rather than point-sampled
+// where the jittered sample went: the background is a known function, so one lookup gives the
+// pixel's mean, which jittered samples reach only over frames of history, and such history,
+// resampled as the view moves, blurs (as a rasterizer draws a sky box). Lights met on the way
+// stay at the sample's direction.
+vec3 camera_miss_radiance(uvec2 pixel, vec3 dir) {
+    if ((frame.flags & FLAG_SEQUENCE_JITTER) == 0u) {
+        return miss_radiance(dir, true);
+    }
+    vec3 centre = camera_ray(vec2(pixel) + 0.5).dir;
+    if (env_enabled() && (frame.flags & FLAG_ENV_BACKGROUND) != 0u) {
+        // A texel spans π / rows radians, a pixel frame.pixel_spread.
+        float rows = float(textureSize(textures[uint(scene.environment) + ENV_TEX_RADIANCE], 0).y);
+        float lod = max(log2(frame.pixel_spread * rows / ENV_PI), 0.0);
+        return frame.env_intensity * env_texture(ENV_TEX_RADIANCE, centre, lod).rgb;
+    }
+    return background_radiance(centre);
+}
+
 // Single- and multiple-scattering specular energy of a GGX layer with Fresnel F0 = f0 (and
 // F90 scaled by specular_weight, KHR_materials_specular), from the BRDF table's `ab` at
 // (n_dot_v, roughness): ss = k_S A + B, ms = Ems ss F_avg / (1 - F_avg Ems) (Fdez-Agüera 2019).

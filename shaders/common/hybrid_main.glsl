@@ -149,8 +149,8 @@ void flush_counters(uint samples) {
 #ifdef SHADING_DISTRIBUTED
 // A pixel without a surface (the full G-buffer's misses): the background and the lights a
 // camera ray meets, nothing to split.
-vec3 hybrid_background(Ray camera) {
-    vec3 c = miss_radiance(camera.dir, true) + lights_met(camera.origin, camera.dir, BIG_FLOAT, 0.0);
+vec3 hybrid_background(uvec2 pix, Ray camera) {
+    vec3 c = camera_miss_radiance(pix, camera.dir) + lights_met(camera.origin, camera.dir, BIG_FLOAT, 0.0);
     split_diffuse = vec3(0.0);
     split_unfiltered = c;
     split_diffuse_albedo = vec3(0.0);
@@ -196,7 +196,7 @@ void main() {
                     in_flight = true;
                     break;
                 }
-                hybrid_write(pix, hybrid_background(camera), primary_miss());
+                hybrid_write(pix, hybrid_background(pix, camera), primary_miss());
                 samples += 1u;
             }
             if (!in_flight) {

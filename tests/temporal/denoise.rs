@@ -4,7 +4,8 @@
 //! mean of its frames and holds still, 30 accumulated frames beat 16 samples per pixel, the hybrid path and both backends agree, runs repeat bit for bit (in bursts or
 //! frame by frame), a camera cut drops the history, a disoccluded pixel starts again within
 //! one frame, a light seen directly leaves no trail when the view moves, and neither does a
-//! moving shadow on a still surface.
+//! moving shadow on a still surface; the background is looked up at pixel centres over their
+//! footprint rather than accumulated.
 
 use crate::support;
 
@@ -978,5 +979,161 @@ fn a_moving_shadow_leaves_no_trail() {
             lit.len()
         );
     }
+    support::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn a_moving_view_shows_the_background_at_pixel_centres() {
+    let ctx = support::gpu();
+    // A small sphere under a coarse checker of bright and dark texels (each some 9 pixels
+    // wide, so the map's lookup at a pixel's centre is its own mip 0): a jittered sample or
+    // a resampled history of the background differs from that lookup by up to half the
+    // checker's contrast.
+    let map = rqr::environment::EnvironmentMap::from_fn(64, |d| {
+        let (u, v) = rqr::environment::direction_to_uv(d);
+        let bright = ((u * 64.0) as u32 + (v * 32.0) as u32) % 2 == 0;
+        if bright {
+            [3.0, 2.0, 1.0]
+        } else {
+            [0.1, 0.2, 0.3]
+        }
+    });
+    let scene = assemble(
+        vec![rqr::scene::procedural::sphere(0, 32, 16)],
+        vec![Instance {
+            geometry: 0,
+            transform: Mat4::from_scale(Vec3::splat(0.5)),
+            node: 0,
+        }],
+        vec![Material::default()],
+        vec![],
+        vec![look_at(Vec3::new(0.0, 0.5, 6.0), Vec3::ZERO, 40.0)],
+    );
+    let mut renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let env = rqr::environment::GpuEnvironment::prepare(&ctx, &map).unwrap();
+    renderer.set_environment(&ctx, Some(env)).unwrap();
+    let base = scene.cameras[0];
+    // Turning 1° a frame: a moving history (not a cut).
+    let turned = |k: u32| {
+        let mut c = base;
+        c.camera_to_world =
+            base.camera_to_world * Mat4::from_rotation_y((k as f32 * 1.0).to_radians());
+        c
+    };
+    let last = turned(6);
+    let centres = renderer
+        .render_rt(
+            &ctx,
+            &RenderSettings {
+                sampler: SamplerKind::Center,
+                ..settings(DenoiseMode::None, 1)
+            },
+            &last,
+            true,
+        )
+        .unwrap();
+    let n = SIDE as i32;
+    // Pixels that see the background and so do their 8 neighbours (no silhouette).
+    let background: Vec<usize> = (0..n * n)
+        .filter(|&i| {
+            let (x, y) = (i % n, i / n);
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (qx, qy) = ((x + dx).clamp(0, n - 1), (y + dy).clamp(0, n - 1));
+                    !centres.aov[(qy * n + qx) as usize].hit()
+                })
+            })
+        })
+        .map(|i| i as usize)
+        .collect();
+    assert!(
+        background.len() > (n * n / 2) as usize,
+        "the sphere covers too much"
+    );
+    for path in [RenderPath::RayTraced, RenderPath::Hybrid] {
+        let s = settings(DenoiseMode::Svgf, 1);
+        let mut t = targets(&ctx, &renderer, &scene, path, &s);
+        let mut out = None;
+        for k in 0..=6 {
+            out = Some(t.render(&ctx, &turned(k)).unwrap());
+        }
+        let out = out.unwrap();
+        let worst = background
+            .iter()
+            .map(|&i| {
+                (0..3)
+                    .map(|c| (out.color[i][c] - centres.color[i][c]).abs())
+                    .fold(0.0, f32::max)
+            })
+            .fold(0.0, f32::max);
+        assert!(
+            worst < 1e-3,
+            "{path:?}: the background is {worst} off its lookup at the pixels' centres; see {}",
+            save_failure("background", &out, &centres)
+        );
+    }
+    support::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn a_denoised_frame_averages_a_fine_background_over_each_pixel() {
+    let ctx = support::gpu();
+    // A checker of texels finer than the pixels (1024 texels around, 64 pixels over 40°):
+    // a lookup at each pixel's centre alone would show bright or dark texels; over the
+    // pixel's footprint it is their mean, as a converged render's many samples are.
+    let map = rqr::environment::EnvironmentMap::from_fn(1024, |d| {
+        let (u, v) = rqr::environment::direction_to_uv(d);
+        let bright = ((u * 1024.0) as u32 + (v * 512.0) as u32) % 2 == 0;
+        if bright {
+            [2.0, 2.0, 2.0]
+        } else {
+            [0.2, 0.2, 0.2]
+        }
+    });
+    let scene = assemble(
+        vec![rqr::scene::procedural::sphere(0, 32, 16)],
+        vec![Instance {
+            geometry: 0,
+            transform: Mat4::from_scale(Vec3::splat(0.5)),
+            node: 0,
+        }],
+        vec![Material::default()],
+        vec![],
+        vec![look_at(Vec3::new(0.0, 0.5, 6.0), Vec3::ZERO, 40.0)],
+    );
+    let mut renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
+    let env = rqr::environment::GpuEnvironment::prepare(&ctx, &map).unwrap();
+    renderer.set_environment(&ctx, Some(env)).unwrap();
+    let camera = scene.cameras[0];
+    let converged = reference(&ctx, &renderer, &camera, 64);
+    let one =
+        |settings: RenderSettings| renderer.render_rt(&ctx, &settings, &camera, true).unwrap();
+    let denoised = one(settings(DenoiseMode::Svgf, 1));
+    let centres = one(RenderSettings {
+        sampler: SamplerKind::Center,
+        ..settings(DenoiseMode::None, 1)
+    });
+    let background: Vec<usize> = (0..centres.aov.len())
+        .filter(|&i| !centres.aov[i].hit())
+        .collect();
+    let mean_error = |out: &RenderOutput| {
+        background
+            .iter()
+            .map(|&i| (out.color[i][1] - converged.color[i][1]).abs() / converged.color[i][1])
+            .sum::<f32>()
+            / background.len() as f32
+    };
+    // The setup's check: point lookups are far off (0.21; the footprint's 0.024).
+    assert!(
+        mean_error(&centres) > 0.15,
+        "point lookups {}",
+        mean_error(&centres)
+    );
+    assert!(
+        mean_error(&denoised) < 0.05,
+        "the denoised background is {} off the converged one; see {}",
+        mean_error(&denoised),
+        save_failure("fine-background", &denoised, &converged)
+    );
     support::assert_validation_clean(&ctx);
 }
