@@ -982,20 +982,22 @@ fn a_moving_shadow_leaves_no_trail() {
     support::assert_validation_clean(&ctx);
 }
 
-#[test]
-fn a_moving_view_shows_the_background_at_pixel_centres() {
-    let ctx = support::gpu();
-    // A small sphere under a coarse checker of bright and dark texels (each some 9 pixels
-    // wide, so the map's lookup at a pixel's centre is its own mip 0): a jittered sample or
-    // a resampled history of the background differs from that lookup by up to half the
-    // checker's contrast.
-    let map = rqr::environment::EnvironmentMap::from_fn(64, |d| {
+/// A small sphere under a checker map of `texels` texels around, bright (`bright`) and dark
+/// (`dark`), with its renderer.
+fn sphere_under_a_checker(
+    ctx: &Context,
+    texels: u32,
+    bright: [f32; 3],
+    dark: [f32; 3],
+) -> (Scene, Renderer) {
+    let map = rqr::environment::EnvironmentMap::from_fn(texels, |d| {
         let (u, v) = rqr::environment::direction_to_uv(d);
-        let bright = ((u * 64.0) as u32 + (v * 32.0) as u32) % 2 == 0;
-        if bright {
-            [3.0, 2.0, 1.0]
+        let columns = (u * texels as f32) as u32;
+        let rows = (v * (texels / 2) as f32) as u32;
+        if (columns + rows) % 2 == 0 {
+            bright
         } else {
-            [0.1, 0.2, 0.3]
+            dark
         }
     });
     let scene = assemble(
@@ -1009,9 +1011,20 @@ fn a_moving_view_shows_the_background_at_pixel_centres() {
         vec![],
         vec![look_at(Vec3::new(0.0, 0.5, 6.0), Vec3::ZERO, 40.0)],
     );
-    let mut renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
-    let env = rqr::environment::GpuEnvironment::prepare(&ctx, &map).unwrap();
-    renderer.set_environment(&ctx, Some(env)).unwrap();
+    let mut renderer = Renderer::new(ctx, &scene, Backend::Bvh).unwrap();
+    let env = rqr::environment::GpuEnvironment::prepare(ctx, &map).unwrap();
+    renderer.set_environment(ctx, Some(env)).unwrap();
+    (scene, renderer)
+}
+
+#[test]
+fn a_moving_view_shows_the_background_at_pixel_centres() {
+    let ctx = support::gpu();
+    // A small sphere under a coarse checker of bright and dark texels (each some 9 pixels
+    // wide, so the map's lookup at a pixel's centre is its own mip 0): a jittered sample or
+    // a resampled history of the background differs from that lookup by up to half the
+    // checker's contrast.
+    let (scene, renderer) = sphere_under_a_checker(&ctx, 64, [3.0, 2.0, 1.0], [0.1, 0.2, 0.3]);
     let base = scene.cameras[0];
     // Turning 1° a frame: a moving history (not a cut).
     let turned = |k: u32| {
@@ -1081,29 +1094,7 @@ fn a_denoised_frame_averages_a_fine_background_over_each_pixel() {
     // A checker of texels finer than the pixels (1024 texels around, 64 pixels over 40°):
     // a lookup at each pixel's centre alone would show bright or dark texels; over the
     // pixel's footprint it is their mean, as a converged render's many samples are.
-    let map = rqr::environment::EnvironmentMap::from_fn(1024, |d| {
-        let (u, v) = rqr::environment::direction_to_uv(d);
-        let bright = ((u * 1024.0) as u32 + (v * 512.0) as u32) % 2 == 0;
-        if bright {
-            [2.0, 2.0, 2.0]
-        } else {
-            [0.2, 0.2, 0.2]
-        }
-    });
-    let scene = assemble(
-        vec![rqr::scene::procedural::sphere(0, 32, 16)],
-        vec![Instance {
-            geometry: 0,
-            transform: Mat4::from_scale(Vec3::splat(0.5)),
-            node: 0,
-        }],
-        vec![Material::default()],
-        vec![],
-        vec![look_at(Vec3::new(0.0, 0.5, 6.0), Vec3::ZERO, 40.0)],
-    );
-    let mut renderer = Renderer::new(&ctx, &scene, Backend::Bvh).unwrap();
-    let env = rqr::environment::GpuEnvironment::prepare(&ctx, &map).unwrap();
-    renderer.set_environment(&ctx, Some(env)).unwrap();
+    let (scene, renderer) = sphere_under_a_checker(&ctx, 1024, [2.0; 3], [0.2; 3]);
     let camera = scene.cameras[0];
     let converged = reference(&ctx, &renderer, &camera, 64);
     let one =
