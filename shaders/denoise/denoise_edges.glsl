@@ -22,7 +22,8 @@ EdgeCentre edge_centre(uint i) {
     return c;
 }
 
-// x^128 by squaring (phi_normal, the exponent, is 128; a CPU device's pow is far slower).
+// x^128 by squaring (128: Falcor's φ_normal, the normal edge-stopping exponent; a CPU device's
+// pow is far slower).
 float pow128(float x) {
     x *= x; x *= x; x *= x; x *= x; x *= x; x *= x; x *= x;
     return x;

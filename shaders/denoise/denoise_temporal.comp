@@ -264,9 +264,11 @@ void main() {
             }
         }
         float alpha = 1.0 / frames;
+        // The specular light's history is shorter still under motion (MOVING_SPECULAR_HISTORY_CAP).
+        float specular_frames = moved ? min(frames, params.moving_specular_history_cap) : frames;
         float alpha_m = max(alpha, params.moments_alpha);
         d = mix(hd, d, alpha);
-        s = mix(hs, s, alpha);
+        s = mix(hs, s, 1.0 / specular_frames);
         acc.diffuse_albedo = mix(hda / taps, acc.diffuse_albedo, alpha);
         acc.specular_albedo = mix(hsa / taps, acc.specular_albedo, alpha);
         acc.unfiltered = mix(hu / taps, acc.unfiltered, alpha);

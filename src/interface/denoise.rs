@@ -103,8 +103,6 @@ pub struct DenoiseParams {
     pub moments_alpha: f32,
     /// Luminance edge-stopping scale (× the local standard deviation).
     pub phi_color: f32,
-    /// Normal edge-stopping exponent.
-    pub phi_normal: f32,
     /// Depth edge-stopping scale: a neighbour's distance from the pixel's tangent plane over
     /// its distance from the pixel.
     pub phi_plane: f32,
@@ -118,6 +116,8 @@ pub struct DenoiseParams {
     /// Longest history of a pixel whose history is resampled between texels (the view or
     /// the surface moved).
     pub moving_history_cap: f32,
+    /// The same for its specular light, which moves otherwise than the surface.
+    pub moving_specular_history_cap: f32,
     /// Linear colour of the frame, `vec4` per pixel.
     pub color: u64,
     /// [`DenoiseGuide`] per pixel.

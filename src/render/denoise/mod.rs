@@ -92,6 +92,12 @@ pub const SPATIAL_REACH: f32 = 16.0;
 /// view or object): each resampling blurs it a little, and the blur compounds over the
 /// history's length.
 pub const MOVING_HISTORY_CAP: u32 = 4;
+/// The same for the specular light: reflections move otherwise than the surface whose motion
+/// the history follows, so the clamped history lags them, and a shorter one lags less than
+/// it adds noise (orbit FLIP at 512² with 2 against 4: built-in room 0.644× against 0.668×,
+/// DamagedHelmet 0.340× against 0.375×, the Cornell box 0.411× against 0.412×; 3 and 8
+/// worse than 2, 1 worse than 4).
+pub const MOVING_SPECULAR_HISTORY_CAP: u32 = 2;
 /// Smallest blend weight of the luminance moments (Falcor's SVGF pass).
 pub const MOMENTS_ALPHA: f32 = 0.2;
 /// Luminance edge-stopping scale: a neighbour whose luminance differs by this many standard
@@ -99,10 +105,6 @@ pub const MOMENTS_ALPHA: f32 = 0.2;
 /// Falcor's 10 it lowers or keeps every denoising benchmark's error (one frame, orbit,
 /// ghosting: BENCHMARKS.md), where 2 helps some scenes and hurts the built-in room's orbit.
 pub const PHI_COLOR: f32 = 4.0;
-/// Normal edge-stopping exponent (Falcor's φ_normal). The spatial passes raise to it by seven
-/// squarings (`pow128` in `denoise_edges.glsl`), not through the uniform: changing it means
-/// changing them.
-pub const PHI_NORMAL: f32 = 128.0;
 /// Depth edge-stopping scale: a neighbour this far off the pixel's tangent plane, relative to
 /// its distance from the pixel (the sine of the angle), keeps 1/e of its weight.
 pub const PHI_PLANE: f32 = 0.1;
@@ -331,12 +333,12 @@ impl Denoiser {
             history_cap: self.history_cap,
             moments_alpha: MOMENTS_ALPHA,
             phi_color: PHI_COLOR,
-            phi_normal: PHI_NORMAL,
             phi_plane: PHI_PLANE,
             plane_threshold: crate::render::temporal::PLANE_DISTANCE_THRESHOLD,
             normal_threshold: crate::render::temporal::NORMAL_DOT_THRESHOLD,
             spatial_reach: SPATIAL_REACH,
             moving_history_cap: MOVING_HISTORY_CAP.min(self.history_cap) as f32,
+            moving_specular_history_cap: MOVING_SPECULAR_HISTORY_CAP.min(self.history_cap) as f32,
             color: color.address(),
             guide: self.guide.address(),
             aov: aov.address(),
